@@ -1,0 +1,43 @@
+"""The `ita` command line: a click group whose subcommands load lazily.
+
+Each subcommand group lives in its own module of this package and is imported only when
+used, so `ita --help` is fast and a heavy dependency is paid for only by the command that
+needs it.  The registry below is explicit: add a line to add a command group.
+"""
+
+from __future__ import annotations
+
+import importlib
+
+import click
+
+# name -> "module:attribute" of a click command or group
+COMMANDS: dict[str, str] = {
+    "kb": "ita.cli.kb:kb",
+    "part": "ita.cli.part:part",
+    "spec": "ita.cli.spec:spec",
+    "prepare": "ita.cli.prepare:prepare",
+}
+
+
+class LazyGroup(click.Group):
+    """A click group that imports its subcommands on first use."""
+
+    def list_commands(self, ctx: click.Context) -> list[str]:
+        return sorted(set(super().list_commands(ctx)) | set(COMMANDS))
+
+    def get_command(self, ctx: click.Context, cmd_name: str) -> click.Command | None:
+        if cmd_name in COMMANDS:
+            module_name, attr = COMMANDS[cmd_name].split(":")
+            return getattr(importlib.import_module(module_name), attr)
+        return super().get_command(ctx, cmd_name)
+
+
+@click.group(cls=LazyGroup, context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(package_name="ita")
+def main() -> None:
+    """ITA: plan and run the autonomous dimensional inspection of a machined bulkhead.
+
+    Every command takes --part DIR to work on another part (a directory with a mesh and a
+    specs.csv); the built-in bulkhead is the default.
+    """

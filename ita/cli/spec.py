@@ -1,0 +1,224 @@
+"""`ita spec`: list, show, add, edit, remove, import, export and validate measurement specs."""
+
+from __future__ import annotations
+
+import json
+from dataclasses import asdict
+from pathlib import Path
+
+import click
+
+from ita.cli.common import part_option, reports_errors
+from ita.specs.model import KIND_DESCRIPTIONS, MeasurementKind, MeasurementSpec
+
+KIND_CHOICE = click.Choice([k.value for k in MeasurementKind])
+
+FIELD_OPTIONS: list[tuple[str, str]] = [
+    ("kind", "what is measured: " + ", ".join(k.value for k in MeasurementKind)),
+    ("feature", "id of the part feature the spec belongs to"),
+    ("point", "point on the part's surface 'x,y,z' (mm, part frame)"),
+    ("normal", "outward surface normal 'nx,ny,nz'"),
+    ("nominal", "nominal value (mm)"),
+    ("lower", "lower tolerance, a signed deviation (mm), e.g. -0.127"),
+    ("upper", "upper tolerance, a signed deviation (mm), e.g. 0.127"),
+    ("datum", "datum reference, e.g. A or A|B|C"),
+    ("direction", "in-plane measuring direction 'dx,dy,dz' (widths, edge distances)"),
+    ("note", "free text"),
+]
+TRIPLES = {"point": ("x", "y", "z"), "normal": ("nx", "ny", "nz"), "direction": ("dx", "dy", "dz")}
+
+
+def field_options(required: bool):
+    """Decorator adding one option per spec field."""
+
+    def decorate(func):
+        for name, help_text in reversed(FIELD_OPTIONS):
+            needed = required and name not in ("direction", "note")
+            func = click.option(f"--{name}", required=needed, help=help_text)(func)
+        return func
+
+    return decorate
+
+
+def to_columns(values: dict[str, str | None]) -> dict[str, str]:
+    """Option values -> CSV column fields ('point' -> x, y, z)."""
+    out: dict[str, str] = {}
+    for name, value in values.items():
+        if value is None:
+            continue
+        if name in TRIPLES:
+            parts = [p.strip() for p in value.split(",")] if value.strip() else ["", "", ""]
+            if len(parts) != 3:
+                raise click.BadParameter(f"expected three comma-separated numbers, got {value!r}",
+                                         param_hint=f"--{name}")
+            out.update(zip(TRIPLES[name], parts))
+        else:
+            out[name] = value
+    return out
+
+
+def spec_dict(s: MeasurementSpec) -> dict:
+    """JSON-ready dict of a spec."""
+    d = asdict(s)
+    d["kind"] = s.kind.value
+    return d
+
+
+def _load_part(part_dir: Path | None):
+    from ita.part.store import load_part
+
+    return load_part(part_dir)
+
+
+@click.group()
+def spec() -> None:
+    """Measurement specifications: what to measure, where, nominal and tolerance.
+
+    Specs live in the part's specs.csv (schema: docs/specs.md). Every change is checked
+    (kinds, numbers, tolerances, ids, points on the part's surface) and written
+    atomically; when anything is wrong nothing is written and the exit code is 2.
+    """
+
+
+@spec.command("list")
+@click.option("--kind", type=KIND_CHOICE, help="Only specs of this kind.")
+@click.option("--json", "as_json", is_flag=True, help="Print JSON instead of a table.")
+@part_option
+@reports_errors
+def list_cmd(kind: str | None, as_json: bool, part_dir: Path | None) -> None:
+    """List the part's specs."""
+    from ita.specs import service
+
+    specs = service.load(_load_part(part_dir))
+    if kind:
+        specs = [s for s in specs if s.kind.value == kind]
+    if as_json:
+        click.echo(json.dumps([spec_dict(s) for s in specs], indent=1))
+        return
+    click.echo(f"{'id':<16} {'kind':<17} {'feature':<12} {'nominal':>9} {'lower':>8} {'upper':>8}  datum")
+    for s in specs:
+        click.echo(f"{s.id:<16} {s.kind.value:<17} {s.feature:<12} {s.nominal:>9.3f} "
+                   f"{s.lower:>+8.3f} {s.upper:>+8.3f}  {s.datum}")
+    click.echo(f"{len(specs)} specs", err=True)
+
+
+@spec.command("show")
+@click.argument("spec_id")
+@click.option("--json", "as_json", is_flag=True, help="Print JSON.")
+@part_option
+@reports_errors
+def show_cmd(spec_id: str, as_json: bool, part_dir: Path | None) -> None:
+    """Show every field of spec SPEC_ID."""
+    from ita.errors import InputError, Location
+    from ita.specs import service
+
+    part = _load_part(part_dir)
+    found = [s for s in service.load(part) if s.id == spec_id]
+    if not found:
+        raise InputError([(Location(str(part.specs_path)), f"no spec with id {spec_id!r}")])
+    s = found[0]
+    if as_json:
+        click.echo(json.dumps(spec_dict(s), indent=1))
+        return
+    rows = [
+        ("id", s.id), ("kind", f"{s.kind.value}  ({KIND_DESCRIPTIONS[s.kind]})"),
+        ("feature", s.feature), ("point (mm)", ", ".join(f"{c:.3f}" for c in s.point)),
+        ("normal", ", ".join(f"{c:.4f}" for c in s.normal)),
+        ("nominal (mm)", f"{s.nominal:.4f}"),
+        ("tolerance (mm)", f"{s.lower:+.4f} / {s.upper:+.4f}  "
+                           f"(limits {s.low_limit:.4f} .. {s.high_limit:.4f})"),
+        ("datum", s.datum),
+        ("direction", ", ".join(f"{c:.4f}" for c in s.direction) if s.direction else "-"),
+        ("note", s.note or "-"),
+    ]
+    for key, value in rows:
+        click.echo(f"{key:<15} {value}")
+
+
+@spec.command("add")
+@click.option("--id", "spec_id", required=True, help="New spec id.")
+@field_options(required=True)
+@part_option
+@reports_errors
+def add_cmd(spec_id: str, part_dir: Path | None, **fields: str | None) -> None:
+    """Add a spec (all fields but --direction and --note are required)."""
+    from ita.specs import service
+
+    new = service.add(_load_part(part_dir), {"id": spec_id, **to_columns(fields)})
+    click.echo(f"added {new.id}")
+
+
+@spec.command("edit")
+@click.argument("spec_id")
+@click.option("--id", "new_id", help="Rename the spec.")
+@field_options(required=False)
+@part_option
+@reports_errors
+def edit_cmd(spec_id: str, new_id: str | None, part_dir: Path | None, **fields: str | None) -> None:
+    """Change fields of spec SPEC_ID, e.g. `ita spec edit WT-P01-1 --nominal 2.6`."""
+    from ita.specs import service
+
+    changes = to_columns(fields)
+    if new_id is not None:
+        changes["id"] = new_id
+    if not changes:
+        raise click.UsageError("nothing to change: give at least one --FIELD VALUE")
+    edited = service.change(_load_part(part_dir), spec_id, changes)
+    click.echo(f"edited {edited.id}")
+
+
+@spec.command("remove")
+@click.argument("spec_ids", nargs=-1, required=True)
+@part_option
+@reports_errors
+def remove_cmd(spec_ids: tuple[str, ...], part_dir: Path | None) -> None:
+    """Remove the specs SPEC_IDS."""
+    from ita.specs import service
+
+    left = service.remove(_load_part(part_dir), list(spec_ids))
+    click.echo(f"removed {len(spec_ids)}; {left} specs left")
+
+
+@spec.command("import")
+@click.argument("file", type=click.Path(path_type=Path, dir_okay=False))
+@click.option("--replace", "replace_all", is_flag=True,
+              help="Replace all of the part's specs instead of adding to them.")
+@part_option
+@reports_errors
+def import_cmd(file: Path, replace_all: bool, part_dir: Path | None) -> None:
+    """Import the specs of FILE (CSV, same schema); all rows or none."""
+    from ita.specs import service
+
+    n = service.import_file(_load_part(part_dir), file, replace_all=replace_all)
+    click.echo(f"imported {n} specs from {file}")
+
+
+@spec.command("export")
+@click.argument("file", type=click.Path(path_type=Path, dir_okay=False))
+@click.option("--kind", type=KIND_CHOICE, help="Only specs of this kind.")
+@part_option
+@reports_errors
+def export_cmd(file: Path, kind: str | None, part_dir: Path | None) -> None:
+    """Write the part's specs to FILE (CSV)."""
+    from ita.specs import service
+
+    part = _load_part(part_dir)
+    specs = service.load(part)
+    if kind:
+        specs = [s for s in specs if s.kind.value == kind]
+    n = service.export_file(part, file, specs)
+    click.echo(f"exported {n} specs to {file}")
+
+
+@spec.command("validate")
+@click.argument("file", required=False, type=click.Path(path_type=Path, dir_okay=False))
+@click.option("--max-distance", type=float, default=0.5, show_default=True,
+              help="How far (mm) a spec point may lie from the part's surface.")
+@part_option
+@reports_errors
+def validate_cmd(file: Path | None, max_distance: float, part_dir: Path | None) -> None:
+    """Check FILE (default: the part's specs.csv) against the schema and the part."""
+    from ita.specs import service
+
+    n = service.validate_file(_load_part(part_dir), file, max_distance)
+    click.echo(f"ok: {n} specs valid")

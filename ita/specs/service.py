@@ -1,0 +1,89 @@
+"""Spec-file operations on a part: each reads, changes, validates the whole result against
+the part's mesh, and writes atomically, or raises InputError and writes nothing."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Mapping, Protocol, Sequence
+
+from ita.errors import InputError
+from ita.specs import edit
+from ita.specs.io import read_spec_table, write_specs
+from ita.specs.model import MeasurementSpec
+from ita.specs.validate import DEFAULT_MAX_DISTANCE_MM, check_on_surface
+
+
+class PartLike(Protocol):
+    """What spec operations need of a part."""
+
+    @property
+    def specs_path(self) -> Path: ...
+
+    @property
+    def mesh(self): ...
+
+
+def load(part: PartLike) -> list[MeasurementSpec]:
+    """The part's specs (InputError naming file, line and field when the file is bad)."""
+    return list(read_spec_table(part.specs_path).specs)
+
+
+def validate_file(part: PartLike, path: Path | None = None,
+                  max_distance: float = DEFAULT_MAX_DISTANCE_MM) -> int:
+    """Validate a specs file (default: the part's own) against the part; returns the count."""
+    table = read_spec_table(Path(path) if path is not None else part.specs_path)
+    problems = check_on_surface(table.specs, part.mesh, str(table.path), table.lines, max_distance)
+    if problems:
+        raise InputError(problems)
+    return len(table.specs)
+
+
+def _save(part: PartLike, specs: Sequence[MeasurementSpec], changed: Sequence[MeasurementSpec],
+          origin: str, lines: Sequence[int] | None, max_distance: float) -> None:
+    problems = check_on_surface(changed, part.mesh, origin, lines, max_distance, context=specs)
+    if problems:
+        raise InputError(problems)
+    write_specs(part.specs_path, specs)
+
+
+def add(part: PartLike, fields: Mapping[str, str],
+        max_distance: float = DEFAULT_MAX_DISTANCE_MM) -> MeasurementSpec:
+    """Add one spec given as CSV fields; returns it."""
+    new = edit.spec_from_fields(fields)
+    specs = edit.add_spec(load(part), new)
+    _save(part, specs, [new], edit.CLI, None, max_distance)
+    return new
+
+
+def change(part: PartLike, spec_id: str, changes: Mapping[str, str],
+           max_distance: float = DEFAULT_MAX_DISTANCE_MM) -> MeasurementSpec:
+    """Edit fields of one spec; returns the edited spec."""
+    specs = edit.edit_spec(load(part), spec_id, changes)
+    new_id = changes.get("id", spec_id).strip()
+    edited = next(s for s in specs if s.id == new_id)
+    _save(part, specs, [edited], edit.CLI, None, max_distance)
+    return edited
+
+
+def remove(part: PartLike, ids: Sequence[str]) -> int:
+    """Remove specs by id; returns how many remain."""
+    specs = edit.remove_specs(load(part), ids)
+    write_specs(part.specs_path, specs)
+    return len(specs)
+
+
+def import_file(part: PartLike, path: Path, replace_all: bool = False,
+                max_distance: float = DEFAULT_MAX_DISTANCE_MM) -> int:
+    """Import every spec of `path` (all or nothing); returns how many were imported."""
+    table = read_spec_table(Path(path))
+    base: list[MeasurementSpec] = [] if replace_all else load(part)
+    specs = edit.merge_specs(base, table.specs, str(table.path), table.lines)
+    _save(part, specs, table.specs, str(table.path), table.lines, max_distance)
+    return len(table.specs)
+
+
+def export_file(part: PartLike, path: Path, specs: Sequence[MeasurementSpec] | None = None) -> int:
+    """Write the part's specs (or the given subset) to `path` as CSV; returns the count."""
+    chosen = load(part) if specs is None else list(specs)
+    write_specs(Path(path), chosen)
+    return len(chosen)

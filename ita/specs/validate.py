@@ -1,0 +1,72 @@
+"""Checks of measurement specs against the part they belong to.
+
+The file-level checks (kinds, numbers, tolerances, duplicate ids) happen while reading
+(`ita.specs.io`); this module checks what needs the part's mesh: every spec point must lie
+on the part's surface within a stated distance.  The point of a hole measurement is the
+hole's centre on its entry face, so it may lie up to the hole's radius (taken from the
+feature's hole_diameter spec) plus that distance from the surface.
+"""
+
+from __future__ import annotations
+
+from typing import Sequence
+
+import numpy as np
+
+from ita.errors import Location
+from ita.specs.model import MeasurementKind, MeasurementSpec
+
+HOLE_KINDS = frozenset({
+    MeasurementKind.HOLE_DIAMETER, MeasurementKind.HOLE_POSITION, MeasurementKind.EDGE_DISTANCE,
+})
+DEFAULT_MAX_DISTANCE_MM = 0.5
+
+
+def allowed_distances(specs: Sequence[MeasurementSpec], max_distance: float) -> np.ndarray:
+    """(n,) float: how far each spec point may lie from the surface, mm."""
+    radius_of: dict[str, float] = {}
+    for s in specs:
+        if s.kind is MeasurementKind.HOLE_DIAMETER:
+            radius_of[s.feature] = max(radius_of.get(s.feature, 0.0), s.high_limit / 2.0)
+    out = np.full(len(specs), max_distance, dtype=float)
+    for i, s in enumerate(specs):
+        if s.kind in HOLE_KINDS:
+            out[i] += radius_of.get(s.feature, 0.0)
+    return out
+
+
+def surface_distances(mesh, points: np.ndarray) -> np.ndarray:
+    """(n,) float: distance of each (n,3) point (mm, part frame) to the mesh surface."""
+    if len(points) == 0:
+        return np.zeros(0)
+    _, distance, _ = mesh.nearest.on_surface(np.asarray(points, dtype=float))
+    return np.asarray(distance, dtype=float)
+
+
+def check_on_surface(
+    specs: Sequence[MeasurementSpec],
+    mesh,
+    file: str,
+    lines: Sequence[int] | None = None,
+    max_distance: float = DEFAULT_MAX_DISTANCE_MM,
+    context: Sequence[MeasurementSpec] = (),
+) -> list[tuple[Location, str]]:
+    """Problems for specs whose point is farther than allowed from the mesh surface.
+
+    `context` adds specs (e.g. the rest of the file) used to find hole radii.
+    """
+    if not specs:
+        return []
+    points = np.array([s.point for s in specs], dtype=float)
+    dist = surface_distances(mesh, points)
+    allowed = allowed_distances(list(specs) + list(context), max_distance)[: len(specs)]
+    problems = []
+    for i in np.flatnonzero(dist > allowed):
+        line = lines[i] if lines is not None else 0
+        s = specs[i]
+        problems.append((
+            Location(file, line, field="x"),
+            f"point of {s.id} is {dist[i]:.3f} mm from the part's surface "
+            f"(at most {allowed[i]:.3f} mm allowed)",
+        ))
+    return problems

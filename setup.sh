@@ -1,0 +1,77 @@
+#!/usr/bin/env bash
+# Set up ITA (SWI-Prolog, a virtual environment, the package) and run something.
+#
+#   bash setup.sh run [ARGS]    set up, then run the main job (`ita prepare`)
+#   bash setup.sh test [ARGS]   set up, then run every test (pytest; ARGS go to pytest)
+#   bash setup.sh setup         set up only
+#
+# Idempotent: when everything is in place it only checks, which takes about a second.
+# Environment: ITA_VENV (default .venv beside this file), PYTHON (default python3.11 or python3).
+set -euo pipefail
+cd "$(dirname "${BASH_SOURCE[0]}")"
+root=$(pwd)
+venv=${ITA_VENV:-$root/.venv}
+action=${1:-run}
+[ $# -gt 0 ] && shift
+
+say() { printf '[setup] %s\n' "$*" >&2; }
+
+as_root() {
+    if [ "$(id -u)" -eq 0 ]; then "$@"; else sudo "$@"; fi
+}
+
+apt_install() {
+    say "installing Debian packages: $*"
+    as_root env DEBIAN_FRONTEND=noninteractive apt-get update -qq
+    as_root env DEBIAN_FRONTEND=noninteractive apt-get install -y -qq --no-install-recommends "$@" >/dev/null
+}
+
+find_python() {
+    if [ -n "${PYTHON:-}" ]; then echo "$PYTHON"; return; fi
+    for p in python3.11 python3; do
+        if command -v "$p" >/dev/null 2>&1 &&
+           "$p" -c 'import sys; sys.exit(sys.version_info < (3, 11))' 2>/dev/null; then
+            echo "$p"; return
+        fi
+    done
+    say "Python 3.11 or newer is required (set PYTHON=/path/to/python3.11)"; exit 1
+}
+
+setup() {
+    if ! command -v swipl >/dev/null 2>&1; then
+        apt_install swi-prolog-nox
+    fi
+    local py; py=$(find_python)
+    if [ ! -x "$venv/bin/python" ]; then
+        say "creating virtual environment $venv"
+        if ! "$py" -m venv "$venv" 2>/dev/null; then
+            # Debian splits venv/ensurepip into its own package.
+            rm -rf "$venv"
+            apt_install "python3-venv" "$(basename "$py")-venv" || apt_install python3-venv
+            "$py" -m venv "$venv"
+        fi
+    fi
+    # Reinstall only when the package's metadata changed (source edits are live: editable install).
+    local stamp="$venv/.ita-installed" want
+    want=$( (cat pyproject.toml; "$venv/bin/python" --version) | sha256sum | cut -d' ' -f1)
+    if [ ! -f "$stamp" ] || [ "$(cat "$stamp")" != "$want" ] ||
+       ! "$venv/bin/python" -c 'import ita, pyswip' 2>/dev/null; then
+        say "installing the ita package and its test extras into $venv"
+        "$venv/bin/python" -m pip install -q --upgrade pip
+        "$venv/bin/python" -m pip install -q -e ".[test]"
+        echo "$want" > "$stamp"
+    fi
+}
+
+setup
+case "$action" in
+    setup) say "ready: $venv/bin/ita" ;;
+    run)   exec "$venv/bin/ita" prepare "$@" ;;
+    test)
+        set +e
+        "$venv/bin/python" -m pytest "$@"
+        rc=$?
+        # pytest exits 5 when no test was collected: that is a failure for us too.
+        exit $rc ;;
+    *) say "unknown action '$action' (use: run, test or setup)"; exit 2 ;;
+esac
