@@ -1,0 +1,257 @@
+"""`ita kb`: look into the knowledge bases: query, shell, check, list, why.
+
+Exit codes: 0 success (a query or `why` with a solution, a clean `check`); 1 a goal
+with no solution, or `check` found problems; 2 a refused goal (syntax error, unsafe),
+a goal stopped by its time or inference limit, a goal that raised an error, or a
+knowledge base that does not load.
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+from typing import TYPE_CHECKING, Callable, TextIO
+
+import click
+
+from ita.cli.common import reports_errors
+from ita.errors import ItaError
+
+if TYPE_CHECKING:
+    from ita.logic.bridge import KnowledgeBase
+    from ita.logic.model import ProofNode, QueryResult
+
+NO_SOLUTION = 1
+SHELL_HELP = """\
+Type a Prolog goal, e.g.  type(X, us_tool)  or  available(T), weight(T, W)
+Goals run read-only: the sandbox refuses files, processes, halt and changes to the
+knowledge bases, and every goal runs under a time and an inference limit.
+  why GOAL   show the proof tree of GOAL's first solution
+  help       this text
+  quit       leave the shell (also exit, or end of input)"""
+
+
+def _limit_options(func: Callable) -> Callable:
+    func = click.option("--time-limit", type=click.FloatRange(min=0.001), default=10.0,
+                        show_default=True, help="Stop the goal after this many seconds.")(func)
+    func = click.option("--inference-limit", type=click.IntRange(min=1), default=10_000_000,
+                        show_default=True, help="Stop the goal after this many inferences.")(func)
+    return func
+
+
+def _knowledge_base() -> "KnowledgeBase":
+    from ita.logic.bridge import KnowledgeBase  # starts SWI-Prolog: only when needed
+
+    return KnowledgeBase()
+
+
+@click.group()
+def kb() -> None:
+    """Query, check, list and explain the Prolog knowledge bases (prolog/ and kb/)."""
+
+
+def format_table(headers: tuple[str, ...], rows: tuple[tuple[str, ...], ...]) -> str:
+    """Plain-text table with aligned columns and a dashed rule under the header."""
+    widths = [max([len(h)] + [len(r[i]) for r in rows]) for i, h in enumerate(headers)]
+    lines = ["  ".join(h.ljust(w) for h, w in zip(headers, widths)).rstrip(),
+             "  ".join("-" * w for w in widths)]
+    lines += ["  ".join(v.ljust(w) for v, w in zip(row, widths)).rstrip() for row in rows]
+    return "\n".join(lines)
+
+
+def format_result(result: "QueryResult") -> str:
+    """A query result for people: a table of bindings, or true./false."""
+    if not result.rows:
+        return "false."
+    if not result.variables:
+        return "true."
+    text = format_table(result.variables, result.rows)
+    if result.truncated:
+        text += f"\n(more solutions not shown: first {len(result.rows)}; raise --limit)"
+    return text
+
+
+def result_json(result: "QueryResult") -> str:
+    """A query result as JSON: variables, rows as objects of printed values, truncated."""
+    return json.dumps(
+        {
+            "goal": result.goal,
+            "succeeded": result.succeeded,
+            "variables": list(result.variables),
+            "rows": [dict(zip(result.variables, row)) for row in result.rows],
+            "truncated": result.truncated,
+        },
+        indent=2,
+    )
+
+
+def format_tree(node: "ProofNode") -> str:
+    """A proof tree, one goal per line, children indented under their parent."""
+    lines: list[str] = []
+
+    def walk(n: "ProofNode", prefix: str, last: bool, root: bool) -> None:
+        where = f" {n.location.file.rsplit('/', 1)[-1]}:{n.location.line}" if n.location else ""
+        label = f"{n.goal}    [{n.kind}{where}]"
+        lines.append(label if root else f"{prefix}{'`- ' if last else '|- '}{label}")
+        child_prefix = "" if root else prefix + ("   " if last else "|  ")
+        for i, child in enumerate(n.children):
+            walk(child, child_prefix, i == len(n.children) - 1, False)
+
+    top = node.children[0] if len(node.children) == 1 and node.children[0].goal == node.goal else node
+    walk(top, "", True, True)
+    return "\n".join(lines)
+
+
+@kb.command()
+@click.argument("goal")
+@click.option("--json", "as_json", is_flag=True, help="Print the answers as JSON.")
+@click.option("--limit", type=click.IntRange(min=1), default=100, show_default=True,
+              help="Largest number of solutions to print.")
+@_limit_options
+@reports_errors
+def query(goal: str, as_json: bool, limit: int, time_limit: float, inference_limit: int) -> None:
+    """Run GOAL against the knowledge bases and print every solution's bindings.
+
+    GOAL is Prolog text, e.g. 'type(X, us_tool)'.  Exit code 1 when it has no solution.
+    """
+    result = _knowledge_base().run_user_query(goal, limit, time_limit, inference_limit)
+    click.echo(result_json(result) if as_json else format_result(result))
+    if not result.succeeded:
+        sys.exit(NO_SOLUTION)
+
+
+@kb.command()
+@click.argument("goal")
+@click.option("--max-depth", type=click.IntRange(min=0), default=30, show_default=True,
+              help="Expand knowledge-base predicates this many levels deep.")
+@_limit_options
+@reports_errors
+def why(goal: str, max_depth: int, time_limit: float, inference_limit: int) -> None:
+    """Explain GOAL: print the proof tree of its first solution.
+
+    Each line is a goal with how it was proved: a rule or fact of kb/ (with file:line),
+    a builtin, a negation, or depth_limit.  Exit code 1 when GOAL has no proof.
+    """
+    tree = _knowledge_base().explain(goal, max_depth, time_limit, inference_limit)
+    if tree is None:
+        click.echo(f"no proof: {goal} has no solution.")
+        sys.exit(NO_SOLUTION)
+    click.echo(format_tree(tree))
+
+
+@kb.command()
+@click.option("--kb-dir", type=click.Path(path_type=Path, file_okay=False, exists=True),
+              default=None, help="Check this knowledge-base directory instead of kb/.")
+@click.option("--prolog-dir", type=click.Path(path_type=Path, file_okay=False, exists=True),
+              default=None, help="Check this engine directory instead of prolog/.")
+@reports_errors
+def check(kb_dir: Path | None, prolog_dir: Path | None) -> None:
+    """Load everything and list errors, warnings and calls to undefined predicates.
+
+    Each problem is printed as file:line: severity: message.  Exit code 0 only when
+    there is none.
+    """
+    from ita.logic.bridge import check_sources
+
+    problems = check_sources(prolog_dir, kb_dir)
+    for problem in problems:
+        click.echo(str(problem))
+    if problems:
+        click.echo(f"{len(problems)} problem(s)", err=True)
+        sys.exit(1)
+    click.echo("knowledge bases OK: no errors, warnings or undefined predicates")
+
+
+@kb.command("list")
+@reports_errors
+def list_() -> None:
+    """List the knowledge-base files and their predicates with the first line of their PlDoc."""
+    docs = _knowledge_base().list_predicates()
+    width = max((len(f"{d.name}/{d.arity}") for d in docs), default=0)
+    current = None
+    for doc in docs:
+        if doc.file != current:
+            click.echo(("" if current is None else "\n") + f"{doc.file} (module {doc.module})")
+            current = doc.file
+        click.echo(f"  {doc.name + '/' + str(doc.arity):<{width}}  {doc.summary or '(no PlDoc)'}")
+
+
+@kb.command()
+@click.option("--limit", type=click.IntRange(min=1), default=100, show_default=True,
+              help="Largest number of solutions to print per goal.")
+@_limit_options
+@reports_errors
+def shell(limit: int, time_limit: float, inference_limit: int) -> None:
+    """Interactive query loop with the safety of `ita kb query`, history and help.
+
+    Reads goals from standard input (one per line); type `help` for help.
+    """
+    knowledge = _knowledge_base()
+    interactive = sys.stdin.isatty()
+    history = _start_history() if interactive else None
+    if interactive:
+        click.echo("ITA knowledge-base shell; `help` for help, `quit` to leave.")
+    try:
+        for line in _read_lines(sys.stdin, interactive):
+            if line in ("quit", "exit", "halt."):
+                break
+            click.echo(_shell_answer(knowledge, line, limit, time_limit, inference_limit))
+    finally:
+        if history is not None:
+            _save_history(history)
+
+
+def _shell_answer(knowledge: "KnowledgeBase", line: str, limit: int,
+                  time_limit: float, inference_limit: int) -> str:
+    """The text answer of the shell to one input line."""
+    if line == "help":
+        return SHELL_HELP
+    try:
+        if line.startswith("why "):
+            tree = knowledge.explain(line[4:], 30, time_limit, inference_limit)
+            return format_tree(tree) if tree else "no proof."
+        return format_result(knowledge.run_user_query(line, limit, time_limit, inference_limit))
+    except ItaError as exc:
+        return f"error: {exc}"
+
+
+def _read_lines(stream: TextIO, interactive: bool):
+    """Non-empty input lines, stripped, with a trailing full stop removed."""
+    while True:
+        if interactive:
+            try:
+                line = input("?- ")
+            except EOFError:
+                click.echo()
+                return
+        else:
+            line = stream.readline()
+            if not line:
+                return
+        line = line.strip()
+        if line.endswith(".") and line != "halt.":
+            line = line[:-1].rstrip()
+        if line:
+            yield line
+
+
+def _start_history() -> Path | None:
+    """Enable readline history from the ITA home directory; its path, or None."""
+    try:
+        import readline
+    except ImportError:
+        return None
+    from ita.paths import ita_home
+
+    path = ita_home() / "kb_shell_history"
+    if path.exists():
+        readline.read_history_file(path)
+    readline.set_history_length(1000)
+    return path
+
+
+def _save_history(path: Path) -> None:
+    import readline
+
+    readline.write_history_file(path)

@@ -1,0 +1,50 @@
+:- begin_tests(kb_query).
+
+:- use_module(kb_query).
+:- use_module('../kb/world').
+
+test(answers_with_bindings, true(R == answers(['X'], [["us_probe_1"], ["us_probe_2"]], false))) :-
+    run_query("type(X, us_tool)", [world], [], R).
+
+test(limit_truncates, true(R == answers(['X'], [["us_probe_1"]], true))) :-
+    run_query("type(X, us_tool)", [world], [limit(1)], R).
+
+test(no_solution, true(R == answers(['X'], [], false))) :-
+    run_query("type(X, hammer)", [world], [], R).
+
+test(underscore_variables_hidden, true(Names == ['T'])) :-
+    run_query("location(T, _Where)", [world], [], answers(Names, _, _)).
+
+test(syntax_error_refused, true(sub_string(Reason, _, _, _, "syntax error"))) :-
+    run_query("type(X,", [world], [], refused(Reason)).
+
+test(shell_refused, true(sub_string(Reason, _, _, _, "shell/1"))) :-
+    run_query("shell(ls)", [world], [], refused(Reason)).
+
+test(assert_into_kb_module_refused, true(sub_string(Reason, _, _, _, "read-only"))) :-
+    run_query("assertz(world:foo)", [world], [], refused(Reason)).
+
+test(halt_refused, true(sub_string(Reason, _, _, _, "halt/0"))) :-
+    run_query("halt", [world], [], refused(Reason)).
+
+test(kb_update_is_rolled_back, true(C == ok)) :-
+    run_query("set_tool_condition(us_probe_1, broken)", [world], [], answers([], [[]], false)),
+    world:tool_condition(us_probe_1, C).
+
+test(loop_stopped_by_inference_limit, true(sub_string(Reason, _, _, _, "inference limit"))) :-
+    run_query("repeat, fail", [world], [inference_limit(10000)], limit_exceeded(Reason)).
+
+test(loop_stopped_by_time_limit, true(sub_string(Reason, _, _, _, "time limit"))) :-
+    run_query("repeat, fail", [world], [time_limit(0.1), inference_limit(1000000000000)],
+              limit_exceeded(Reason)).
+
+test(runtime_error_reported, true(sub_string(Reason, _, _, _, "zero_divisor"))) :-
+    run_query("X is 1/0", [world], [], error(Reason)).
+
+test(bad_limit, error(type_error(positive_integer, 0))) :-
+    run_query("true", [world], [limit(0)], _).
+
+test(term_text_names_variables, true(T == "f(_1, 'A b', _1)")) :-
+    term_text(f(X, 'A b', X), T).
+
+:- end_tests(kb_query).
