@@ -1,0 +1,293 @@
+"""Value types of the workcell: the arm, the part's placement, fixture, rack, tools.
+
+All lengths are metres and all angles radians in the world frame (z up, floor at z = 0),
+except where a name says otherwise (`_mm`, `_deg`, `_kg`).  Quaternions are (x, y, z, w).
+`load.load_workcell` builds these from `bulkhead/workcell.toml` and `bulkhead/t3_arm.urdf`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ita.specs.model import Tool
+from ita.workcell import frames
+
+Vec3 = tuple[float, float, float]
+Quat = tuple[float, float, float, float]
+
+
+@dataclass(frozen=True)
+class Pose:
+    """A rigid placement: position (m) and orientation quaternion (x, y, z, w)."""
+
+    position: Vec3 = (0.0, 0.0, 0.0)
+    quaternion: Quat = (0.0, 0.0, 0.0, 1.0)
+
+    @classmethod
+    def from_rpy(cls, position: Vec3, rpy: Vec3) -> "Pose":
+        """Pose from a position (m) and fixed-axis roll, pitch, yaw (rad)."""
+        q = frames.matrix_to_quaternion(frames.rpy_to_matrix(rpy))
+        return cls(tuple(map(float, position)), tuple(map(float, q)))  # type: ignore[arg-type]
+
+    def rotation(self) -> np.ndarray:
+        """Rotation matrix (3, 3)."""
+        return frames.quaternion_to_matrix(self.quaternion)
+
+    def matrix(self) -> np.ndarray:
+        """Homogeneous transform (4, 4)."""
+        return frames.homogeneous(self.rotation(), self.position)
+
+    def compose(self, other: "Pose") -> "Pose":
+        """This pose followed by `other` expressed in this pose's frame (self * other)."""
+        m = self.matrix() @ other.matrix()
+        q = frames.matrix_to_quaternion(m[:3, :3])
+        return Pose(tuple(map(float, m[:3, 3])), tuple(map(float, q)))  # type: ignore[arg-type]
+
+
+@dataclass(frozen=True)
+class Box:
+    """A solid oriented box: `pose` is its centre, `size` its full extents (m)."""
+
+    name: str
+    pose: Pose
+    size: Vec3
+
+
+@dataclass(frozen=True)
+class JointLimits:
+    """Per-joint limits of the arm, in joint order j1..j6.
+
+    lower/upper: position limits (rad); velocity (rad/s) and effort (N m) from the URDF;
+    acceleration (rad/s^2) from workcell.toml (URDF has no place for it).
+    """
+
+    names: tuple[str, ...]
+    lower: tuple[float, ...]
+    upper: tuple[float, ...]
+    velocity: tuple[float, ...]
+    acceleration: tuple[float, ...]
+    effort: tuple[float, ...]
+
+    @property
+    def count(self) -> int:
+        """Number of joints."""
+        return len(self.names)
+
+    def contains(self, q: np.ndarray) -> np.ndarray:
+        """Whether joint vectors q (..., 6) lie within the position limits: bool (...)."""
+        q = np.asarray(q, dtype=float)
+        return np.all((q >= np.asarray(self.lower)) & (q <= np.asarray(self.upper)), axis=-1)
+
+
+@dataclass(frozen=True)
+class ArmKinematics:
+    """The arm's kinematic structure, read from the URDF's joint origins.
+
+    Zero pose: upper arm vertical, forearm horizontal along the base's +x.  In the base
+    frame: j1 about z through the origin; j2 (shoulder, about y) at (a1, 0, d1); j3 (elbow,
+    about y) a2 above j2; the wrist centre, where j4 (forearm roll, about x), j5 (pitch,
+    about y) and j6 (roll, about x) intersect, d4 ahead of j3 along the forearm; the tool
+    flange d6 beyond the wrist centre along j6, its z axis along j6 (the approach axis).
+    """
+
+    d1: float
+    a1: float
+    a2: float
+    d4: float
+    d6: float
+
+    def wrist_radius_limits(self, elbow_lower: float, elbow_upper: float) -> tuple[float, float]:
+        """Least and greatest shoulder-to-wrist-centre distance (m) over j3 in [lower, upper].
+
+        |SW|^2 = a2^2 + d4^2 - 2 a2 d4 sin(q3); q3 = -pi/2 is the straight arm.
+        """
+        q3 = np.linspace(elbow_lower, elbow_upper, 2001)
+        r = np.sqrt(self.a2**2 + self.d4**2 - 2 * self.a2 * self.d4 * np.sin(q3))
+        return float(r.min()), float(r.max())
+
+
+@dataclass(frozen=True)
+class ArmSpec:
+    """The 6-DOF arm `t3`: its model file, base pose, limits and performance."""
+
+    name: str
+    urdf: Path
+    base: Pose
+    joints: JointLimits
+    kinematics: ArmKinematics
+    flange_link: str
+    payload_kg: float
+    repeatability_m: float
+    max_tool_speed: float
+
+
+@dataclass(frozen=True)
+class PartPlacement:
+    """Where the part sits: world = rotation @ (scale * p_mm) + translation (m).
+
+    envelope_min_mm/envelope_max_mm: the part's bounding box in its own frame (mm).
+    """
+
+    scale: float
+    rotation: tuple[Vec3, Vec3, Vec3]
+    translation: Vec3
+    envelope_min_mm: Vec3
+    envelope_max_mm: Vec3
+
+    def rotation_matrix(self) -> np.ndarray:
+        """Rotation (3, 3), part axes as columns in world coordinates."""
+        return np.asarray(self.rotation, dtype=float)
+
+    def to_world(self, points_mm: np.ndarray) -> np.ndarray:
+        """World points (n, 3) m of part points (n, 3) mm."""
+        return frames.part_to_world_points(points_mm, self.rotation_matrix(), self.translation, self.scale)
+
+    def to_part(self, points_m: np.ndarray) -> np.ndarray:
+        """Part points (n, 3) mm of world points (n, 3) m."""
+        return frames.world_to_part_points(points_m, self.rotation_matrix(), self.translation, self.scale)
+
+    def normals_to_world(self, normals: np.ndarray) -> np.ndarray:
+        """World directions (n, 3) of part directions (n, 3) (unit in, unit out)."""
+        return frames.rotate_vectors(normals, self.rotation_matrix())
+
+    def envelope_box(self) -> Box:
+        """The part's bounding box as a world Box named "part_envelope"."""
+        lo = np.asarray(self.envelope_min_mm, dtype=float)
+        hi = np.asarray(self.envelope_max_mm, dtype=float)
+        centre = self.to_world((lo + hi)[None, :] / 2.0)[0]
+        q = frames.matrix_to_quaternion(self.rotation_matrix())
+        size = tuple(float(s) for s in (hi - lo) * self.scale)
+        return Box("part_envelope", Pose(tuple(map(float, centre)), tuple(map(float, q))), size)  # type: ignore[arg-type]
+
+
+@dataclass(frozen=True)
+class ToolSpec:
+    """A tool that the arm can pick up from the rack.
+
+    tcp: the tool centre point in the flange frame: the probe tip (ultrasonic) or the
+    optical centre (SLRA); its z axis is the approach / view axis into the surface.
+    body_center/body_size: a box (m) in the flange frame that encloses the tool, for
+    collision checks.
+    standoff_*: SLRA working range along the view axis (m), 0 for a contact probe;
+    approach_distance: free-space approach point off the surface (m); fov_deg: SLRA
+    field of view (horizontal, vertical), (0, 0) for a probe.
+    """
+
+    name: str
+    tool_class: Tool
+    weight_kg: float
+    tcp: Pose
+    body_center: Vec3
+    body_size: Vec3
+    standoff_min: float
+    standoff_nominal: float
+    standoff_max: float
+    approach_distance: float
+    fov_deg: tuple[float, float]
+
+    @property
+    def tcp_length(self) -> float:
+        """Distance (m) from the flange to the TCP along the flange's z axis."""
+        return float(self.tcp.position[2])
+
+    @property
+    def is_straight(self) -> bool:
+        """Whether the TCP lies on the flange axis and looks along it."""
+        return bool(np.allclose(self.tcp.position[:2], 0.0, atol=1e-9)
+                    and np.allclose(self.tcp.rotation()[:, 2], (0.0, 0.0, 1.0), atol=1e-9))
+
+
+@dataclass(frozen=True)
+class RackSlot:
+    """A rack slot: the world pose of the parked tool's flange frame, and its tool (or '')."""
+
+    name: str
+    pose: Pose
+    tool: str
+
+
+@dataclass(frozen=True)
+class Rack:
+    """The tool rack: a box and its slots."""
+
+    name: str
+    box: Box
+    slots: tuple[RackSlot, ...]
+
+
+@dataclass(frozen=True)
+class ReachParams:
+    """Figures of the simple geometric reach test (see reach.py).
+
+    margin: fraction of the fully stretched wrist radius that counts as reachable;
+    base_keepout_radius: no wrist centre closer than this to the j1 axis (m);
+    wrist_min_height/wrist_max_height: world z range of the wrist centre (m);
+    tcp_min_height: lowest world z of the tool point (m); part_clearance: how far the
+    SLRA optical centre and the wrist centre must stay outside the part envelope (m);
+    standoff_samples: SLRA standoffs tried between min and max; roll_samples: rolls about
+    the normal tried for a tool whose point is off the flange axis (an angled probe).
+    """
+
+    margin: float
+    base_keepout_radius: float
+    wrist_min_height: float
+    wrist_max_height: float
+    tcp_min_height: float
+    part_clearance: float
+    standoff_samples: int
+    roll_samples: int
+
+
+@dataclass(frozen=True)
+class Workcell:
+    """Everything in the cell: arm, part placement, fixture, rack, tools, stations.
+
+    stands: the tables the couplant station and calibration block sit on; fence: the
+    safety fence's walls; pedestal: the riser under the arm's base.
+    """
+
+    source: Path
+    arm: ArmSpec
+    part: PartPlacement
+    fixture: tuple[Box, ...]
+    rack: Rack
+    tools: tuple[ToolSpec, ...]
+    couplant_station: Box
+    cal_block: Box
+    floor: Box
+    pedestal: Box
+    stands: tuple[Box, ...]
+    fence: tuple[Box, ...]
+    reach: ReachParams
+
+    def tool(self, name: str) -> ToolSpec:
+        """The tool named `name`; KeyError if there is none."""
+        for t in self.tools:
+            if t.name == name:
+                return t
+        raise KeyError(name)
+
+    def tools_of_class(self, tool_class: Tool | str) -> tuple[ToolSpec, ...]:
+        """The tools of a class ('us_tool' or 'slra_tool'), in file order."""
+        cls = Tool(tool_class)
+        return tuple(t for t in self.tools if t.tool_class is cls)
+
+    def slot_of(self, tool_name: str) -> RackSlot:
+        """The rack slot that holds `tool_name`; KeyError if none does."""
+        for s in self.rack.slots:
+            if s.tool == tool_name:
+                return s
+        raise KeyError(tool_name)
+
+    def static_boxes(self) -> tuple[Box, ...]:
+        """All fixed solid boxes of the cell (floor, pedestal, fixture, rack, stations, fence)."""
+        return (
+            (self.floor, self.pedestal)
+            + self.fixture
+            + (self.rack.box, self.couplant_station, self.cal_block)
+            + self.stands
+            + self.fence
+        )
