@@ -17,6 +17,7 @@ COMMANDS: dict[str, str] = {
     "part": "ita.cli.part:part",
     "spec": "ita.cli.spec:spec",
     "prepare": "ita.cli.prepare:prepare",
+    "sequence": "ita.cli.sequence:sequence",
 }
 
 

@@ -1,0 +1,327 @@
+"""Order points so the arm's travel is short: the Sequence Planner's travelling salesman step.
+
+:func:`solve_tour` takes a cost matrix, ``(n, n) float``, ``cost[i, j]`` being the cost
+of going from ``i`` to ``j`` (for the arm: its motion time between the two measurement
+poses).  The matrix may be asymmetric; every method charges a reversed stretch of the tour
+its reverse-direction cost.  Methods (an explicit registry, :data:`METHODS`):
+
+``classic``
+    the seed's method (Golden, Bodin, Doyle and Stewart 1980): convex hull insertion with
+    the largest-angle rule, then 2-opt edge exchange, then Or-opt "peephole" moves of
+    segments of 1 to 3 points, 2-opt and Or-opt alternating until neither improves.  The
+    hull needs coordinates (``coords``, ``(n, 2)``, or ``(n, d)`` projected on their
+    best-fit plane); without them it starts from cheapest insertion instead.
+``default``
+    the same insertion start, then iterated local search: 2-opt, Or-opt and segment
+    swaps (the pure 3-opt move) over the 10 nearest neighbours with don't-look bits,
+    kicked by random double bridges (most within a window of 50 positions, one in 16 cut
+    next to a node's neighbours), a kicked tour kept while within one average edge of the
+    best (record-to-record acceptance).  Mean gap 0.3 %, worst 1.3 % on the 14 TSPLIB
+    instances of ``bench/tsp.py``, about 0.9 s CPU at 1300 nodes.  Own code compiled with
+    numba (BSD-2-Clause); no solver library.
+
+Closed tours and open paths: with ``start`` (and/or ``end``) the result is an open path
+that begins at ``start`` (ends at ``end``) and its cost has no closing edge.  This is done
+with a dummy node tied at no cost to the path's ends, so both methods solve a closed tour.
+``start == end`` asks for a closed tour listed from ``start``.
+
+Tiny problems (at most 7 nodes, counting the dummy) are solved exactly by enumeration.
+For a given ``seed`` the result is deterministic unless ``time_budget`` is given, which
+makes the default run until the budget is spent (so its result then depends on speed).
+"""
+
+from __future__ import annotations
+
+import itertools
+import time
+from dataclasses import dataclass
+from typing import Callable
+
+import numpy as np
+
+from ita.sequence.construct import (
+    cheapest_insertion,
+    convex_hull_insertion,
+        neighbour_lists,
+)
+from ita.sequence.localsearch import (
+    LOG_CAPACITY,
+    activate_all,
+    iterated_local_search,
+    local_search,
+)
+
+EXACT_UP_TO = 7  # nodes (with the dummy) solved by enumeration
+NEIGHBOURS = 10  # candidate list length of the default method
+KICK_WINDOW = 50  # positions spanned by a double-bridge kick
+FAR_KICK_EVERY = 16  # one kick in this many cuts next to a node's neighbours instead
+SLACK_EDGES = 1.0  # a kicked tour may be this many average edges longer than the best
+
+
+@dataclass(frozen=True)
+class Tour:
+    """An ordering of the nodes ``0..n-1``.
+
+    ``order``: the node ids in visiting order; ``cost``: its cost under the matrix it was
+    solved for (with the closing edge back to ``order[0]`` when ``closed``); ``method``:
+    the method's name; ``seconds``: wall time spent solving.
+    """
+
+    order: tuple[int, ...]
+    cost: float
+    method: str
+    seconds: float
+    closed: bool = True
+
+
+@dataclass(frozen=True)
+class SearchSpace:
+    """What a method works on: a closed-tour problem, perhaps with a dummy node.
+
+    ``D``: ``(m, m) float`` costs (``m = n + 1`` with a dummy at index ``n``);
+    ``coords``: ``(n, d)`` or ``None``; ``symmetric``: ``D == D.T``.
+    """
+
+    D: np.ndarray
+    n: int
+    coords: np.ndarray | None
+    symmetric: bool
+    has_dummy: bool
+    time_budget: float | None
+    seed: int
+
+
+def tour_cost(cost: np.ndarray, order: tuple[int, ...] | np.ndarray, closed: bool = True) -> float:
+    """Cost of visiting ``order`` under ``cost`` (``(n, n) float``), with the closing edge if ``closed``."""
+    idx = np.asarray(order, dtype=np.int64)
+    if idx.size < 2:
+        return 0.0
+    total = float(np.asarray(cost)[idx[:-1], idx[1:]].sum())
+    if closed:
+        total += float(cost[idx[-1], idx[0]])
+    return total
+
+
+def solve_tour(
+    cost: np.ndarray,
+    method: str = "default",
+    coords: np.ndarray | None = None,
+    start: int | None = None,
+    end: int | None = None,
+    time_budget: float | None = None,
+    seed: int = 0,
+) -> Tour:
+    """Order the ``n`` nodes of ``cost`` (``(n, n) float``, maybe asymmetric) into a short tour.
+
+    ``coords``: ``(n, d) float`` positions for the classic method's convex hull (``d >= 2``;
+    projected on their best-fit plane when ``d > 2``).  ``start``/``end``: fix the ends
+    of an open path (see the module docstring).  ``time_budget``: seconds the default
+    method searches for (``None``: a fixed amount of search that grows with ``n``, about
+    1 s at 1000 nodes, deterministic).  Raises ``ValueError`` on bad arguments.
+    """
+    t0 = time.perf_counter()
+    if method not in METHODS:
+        raise ValueError(f"unknown method {method!r}; choose from {', '.join(METHODS)}")
+    D = _checked_matrix(cost)
+    n = D.shape[0]
+    if coords is not None:
+        coords = np.asarray(coords, dtype=np.float64)
+        if coords.ndim != 2 or coords.shape[0] != n or coords.shape[1] < 2:
+            raise ValueError(f"coords must be ({n}, d) with d >= 2, got shape {coords.shape}")
+    for name, node in (("start", start), ("end", end)):
+        if node is not None and not 0 <= node < n:
+            raise ValueError(f"{name} must be a node in 0..{n - 1}, got {node}")
+    if time_budget is not None and time_budget < 0:
+        raise ValueError(f"time_budget must be >= 0, got {time_budget}")
+
+    closed = start is None and end is None or (start is not None and start == end)
+    space = _search_space(D, coords, None if closed else start, None if closed else end,
+                          time_budget, seed)
+    if space.D.shape[0] <= EXACT_UP_TO:
+        tour = _exact(space.D)
+    else:
+        tour = METHODS[method](space)
+    order = _read_order(tour, space, start, end, closed)
+    return Tour(order=order, cost=tour_cost(D, order, closed), method=method,
+                seconds=time.perf_counter() - t0, closed=closed)
+
+
+def _checked_matrix(cost: np.ndarray) -> np.ndarray:
+    """A float64 copy of a square finite matrix with a zero diagonal."""
+    D = np.array(cost, dtype=np.float64)
+    if D.ndim != 2 or D.shape[0] != D.shape[1]:
+        raise ValueError(f"cost must be a square (n, n) matrix, got shape {D.shape}")
+    if D.shape[0] == 0:
+        raise ValueError("cost has no nodes")
+    if not np.all(np.isfinite(D)):
+        raise ValueError("cost must be finite")
+    np.fill_diagonal(D, 0.0)
+    return D
+
+
+def _search_space(D: np.ndarray, coords: np.ndarray | None, start: int | None, end: int | None,
+                  time_budget: float | None, seed: int) -> SearchSpace:
+    """Add a dummy node for an open path: free to reach from the path's end, free to leave
+    to its start, and so dear elsewhere (more than any tour) that it sits between them."""
+    n = D.shape[0]
+    symmetric = bool(np.allclose(D, D.T, rtol=1e-12, atol=0.0))
+    if start is None and end is None:
+        return SearchSpace(D, n, coords, symmetric, False, time_budget, seed)
+    big = (n + 1) * (float(np.abs(D).max()) + 1.0)
+    X = np.zeros((n + 1, n + 1))
+    X[:n, :n] = D
+    if symmetric:
+        ends = [v for v in (start, end) if v is not None]
+        X[n, :n] = big
+        X[n, ends] = 0.0
+        X[:n, n] = X[n, :n]
+    else:
+        X[n, :n] = 0.0 if start is None else big
+        X[:n, n] = 0.0 if end is None else big
+        if start is not None:
+            X[n, start] = 0.0
+        if end is not None:
+            X[end, n] = 0.0
+    X[n, n] = 0.0
+    return SearchSpace(X, n, coords, symmetric, True, time_budget, seed)
+
+
+def _read_order(tour: np.ndarray, space: SearchSpace, start: int | None, end: int | None,
+                closed: bool) -> tuple[int, ...]:
+    """Turn a closed tour of the search space into the caller's order."""
+    n = space.n
+    tour = [int(v) for v in tour]
+    if space.has_dummy:
+        k = tour.index(n)
+        order = tour[k + 1:] + tour[:k]
+        if space.symmetric and ((start is not None and order[0] != start)
+                                or (start is None and order[-1] != end)):
+            order.reverse()
+    else:
+        first = start if start is not None else 0
+        k = tour.index(first)
+        order = tour[k:] + tour[:k]
+    # The dummy's costs force these; a failure here is a bug, not bad input.
+    assert start is None or order[0] == start, "open path does not begin at start"
+    assert end is None or closed or order[-1] == end, "open path does not end at end"
+    return tuple(order)
+
+
+def _exact(D: np.ndarray) -> np.ndarray:
+    """Optimal closed tour by enumeration (for ``m <= EXACT_UP_TO`` nodes): ``(m,) int``."""
+    m = D.shape[0]
+    if m <= 2:
+        return np.arange(m)
+    perms = np.array(list(itertools.permutations(range(1, m))), dtype=np.int64)
+    full = np.hstack([np.zeros((len(perms), 1), dtype=np.int64), perms])
+    costs = D[full, np.roll(full, -1, axis=1)].sum(axis=1)
+    return full[int(np.argmin(costs))]
+
+
+def _workspace(m: int) -> tuple[np.ndarray, ...]:
+    """Queue, queue state, in-queue flags, reversal log and its counter for ``m`` nodes."""
+    return (np.zeros(m, np.int64), np.zeros(2, np.int64), np.zeros(m, np.bool_),
+            np.zeros((LOG_CAPACITY, 2), np.int64), np.zeros(1, np.int64))
+
+
+def _eps(D: np.ndarray) -> float:
+    """Improvements smaller than this are treated as none (rounding noise)."""
+    return 1e-9 * max(float(np.abs(D).max()), 1e-300)
+
+
+def _positions(tour: np.ndarray) -> np.ndarray:
+    pos = np.empty_like(tour)
+    pos[tour] = np.arange(tour.shape[0])
+    return pos
+
+
+def _with_dummy_inserted(D: np.ndarray, tour: np.ndarray) -> np.ndarray:
+    """Put the dummy (last index of ``D``) into the closed ``tour`` where it costs least."""
+    d = D.shape[0] - 1
+    nxt = np.roll(tour, -1)
+    added = D[tour, d] + D[d, nxt] - D[tour, nxt]
+    k = int(np.argmin(added))
+    return np.concatenate([tour[:k + 1], [d], tour[k + 1:]]).astype(np.int64)
+
+
+def _insertion_start(space: SearchSpace) -> np.ndarray:
+    """Convex hull insertion (cheapest insertion without coordinates), dummy added last: ``(m,) int``."""
+    D, n = space.D, space.n
+    real = np.ascontiguousarray(D[:n, :n])
+    if space.coords is not None:
+        tour = convex_hull_insertion(real, space.coords)
+    else:
+        tour = cheapest_insertion(real)
+    if space.has_dummy:
+        tour = _with_dummy_inserted(D, tour)
+    return tour
+
+
+def classic(space: SearchSpace) -> np.ndarray:
+    """Convex hull (or cheapest) insertion, then 2-opt and Or-opt to a local optimum: ``(m,) int``."""
+    D = space.D
+    tour = np.ascontiguousarray(_insertion_start(space), dtype=np.int64)
+    pos = _positions(tour)
+    neigh = neighbour_lists(D, D.shape[0] - 1)  # every node: exhaustive neighbourhoods
+    queue, qstate, inq, log, nlog = _workspace(D.shape[0])
+    eps = _eps(D)
+    while True:
+        activate_all(tour, queue, qstate, inq)
+        local_search(D, neigh, tour, pos, space.symmetric, eps, True, False, False, queue, qstate, inq, log, nlog)
+        activate_all(tour, queue, qstate, inq)
+        gain = local_search(D, neigh, tour, pos, space.symmetric, eps, False, True, False,
+                            queue, qstate, inq, log, nlog)
+        if gain >= -eps:
+            return tour
+
+
+def default_kicks(m: int) -> int:
+    """Kicks the default method makes on ``m`` nodes when no time budget is given."""
+    return 60 * m + 2000
+
+
+def default(space: SearchSpace) -> np.ndarray:
+    """Insertion start, then iterated 2-opt + Or-opt + segment-swap local search: ``(m,) int``."""
+    D = space.D
+    m = D.shape[0]
+    tour = np.ascontiguousarray(_insertion_start(space), dtype=np.int64)
+    pos = _positions(tour)
+    neigh = neighbour_lists(D, NEIGHBOURS)
+    queue, qstate, inq, log, nlog = _workspace(m)
+    eps = _eps(D)
+    rng = np.array([_seed_state(space.seed)], dtype=np.uint64)
+    activate_all(tour, queue, qstate, inq)
+    local_search(D, neigh, tour, pos, space.symmetric, eps, True, True, True, queue, qstate, inq, log, nlog)
+    cost = tour_cost(D, tour)
+    args = (D, neigh, tour, pos, space.symmetric, eps)
+    slack = SLACK_EDGES * cost / m
+    work = (KICK_WINDOW, FAR_KICK_EVERY, slack, rng, queue, qstate, inq, log, nlog)
+    if space.time_budget is None:
+        iterated_local_search(*args, cost, default_kicks(m), *work)
+        return tour
+    deadline = time.perf_counter() + space.time_budget
+    chunk = 100
+    while True:
+        now = time.perf_counter()
+        if now >= deadline:
+            return tour
+        t = now
+        cost = iterated_local_search(*args, cost, chunk, *work)
+        spent = time.perf_counter() - t
+        # aim at about 20 ms per call so the deadline is overshot by little
+        chunk = int(max(10, min(chunk * 4, chunk * 0.02 / max(spent, 1e-6))))
+
+
+def _seed_state(seed: int) -> int:
+    """A non-zero 64-bit generator state from any int seed (splitmix64)."""
+    z = (seed * 0x9E3779B97F4A7C15 + 0x9E3779B97F4A7C15) & 0xFFFFFFFFFFFFFFFF
+    z = ((z ^ (z >> 30)) * 0xBF58476D1CE4E5B9) & 0xFFFFFFFFFFFFFFFF
+    z = ((z ^ (z >> 27)) * 0x94D049BB133111EB) & 0xFFFFFFFFFFFFFFFF
+    z ^= z >> 31
+    return z or 1
+
+
+METHODS: dict[str, Callable[[SearchSpace], np.ndarray]] = {
+    "classic": classic,
+    "default": default,
+}

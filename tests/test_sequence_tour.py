@@ -1,0 +1,192 @@
+"""Ordering: valid tours, open paths, asymmetric costs, quality on berlin52, the CLI."""
+
+from __future__ import annotations
+
+import itertools
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from ita.cli.sequence import sequence
+from ita.sequence.tour import METHODS, solve_tour, tour_cost
+from ita.sequence.tsplib import read_tsplib
+
+TSPLIB = Path(__file__).resolve().parents[1].parent / "shared" / "tsplib"
+BERLIN = TSPLIB / "berlin52.tsp"
+needs_tsplib = pytest.mark.skipif(not BERLIN.exists(), reason=f"TSPLIB instances not found in {TSPLIB}")
+BERLIN_OPTIMUM = 7542
+
+
+def brute_force(D: np.ndarray, start: int | None = None, end: int | None = None) -> float:
+    """Least cost of a closed tour (no start/end) or an open path, by enumeration."""
+    n = D.shape[0]
+    if start is None and end is None:
+        return min(tour_cost(D, (0,) + p) for p in itertools.permutations(range(1, n)))
+    best = np.inf
+    for p in itertools.permutations(range(n)):
+        if (start is None or p[0] == start) and (end is None or p[-1] == end):
+            best = min(best, tour_cost(D, p, closed=False))
+    return best
+
+
+def random_points(n: int, seed: int) -> np.ndarray:
+    return np.random.default_rng(seed).uniform(0, 100, size=(n, 2))
+
+
+def distances(xy: np.ndarray) -> np.ndarray:
+    return np.linalg.norm(xy[:, None] - xy[None], axis=2)
+
+
+@pytest.mark.parametrize("method", list(METHODS))
+@pytest.mark.parametrize("n", [1, 2, 3, 5, 9, 40])
+def test_tour_is_a_permutation_with_its_cost(method, n):
+    xy = random_points(n, n)
+    D = distances(xy)
+    t = solve_tour(D, method=method, coords=xy)
+    assert sorted(t.order) == list(range(n))
+    assert t.cost == pytest.approx(tour_cost(D, t.order))
+    assert t.closed and t.method == method and t.seconds >= 0
+
+
+@pytest.mark.parametrize("method", list(METHODS))
+@pytest.mark.parametrize("seed", range(4))
+def test_asymmetric_matches_brute_force(method, seed):
+    rng = np.random.default_rng(seed)
+    D = rng.uniform(1, 10, size=(8, 8))
+    t = solve_tour(D, method=method, seed=seed)
+    assert sorted(t.order) == list(range(8))
+    if method == "default":
+        assert t.cost == pytest.approx(brute_force(D))
+    else:
+        assert t.cost <= 1.5 * brute_force(D)
+
+
+@pytest.mark.parametrize("method", list(METHODS))
+@pytest.mark.parametrize("seed", range(3))
+def test_open_paths_respect_start_and_end(method, seed):
+    rng = np.random.default_rng(10 + seed)
+    D = rng.uniform(1, 10, size=(7, 7))
+    D_sym = D + D.T
+    for M in (D, D_sym):
+        for start, end in ((2, None), (2, 5), (None, 4)):
+            t = solve_tour(M, method=method, start=start, end=end)
+            assert not t.closed and sorted(t.order) == list(range(7))
+            assert start is None or t.order[0] == start
+            assert end is None or t.order[-1] == end
+            assert t.cost == pytest.approx(tour_cost(M, t.order, closed=False))
+            if method == "default":
+                assert t.cost == pytest.approx(brute_force(M, start, end))
+
+
+def test_start_equal_to_end_is_a_closed_tour_from_start():
+    D = distances(random_points(12, 3))
+    t = solve_tour(D, start=4, end=4)
+    assert t.closed and t.order[0] == 4
+    assert t.cost == pytest.approx(tour_cost(D, t.order))
+
+
+def test_asymmetric_circle_is_travelled_the_cheap_way():
+    # Points on a circle; going clockwise costs 10 extra per step.  The optimum is the
+    # counter-clockwise circle, found only by a method that charges reversals correctly.
+    n = 60
+    angle = np.random.default_rng(5).permutation(n) * 2 * np.pi / n
+    xy = np.c_[np.cos(angle), np.sin(angle)] * 100
+    D = distances(xy)
+    ccw_step = (angle[None, :] - angle[:, None]) % (2 * np.pi)
+    D = D + np.where(ccw_step > np.pi, 10.0, 0.0)
+    optimum = n * 2 * 100 * np.sin(np.pi / n)
+    t = solve_tour(D)
+    assert t.cost == pytest.approx(optimum, rel=1e-9)
+    path = solve_tour(D, start=int(np.argmin(angle)))
+    assert path.order[0] == int(np.argmin(angle))
+    assert path.cost == pytest.approx(optimum * (n - 1) / n, rel=1e-9)
+
+
+def test_deterministic_for_a_seed():
+    xy = random_points(150, 7)
+    D = distances(xy)
+    a = solve_tour(D, seed=3)
+    b = solve_tour(D, seed=3)
+    assert a.order == b.order and a.cost == b.cost
+
+
+def test_time_budget_is_respected_roughly():
+    D = distances(random_points(300, 8))
+    t = solve_tour(D, time_budget=0.3)
+    assert sorted(t.order) == list(range(300))
+    assert t.seconds < 0.3 + 1.0
+
+
+def test_default_beats_classic_on_random_points():
+    xy = random_points(200, 9)
+    D = distances(xy)
+    assert solve_tour(D).cost <= solve_tour(D, method="classic", coords=xy).cost
+
+
+def test_classic_without_coordinates_uses_cheapest_insertion():
+    xy = random_points(60, 11)
+    D = distances(xy)
+    with_hull = solve_tour(D, method="classic", coords=xy)
+    without = solve_tour(D, method="classic")
+    assert sorted(without.order) == list(range(60))
+    assert without.cost <= 1.2 * with_hull.cost
+
+
+def test_three_dimensional_coordinates_are_projected():
+    rng = np.random.default_rng(12)
+    xyz = np.c_[rng.uniform(0, 100, size=(50, 2)), np.zeros(50)] @ np.linalg.qr(rng.normal(size=(3, 3)))[0]
+    t = solve_tour(distances(xyz), method="classic", coords=xyz)
+    assert sorted(t.order) == list(range(50))
+
+
+def test_bad_arguments():
+    D = np.ones((4, 4))
+    with pytest.raises(ValueError, match="unknown method"):
+        solve_tour(D, method="magic")
+    with pytest.raises(ValueError, match="square"):
+        solve_tour(np.ones((3, 4)))
+    with pytest.raises(ValueError, match="finite"):
+        solve_tour(np.full((3, 3), np.inf))
+    with pytest.raises(ValueError, match="start"):
+        solve_tour(D, start=4)
+    with pytest.raises(ValueError, match="coords"):
+        solve_tour(D, coords=np.zeros((3, 2)))
+
+
+@needs_tsplib
+@pytest.mark.parametrize("method, max_gap", [("classic", 0.05), ("default", 0.01)])
+def test_berlin52_within_stated_gap(method, max_gap):
+    p = read_tsplib(BERLIN)
+    t = solve_tour(p.matrix(), method=method, coords=p.coords)
+    assert t.cost <= BERLIN_OPTIMUM * (1 + max_gap)
+
+
+@needs_tsplib
+def test_cli_prints_tour_and_length():
+    result = CliRunner().invoke(sequence, ["tsp", str(BERLIN)])
+    assert result.exit_code == 0, result.output
+    lines = dict(line.split(": ", 1) for line in result.output.splitlines()[1:])
+    ids = [int(v) for v in lines["tour"].split()]
+    assert sorted(ids) == list(range(1, 53))
+    D = read_tsplib(BERLIN).matrix()
+    assert int(lines["length"]) == round(tour_cost(D, [i - 1 for i in ids])) == BERLIN_OPTIMUM
+
+
+@needs_tsplib
+def test_cli_json():
+    result = CliRunner().invoke(sequence, ["tsp", str(BERLIN), "--method", "classic", "--json"])
+    assert result.exit_code == 0, result.output
+    out = json.loads(result.output)
+    assert out["method"] == "classic" and out["dimension"] == 52
+    assert sorted(out["tour"]) == list(range(1, 53)) and out["length"] >= BERLIN_OPTIMUM
+
+
+def test_cli_bad_file_exits_2_with_location(tmp_path):
+    bad = tmp_path / "bad.tsp"
+    bad.write_text("NAME: x\nTYPE: TSP\nDIMENSION: 3\nEDGE_WEIGHT_TYPE: GEO\nNODE_COORD_SECTION\n")
+    result = CliRunner().invoke(sequence, ["tsp", str(bad)])
+    assert result.exit_code == 2
+    assert f"{bad}:4: unsupported EDGE_WEIGHT_TYPE GEO" in result.output
