@@ -1,0 +1,74 @@
+:- use_module(operators).
+
+/*  Tests of the operator knowledge base: every operator has the fields of the seed's
+    Figure 3, deductive operators are well formed, measurement goals choose the tool.  */
+
+figure_3_fields([ preconditions, adders, unary_constraints, n_ary_constraints, resources,
+                  message_pattern, command_stream, reply_pattern, result_pattern ]).
+
+field_names(Description, Names) :-
+    findall(N, ( member(F, Description), functor(F, N, 1) ), Names).
+
+:- begin_tests(operators).
+
+test(every_operator_has_the_figure_3_fields_in_order,
+     [forall(static_operator(Op, D)), true(Names-Op == Fields-Op)]) :-
+    figure_3_fields(Fields),
+    field_names(D, Names).
+
+test(list_fields_are_lists, [forall(static_operator(_, D))]) :-
+    forall(( member(F, D), F =.. [Name, V],
+             memberchk(Name, [preconditions, adders, unary_constraints,
+                              n_ary_constraints, resources]) ),
+           is_list(V)).
+
+test(us_measure_is_figure_3,
+     true(Pre-Add-Unary-Nary-Res ==
+          [ couplant_applied(goal_point(meas(I))), at(A, in_contact_point(meas(I))),
+            holding(A, T) ]-[measured(T, A, meas(I))]-[type(A, arm), type(T, us_tool)]-
+          [can_lift(A, W1), weight(T, W2), W2 =< W1]-[T, A])) :-
+    static_operator(us_measure(T, A, I), D),
+    memberchk(preconditions(Pre), D), memberchk(adders(Add), D),
+    memberchk(unary_constraints(Unary), D), memberchk(n_ary_constraints(Nary), D),
+    memberchk(resources(Res), D),
+    Nary = [can_lift(_, W1), weight(_, W2), _].
+
+test(reply_and_result_share_the_value, true(V1 == V2)) :-
+    static_operator(us_measure(_, _, _), D),
+    memberchk(reply_pattern('VALUE'(V1)), D),
+    memberchk(result_pattern(dimension(_, _, V2, _)), D).
+
+test(operator_names_are_unique, true(L1 == L2)) :-
+    findall(N/A, ( static_operator(Op, _), functor(Op, N, A) ), Names),
+    sort(Names, Set),
+    length(Names, L1),
+    length(Set, L2).
+
+test(picking_up_denies_rack_and_other_tools,
+     true(Denied =@= [location(us_probe_1, in_rack(_)), holding(t3, neq(us_probe_1))])) :-
+    deductive_operator(holding(t3, us_probe_1), [denied(Denied)]).
+
+test(every_kind_has_a_tool_type, true(N == 9)) :-
+    aggregate_all(count, kind_tool_type(_, _), N).
+
+test(measurement_goal_for_us_kind,
+     true(G-C =@= measured(T, A, meas(p7))-[type(T, us_tool), type(A, arm)])) :-
+    measurement_goal(p7, web_thickness, G, C).
+
+test(measurement_goal_unknown_kind, error(domain_error(measurement_kind, color))) :-
+    measurement_goal(p7, color, _, _).
+
+test(constraints_come_from_the_world_model, true(W == 1.5)) :-
+    domain_fact(weight(us_probe_1, W)).
+
+test(world_state_has_an_empty_hand_and_tools_in_the_rack,
+     true(Facts == [holding(t3, none), location(us_probe_1, in_rack(slot_1))])) :-
+    world_state(t3, approach_point(home), S),
+    include([F]>>memberchk(F, [holding(t3, none), location(us_probe_1, in_rack(slot_1))]),
+            S, Facts).
+
+test(criticality_of_measured_above_pose, true(M > P)) :-
+    criticality(measured(_, _, _), M),
+    criticality(at(_, _), P).
+
+:- end_tests(operators).
