@@ -1,11 +1,22 @@
-"""Shared fixtures: a private ITA_HOME per session, and the bulkhead generated once."""
+"""Shared fixtures of the Python tests.
+
+Every test runs with a private ITA_HOME (autouse, one per session), so no test reads or
+writes the user's real data; the built-in bulkhead is materialised there once.
+"""
 
 from __future__ import annotations
 
+import os
+import subprocess
+import sys
+from pathlib import Path
+
 import pytest
 
+REPO = Path(__file__).resolve().parent.parent
 
-@pytest.fixture(scope="session")
+
+@pytest.fixture(scope="session", autouse=True)
 def ita_home(tmp_path_factory: pytest.TempPathFactory):
     """A fresh ITA_HOME for the whole session (the built-in part is materialised there once)."""
     home = tmp_path_factory.mktemp("ita_home")
@@ -28,3 +39,44 @@ def builtin_part(ita_home):
     from ita.part.store import load_part
 
     return load_part(None)
+
+
+@pytest.fixture(scope="session")
+def knowledge_base():
+    """The real knowledge bases, loaded once for the session (SWI has one per process)."""
+    from ita.logic.bridge import KnowledgeBase
+
+    return KnowledgeBase()
+
+
+@pytest.fixture()
+def run_python(tmp_path: Path, ita_home: Path):
+    """Run Python code (or `cli.py` arguments) in a fresh process, with a fresh Prolog.
+
+    Needed to load a knowledge base that differs from the real one: SWI-Prolog has one
+    database per process.  The child shares the session's ITA_HOME.
+    """
+
+    def run(*args: str) -> subprocess.CompletedProcess[str]:
+        env = dict(os.environ, PYTHONPATH=str(REPO), ITA_HOME=str(ita_home))
+        return subprocess.run(
+            [sys.executable, *args], capture_output=True, text=True, timeout=120,
+            cwd=tmp_path, env=env,
+        )
+
+    return run
+
+
+@pytest.fixture()
+def broken_kb(tmp_path: Path) -> Path:
+    """A kb directory whose one file has a syntax error on line 3, column 11."""
+    kb_dir = tmp_path / "kb"
+    kb_dir.mkdir()
+    (kb_dir / "broken_kb.pl").write_text(
+        ":- module(broken_kb, [p/1]).\n"
+        "\n"
+        "p(X) :- q(X.\n"
+        "q(1).\n",
+        encoding="utf-8",
+    )
+    return kb_dir

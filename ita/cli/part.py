@@ -1,0 +1,81 @@
+"""`ita part`: look at the part to inspect (info, render) and copy the built-in one (build)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import click
+
+from ita.cli.common import part_option, reports_errors
+
+
+@click.group()
+def part() -> None:
+    """The part to inspect: the built-in bulkhead, or --part DIR."""
+
+
+@part.command()
+@part_option
+@click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON.")
+@reports_errors
+def info(part_dir: Path | None, as_json: bool) -> None:
+    """Print the part's size, its features and specs counted by kind."""
+    from ita.logic.bridge import KnowledgeBase
+    from ita.offline.reach import spec_reach, workcell_for
+    from ita.part.store import load_part
+    from ita.part.summary import summarize
+    from ita.specs.io import read_specs
+
+    loaded = load_part(part_dir)
+    specs = read_specs(loaded.specs_path)
+    reach = spec_reach(specs, workcell_for(loaded.directory), KnowledgeBase())
+    unreachable = reach.n_unreachable
+    summary = summarize(loaded, specs, unreachable=unreachable)
+    if as_json:
+        data = summary.to_dict()
+        data["reach"] = {r.value: n for r, n in reach.counts().items()}
+        click.echo(json.dumps(data, indent=1))
+        return
+    sx, sy, sz = summary.size
+    click.echo(f"part       {summary.name}  ({summary.directory})")
+    click.echo(f"size       {sx:.1f} x {sy:.1f} x {sz:.1f} mm (X x Y x Z)")
+    click.echo(f"mesh       {summary.triangles} triangles, "
+               f"{'watertight' if summary.watertight else 'NOT watertight'}")
+    click.echo(f"features   {summary.feature_count}")
+    for kind, n in summary.features:
+        click.echo(f"  {kind:<18} {n:>5}")
+    click.echo(f"specs      {summary.spec_count}")
+    for kind, n in summary.specs:
+        click.echo(f"  {kind:<18} {n:>5}")
+    click.echo(reach.summary())
+
+
+@part.command()
+@part_option
+@click.option("-o", "--output", type=click.Path(path_type=Path, dir_okay=False), required=True,
+              help="PNG file to write.")
+@reports_errors
+def render(part_dir: Path | None, output: Path) -> None:
+    """Draw the part seen from +Z with its spec points coloured by kind (PNG)."""
+    from ita.part.render import render_part
+    from ita.part.store import load_part
+    from ita.specs.io import read_specs
+
+    loaded = load_part(part_dir)
+    render_part(loaded, read_specs(loaded.specs_path), output)
+    click.echo(f"wrote {output}")
+
+
+@part.command()
+@click.option("-o", "--output", type=click.Path(path_type=Path, file_okay=False), default=None,
+              help="Copy the built-in bulkhead into this new directory (an editable part).")
+@reports_errors
+def build(output: Path | None) -> None:
+    """Generate the built-in bulkhead (if needed); with -o, copy it into a directory."""
+    from ita.part.store import build_part, ensure_builtin
+
+    if output is None:
+        click.echo(f"built-in bulkhead at {ensure_builtin()}")
+    else:
+        click.echo(f"wrote {build_part(output)}")

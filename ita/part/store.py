@@ -1,0 +1,216 @@
+"""Finding and loading parts; materialising the built-in bulkhead.
+
+A part directory holds exactly one mesh (`*.stl`, `*.obj` or `*.ply`, millimetres, part
+frame) and `specs.csv`; optionally `features.json` and `part.json` (metadata).  The
+built-in bulkhead is generated on first use into `ita_home()/parts/bulkhead/` as
+part.json, nominal.stl, specs.csv, features.json and truth/, and regenerated when its
+generator fingerprint (part.toml plus the generator's source) changes.  A specs.csv the
+user edited is never overwritten: it is kept, and the regenerated specs are written
+beside it as specs.generated.csv, with a warning.
+
+Generation writes into a temporary directory, then renames it into place, under a file
+lock: a crash never leaves a half-written part, and racing processes generate it once.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import fcntl
+import hashlib
+import json
+import os
+import shutil
+import tempfile
+import uuid
+import warnings
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Any, Iterator
+
+import trimesh
+
+from ita.errors import InputError, Location
+from ita.part.model import Part, feature_from_dict, feature_to_dict
+from ita.paths import ita_home
+
+PART_FILE = "part.json"
+MESH_FILE = "nominal.stl"
+SPECS_FILE = "specs.csv"
+GENERATED_SPECS_FILE = "specs.generated.csv"
+FEATURES_FILE = "features.json"
+MESH_SUFFIXES = (".stl", ".obj", ".ply")
+BUILTIN_NAME = "bulkhead"
+GENERATOR_MODULES = ("geometry2d", "params", "model", "layout", "mesh", "specgen", "bulkhead", "truth")
+
+
+class PartWarning(UserWarning):
+    """Something about a part the user should know but that does not stop the command."""
+
+
+def _sha256(path: Path) -> str:
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+def fingerprint(params_path: Path) -> str:
+    """Hex digest of the parameter file and the generator's source: changes when either does."""
+    h = hashlib.sha256(Path(params_path).read_bytes())
+    here = Path(__file__).resolve().parent
+    for name in GENERATOR_MODULES:
+        h.update((here / f"{name}.py").read_bytes())
+    return h.hexdigest()
+
+
+def builtin_dir() -> Path:
+    """Where the built-in bulkhead is materialised: ita_home()/parts/bulkhead."""
+    return ita_home() / "parts" / BUILTIN_NAME
+
+
+def _metadata(path: Path) -> dict[str, Any]:
+    try:
+        return json.loads((path / PART_FILE).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return {}
+
+
+def _is_current(path: Path, fp: str) -> bool:
+    files = (PART_FILE, MESH_FILE, SPECS_FILE, FEATURES_FILE)
+    return all((path / f).is_file() for f in files) and _metadata(path).get("fingerprint") == fp
+
+
+@contextlib.contextmanager
+def _locked(lock_path: Path) -> Iterator[None]:
+    lock_path.parent.mkdir(parents=True, exist_ok=True)
+    with open(lock_path, "a+") as handle:
+        fcntl.flock(handle, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(handle, fcntl.LOCK_UN)
+
+
+def _generate_into(path: Path, fp: str) -> None:
+    """Generate the built-in bulkhead (nominal and truth) into the empty directory `path`."""
+    from ita.part import truth as truth_mod  # the store is one of the two truth writers
+    from ita.part.bulkhead import default_params_path, generate, load_params
+    from ita.specs.io import write_specs
+
+    params = load_params(default_params_path())
+    part = generate(params)
+    part.mesh.export(path / MESH_FILE)
+    write_specs(path / SPECS_FILE, part.specs)
+    (path / FEATURES_FILE).write_text(json.dumps([feature_to_dict(f) for f in part.features]))
+    truth_mod.write_truth(path, truth_mod.make_truth(part))
+    meta = {
+        "name": params.part.name, "material": params.part.material, "seed": params.part.seed,
+        "generator": "ita.part.bulkhead", "fingerprint": fp, "units": "mm",
+        "mesh": MESH_FILE, "specs": SPECS_FILE, "features": FEATURES_FILE,
+        "specs_sha256": _sha256(path / SPECS_FILE), "specs_edited": False,
+        "created": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+    }
+    (path / PART_FILE).write_text(json.dumps(meta, indent=1))
+
+
+def _keep_user_specs(old: Path, new: Path) -> None:
+    """Carry an edited specs.csv over from the old materialisation, with a warning."""
+    recorded = _metadata(old).get("specs_sha256")
+    old_specs = old / SPECS_FILE
+    if not recorded or not old_specs.is_file() or _sha256(old_specs) == recorded:
+        return
+    shutil.move(new / SPECS_FILE, new / GENERATED_SPECS_FILE)
+    shutil.copy2(old_specs, new / SPECS_FILE)
+    meta = _metadata(new)
+    meta["specs_sha256"] = _sha256(new / GENERATED_SPECS_FILE)
+    meta["specs_edited"] = True
+    (new / PART_FILE).write_text(json.dumps(meta, indent=1))
+    warnings.warn(
+        f"{old_specs} was edited, so it was kept; the regenerated bulkhead's specs are in "
+        f"{GENERATED_SPECS_FILE} beside it", PartWarning, stacklevel=3)
+
+
+def ensure_builtin() -> Path:
+    """Materialise the built-in bulkhead if missing or stale; returns its directory."""
+    from ita.part.bulkhead import default_params_path
+
+    target = builtin_dir()
+    fp = fingerprint(default_params_path())
+    if _is_current(target, fp):
+        return target
+    with _locked(target.parent / f".{BUILTIN_NAME}.lock"):
+        if _is_current(target, fp):
+            return target
+        tmp = Path(tempfile.mkdtemp(prefix=f".{BUILTIN_NAME}-new-", dir=target.parent))
+        try:
+            _generate_into(tmp, fp)
+            if target.exists():
+                _keep_user_specs(target, tmp)
+                old = target.with_name(f".{BUILTIN_NAME}-old-{uuid.uuid4().hex}")
+                os.rename(target, old)
+                os.rename(tmp, target)
+                shutil.rmtree(old, ignore_errors=True)
+            else:
+                os.rename(tmp, target)
+        finally:
+            shutil.rmtree(tmp, ignore_errors=True)
+    return target
+
+
+def build_part(out_dir: Path) -> Path:
+    """Copy the built-in bulkhead (with its truth) into `out_dir`, which must not exist
+    or be empty; returns it.  The copy is a user part: edit its specs.csv freely."""
+    out_dir = Path(out_dir)
+    if out_dir.exists() and (not out_dir.is_dir() or any(out_dir.iterdir())):
+        raise InputError([(Location(str(out_dir)), "exists and is not an empty directory")])
+    source = ensure_builtin()
+    out_dir.parent.mkdir(parents=True, exist_ok=True)
+    tmp = out_dir.with_name(f".{out_dir.name}-{uuid.uuid4().hex}")
+    shutil.copytree(source, tmp)
+    if out_dir.exists():
+        out_dir.rmdir()
+    os.rename(tmp, out_dir)
+    return out_dir
+
+
+def _find_files(path: Path) -> tuple[Path, Path]:
+    """The one mesh and the specs file of a user part directory; InputError otherwise."""
+    loc = Location(str(path))
+    if not path.exists():
+        raise InputError([(loc, "part directory not found")])
+    if not path.is_dir():
+        raise InputError([(loc, "not a directory (a part is a directory with a mesh and specs.csv)")])
+    meshes = sorted(p for p in path.iterdir() if p.is_file() and p.suffix.lower() in MESH_SUFFIXES)
+    problems = []
+    if not meshes:
+        problems.append((loc, "no mesh: expected one *.stl, *.obj or *.ply file"))
+    elif len(meshes) > 1:
+        problems.append((loc, f"{len(meshes)} meshes ({', '.join(p.name for p in meshes)}); expected exactly one"))
+    if not (path / SPECS_FILE).is_file():
+        problems.append((loc, f"no {SPECS_FILE}"))
+    if problems:
+        raise InputError(problems)
+    return meshes[0], path / SPECS_FILE
+
+
+def _read_part(path: Path) -> Part:
+    mesh_path, specs_path = _find_files(path)
+    try:
+        mesh = trimesh.load(mesh_path, force="mesh")
+    except Exception as exc:  # trimesh raises many kinds on bad files
+        raise InputError([(Location(str(mesh_path)), f"cannot read mesh: {exc}")]) from None
+    if len(getattr(mesh, "faces", ())) == 0:
+        raise InputError([(Location(str(mesh_path)), "mesh has no triangles")])
+    features: tuple = ()
+    if (path / FEATURES_FILE).is_file():
+        try:
+            data = json.loads((path / FEATURES_FILE).read_text(encoding="utf-8"))
+            features = tuple(feature_from_dict(d) for d in data)
+        except (ValueError, KeyError, TypeError) as exc:
+            raise InputError([(Location(str(path / FEATURES_FILE)), f"bad features file: {exc}")]) from None
+    meta = _metadata(path)
+    return Part(meta.get("name", path.name), path, mesh, features, specs_path, meta)
+
+
+def load_part(part_dir: Path | None = None) -> Part:
+    """The part in `part_dir`, or the built-in bulkhead (materialised on first use) for None."""
+    if part_dir is None:
+        return _read_part(ensure_builtin())
+    return _read_part(Path(part_dir).expanduser().resolve())

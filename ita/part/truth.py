@@ -1,0 +1,192 @@
+"""The as-built truth of a generated part: how every feature really came out of machining.
+
+This is the ONLY module that makes, writes or reads truth files (`<part>/truth/`).  Only
+the simulator and the scoring may use it; planning, vision and measuring code must not
+(tests/test_part_truth.py scans the source tree to hold that line).
+
+Model: every dimension of every feature deviates from nominal by a normal draw with one
+sigma = `spread` x its tolerance (true position: the radial offset, per axis sigma =
+spread x zone radius / sqrt 2), clipped to 0.9 of the tolerance; then a seeded
+`out_of_tolerance` fraction of the features gets one dimension pushed 1.15 to 1.6
+tolerances off.  Datum holes B and C define the frame and so do not move.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+import trimesh
+
+from ita.errors import InputError, Location
+from ita.part.bulkhead import GeneratedPart
+from ita.part.mesh import build_mesh
+from ita.part.model import Feature, FlangeSegment, Hole, HoleRole, Pocket, Stiffener
+from ita.part.model import feature_from_dict, feature_to_dict
+from ita.part.params import Tolerance
+from ita.specs.model import MeasurementKind as K
+from ita.specs.model import MeasurementSpec
+
+TRUTH_DIR = "truth"
+MESH_FILE = "asbuilt.ply"  # indexed, float64: kept exactly as built (see mesh.to_trimesh)
+FEATURES_FILE = "asbuilt_features.json"
+VALUES_FILE = "truth.json"
+
+
+@dataclass(frozen=True, eq=False)
+class Truth:
+    """The as-built part: features, mesh (mm), true value of each spec, deviations.
+
+    values: spec id -> true value (mm); deviations: feature id -> {dimension: deviation};
+    out_of_tolerance: ids of the features made out of tolerance on purpose.
+    """
+
+    features: tuple[Feature, ...]
+    mesh: trimesh.Trimesh
+    values: dict[str, float]
+    deviations: dict[str, dict[str, float]]
+    out_of_tolerance: tuple[str, ...]
+    seed: int
+
+
+def _dimensions(f: Feature, tol: Tolerance) -> dict[str, float]:
+    """Tolerance (half band, or true-position zone diameter for "position") per dimension."""
+    if isinstance(f, Pocket):
+        return {"web_thickness": tol.thickness}
+    if isinstance(f, Stiffener):
+        return {"height": tol.height, "width": tol.thickness}
+    if isinstance(f, FlangeSegment):
+        return {"height": tol.height, "cap_width": tol.general,
+                "cap_thickness": tol.thickness, "wall_thickness": tol.thickness}
+    dia = {HoleRole.FASTENER: tol.fastener_diameter, HoleRole.TOOLING: tol.tooling_diameter,
+           HoleRole.LIGHTENING: tol.lightening_diameter}[f.role]
+    if f.role is HoleRole.TOOLING:
+        return {"diameter": dia}
+    pos = tol.true_position if f.role is HoleRole.FASTENER else tol.lightening_true_position
+    return {"diameter": dia, "position": pos}
+
+
+def draw_deviations(features: Sequence[Feature], tol: Tolerance, spread: float, fraction: float,
+                    rng: np.random.Generator) -> tuple[dict[str, dict[str, float]], tuple[str, ...]]:
+    """Deviations per feature and dimension ("position" -> "dx", "dy"), and the ids of the
+    features made out of tolerance."""
+    devs: dict[str, dict[str, float]] = {}
+    for f in features:
+        d: dict[str, float] = {}
+        for dim, t in _dimensions(f, tol).items():
+            if dim == "position":
+                r = t / 2
+                dx, dy = np.clip(rng.normal(0.0, spread * r / math.sqrt(2), 2), -0.6 * r, 0.6 * r)
+                d["dx"], d["dy"] = float(dx), float(dy)
+            else:
+                d[dim] = float(np.clip(rng.normal(0.0, spread * t), -0.9 * t, 0.9 * t))
+        devs[f.id] = d
+    n_out = int(round(fraction * len(features)))
+    out = sorted(rng.choice([f.id for f in features], size=n_out, replace=False).tolist())
+    by_id = {f.id: f for f in features}
+    for fid in out:
+        dims = _dimensions(by_id[fid], tol)
+        dim = sorted(dims)[int(rng.integers(len(dims)))]
+        size = float(rng.uniform(1.15, 1.6))
+        if dim == "position":
+            ang = float(rng.uniform(0, 2 * math.pi))
+            devs[fid]["dx"] = size * dims[dim] / 2 * math.cos(ang)
+            devs[fid]["dy"] = size * dims[dim] / 2 * math.sin(ang)
+        else:
+            devs[fid][dim] = float(rng.choice([-1.0, 1.0])) * size * dims[dim]
+    return devs, tuple(out)
+
+
+def apply_deviations(features: Sequence[Feature], devs: dict[str, dict[str, float]]) -> tuple[Feature, ...]:
+    """The as-built features: nominal features with their deviations applied."""
+    out: list[Feature] = []
+    for f in features:
+        d = devs.get(f.id, {})
+        changes = {k: getattr(f, k) + v for k, v in d.items() if k not in ("dx", "dy")}
+        if isinstance(f, Hole):
+            x, y, z = f.center
+            changes["center"] = (x + d.get("dx", 0.0), y + d.get("dy", 0.0), z)
+        out.append(replace(f, **changes))
+    flanges = {f.id: f for f in out if isinstance(f, FlangeSegment)}
+    return tuple(
+        replace(f, center=(f.center[0], f.center[1], flanges[f.parent].height))
+        if isinstance(f, Hole) and f.role is HoleRole.FASTENER and f.parent in flanges else f
+        for f in out
+    )
+
+
+def true_values(specs: Sequence[MeasurementSpec], nominal: Sequence[Feature],
+                asbuilt: Sequence[Feature]) -> dict[str, float]:
+    """Spec id -> true (as-built) value; specs of unknown features are left out."""
+    nom, act = {f.id: f for f in nominal}, {f.id: f for f in asbuilt}
+    values: dict[str, float] = {}
+    for s in specs:
+        if s.feature not in act:
+            continue
+        f, f0 = act[s.feature], nom[s.feature]
+        if s.kind is K.WEB_THICKNESS:
+            v = s.nominal + f.web_thickness - f0.web_thickness
+        elif s.kind is K.FLANGE_THICKNESS:
+            dim = "cap_thickness" if s.normal[2] > 0.5 else "wall_thickness"
+            v = s.nominal + getattr(f, dim) - getattr(f0, dim)
+        elif s.kind in (K.FLANGE_HEIGHT, K.STIFFENER_HEIGHT):
+            v = s.nominal + f.height - f0.height
+        elif s.kind is K.FLANGE_WIDTH:
+            v = s.nominal + f.cap_width - f0.cap_width
+        elif s.kind is K.STIFFENER_WIDTH:
+            v = s.nominal + f.width - f0.width
+        elif s.kind is K.HOLE_DIAMETER:
+            v = s.nominal + f.diameter - f0.diameter
+        elif s.kind is K.HOLE_POSITION:
+            v = 2.0 * math.dist(f.center[:2], f0.center[:2])
+        elif s.kind is K.EDGE_DISTANCE:
+            shift = np.subtract(f.center[:2], f0.center[:2])
+            grow = act[f.parent].cap_width - nom[f.parent].cap_width if f.parent in act else 0.0
+            v = s.nominal + grow - float(np.dot(shift, (s.direction or (0.0, 0.0, 0.0))[:2]))
+        else:
+            continue
+        values[s.id] = round(float(v), 6)
+    return values
+
+
+def make_truth(part: GeneratedPart) -> Truth:
+    """Draw the as-built part of a generated part (seeded by its parameters)."""
+    p = part.params
+    rng = np.random.default_rng([p.part.seed, 1])
+    devs, out = draw_deviations(part.features, p.tolerance, p.truth.spread,
+                                p.truth.out_of_tolerance, rng)
+    asbuilt = apply_deviations(part.features, devs)
+    return Truth(asbuilt, build_mesh(asbuilt), true_values(part.specs, part.features, asbuilt),
+                 devs, out, p.part.seed)
+
+
+def write_truth(part_dir: Path, truth: Truth) -> None:
+    """Write `truth` under `<part_dir>/truth/` (mesh, as-built features, values)."""
+    d = Path(part_dir) / TRUTH_DIR
+    d.mkdir(parents=True, exist_ok=True)
+    truth.mesh.export(d / MESH_FILE)
+    (d / FEATURES_FILE).write_text(json.dumps([feature_to_dict(f) for f in truth.features]))
+    (d / VALUES_FILE).write_text(json.dumps({
+        "seed": truth.seed, "out_of_tolerance": list(truth.out_of_tolerance),
+        "values": truth.values, "deviations": truth.deviations}, indent=1, sort_keys=True))
+
+
+def load_truth(part_dir: Path) -> Truth:
+    """The as-built truth of the part in `part_dir`; InputError when it has none."""
+    d = Path(part_dir) / TRUTH_DIR
+    missing = [n for n in (MESH_FILE, FEATURES_FILE, VALUES_FILE) if not (d / n).is_file()]
+    if missing:
+        raise InputError([(Location(str(d)), f"no as-built truth here (missing {', '.join(missing)}); "
+                           "only generated parts carry one")])
+    try:
+        data = json.loads((d / VALUES_FILE).read_text())
+        features = tuple(feature_from_dict(x) for x in json.loads((d / FEATURES_FILE).read_text()))
+    except (ValueError, KeyError, TypeError) as exc:
+        raise InputError([(Location(str(d)), f"corrupt truth files: {exc}")]) from None
+    mesh = trimesh.load(d / MESH_FILE, force="mesh", process=False)
+    return Truth(features, mesh, {k: float(v) for k, v in data["values"].items()},
+                 data["deviations"], tuple(data["out_of_tolerance"]), int(data["seed"]))

@@ -1,0 +1,116 @@
+"""Loading parts: the built-in bulkhead materialised once, user directories checked."""
+
+from __future__ import annotations
+
+import json
+import multiprocessing
+import shutil
+
+import pytest
+
+from ita.errors import InputError
+from ita.part import store
+from ita.specs.io import read_specs
+
+
+def test_builtin_is_materialised_with_its_files(builtin_part, ita_home):
+    d = builtin_part.directory
+    assert d == ita_home / "parts" / "bulkhead"
+    for name in ("part.json", "nominal.stl", "specs.csv", "features.json", "truth"):
+        assert (d / name).exists(), name
+    meta = json.loads((d / "part.json").read_text())
+    assert meta["fingerprint"] and meta["specs_sha256"]
+    assert builtin_part.mesh.is_watertight
+    assert len(read_specs(builtin_part.specs_path)) >= 900
+    assert len(builtin_part.features) > 200
+
+
+def test_second_load_reuses_the_materialised_part(builtin_part):
+    before = (builtin_part.directory / "part.json").stat().st_mtime_ns
+    again = store.load_part(None)
+    assert (again.directory / "part.json").stat().st_mtime_ns == before
+
+
+def _stale(home):
+    meta_path = home / "parts" / "bulkhead" / "part.json"
+    meta = json.loads(meta_path.read_text())
+    meta["fingerprint"] = "old"
+    meta_path.write_text(json.dumps(meta))
+
+
+def test_stale_part_is_regenerated_but_edited_specs_are_kept(tmp_path, monkeypatch, builtin_part):
+    monkeypatch.setenv("ITA_HOME", str(tmp_path))
+    shutil.copytree(builtin_part.directory, tmp_path / "parts" / "bulkhead")
+    specs = tmp_path / "parts" / "bulkhead" / "specs.csv"
+    edited = specs.read_text().replace("pocket floor, ultrasonic", "pocket floor, edited", 1)
+    specs.write_text(edited)
+    _stale(tmp_path)
+    with pytest.warns(store.PartWarning, match="edited"):
+        part = store.load_part(None)
+    assert part.specs_path.read_text() == edited
+    assert (part.directory / "specs.generated.csv").is_file()
+    meta = json.loads((part.directory / "part.json").read_text())
+    assert meta["fingerprint"] != "old" and meta["specs_edited"]
+
+
+def test_stale_unedited_part_is_regenerated_silently(tmp_path, monkeypatch, builtin_part, recwarn):
+    monkeypatch.setenv("ITA_HOME", str(tmp_path))
+    shutil.copytree(builtin_part.directory, tmp_path / "parts" / "bulkhead")
+    _stale(tmp_path)
+    part = store.load_part(None)
+    assert not [w for w in recwarn if issubclass(w.category, store.PartWarning)]
+    assert not (part.directory / "specs.generated.csv").exists()
+    assert not [p for p in (tmp_path / "parts").iterdir() if p.name.startswith(".bulkhead-")]
+
+
+def _load_in_child(home: str) -> str:
+    import os
+
+    os.environ["ITA_HOME"] = home
+    return str(store.load_part(None).directory)
+
+
+@pytest.mark.slow
+def test_two_processes_racing_materialise_once(tmp_path):
+    ctx = multiprocessing.get_context("spawn")
+    with ctx.Pool(2) as pool:
+        dirs = pool.map(_load_in_child, [str(tmp_path)] * 2)
+    assert dirs[0] == dirs[1]
+    assert [p.name for p in (tmp_path / "parts").iterdir() if not p.name.startswith(".bulkhead.lock")] == ["bulkhead"]
+
+
+def test_build_copies_an_editable_part(tmp_path, builtin_part):
+    out = store.build_part(tmp_path / "mine")
+    part = store.load_part(out)
+    assert part.mesh.is_watertight and part.features
+    assert (out / "truth").is_dir()
+    with pytest.raises(InputError, match="not an empty directory"):
+        store.build_part(out)
+
+
+def test_user_part_with_obj_mesh(tmp_path, builtin_part):
+    d = tmp_path / "p"
+    d.mkdir()
+    builtin_part.mesh.export(d / "thing.obj")
+    shutil.copy(builtin_part.specs_path, d / "specs.csv")
+    part = store.load_part(d)
+    assert part.name == "p" and part.features == ()
+    assert len(part.mesh.faces) == len(builtin_part.mesh.faces)
+
+
+@pytest.mark.parametrize("files, message", [
+    ((), "no mesh"),
+    (("a.stl", "b.ply"), "2 meshes"),
+    (("a.stl",), "no specs.csv"),
+])
+def test_user_part_errors_name_dir_and_what_is_missing(tmp_path, files, message):
+    for name in files:
+        (tmp_path / name).write_text("solid x\nendsolid x\n")
+    with pytest.raises(InputError) as info:
+        store.load_part(tmp_path)
+    assert message in str(info.value) and str(tmp_path) in str(info.value)
+
+
+def test_missing_dir_is_an_input_error(tmp_path):
+    with pytest.raises(InputError, match="not found"):
+        store.load_part(tmp_path / "nope")
