@@ -1,0 +1,53 @@
+"""`ita prepare`: the offline preparation of a part for inspection (the main job for now)."""
+
+from __future__ import annotations
+
+import json
+import time
+from pathlib import Path
+
+import click
+
+from ita.cli.common import part_option, reports_errors
+
+
+@click.command()
+@part_option
+@click.option("--json", "as_json", is_flag=True, help="Print the report as JSON.")
+@click.option("-q", "--quiet", is_flag=True, help="No progress lines.")
+@reports_errors
+def prepare(part_dir: Path | None, as_json: bool, quiet: bool) -> None:
+    """Prepare a part for inspection, offline.
+
+    Builds the part (the built-in bulkhead is generated on first use), validates its
+    measurement specs against it, tests the arm's reach for every spec, loads and checks
+    the knowledge bases, and prints a summary. Exit code 0 when everything is clean,
+    1 when the knowledge bases have problems, 2 when the part or its specs are bad.
+    """
+    from ita.offline.prepare import prepare as run
+
+    t0 = time.perf_counter()
+
+    def progress(message: str) -> None:
+        if not quiet:
+            click.echo(f"[{time.perf_counter() - t0:6.1f} s] {message} ...", err=True)
+
+    report = run(part_dir, progress)
+    if as_json:
+        click.echo(json.dumps(report.to_dict(), indent=1))
+    else:
+        p = report.part
+        click.echo(f"part        {p.name}  ({p.directory})")
+        click.echo(f"size        {p.size[0]:.1f} x {p.size[1]:.1f} x {p.size[2]:.1f} mm, "
+                   f"{p.triangles} triangles, {'watertight' if p.watertight else 'NOT watertight'}")
+        click.echo(f"features    {p.feature_count}: " + ", ".join(f"{k} {n}" for k, n in p.features if n))
+        click.echo(f"specs       {p.spec_count} valid: " + ", ".join(f"{k} {n}" for k, n in p.specs if n))
+        click.echo(report.reach_text)
+        click.echo(f"knowledge   {len(report.kb_files)} Prolog files, {report.kb_predicates} "
+                   f"documented predicates; check: "
+                   + ("clean" if not report.kb_problems else f"{len(report.kb_problems)} problems"))
+        for problem in report.kb_problems:
+            click.echo(f"  {problem}")
+        click.echo("time        " + ", ".join(f"{k} {s:.2f} s" for k, s in report.seconds)
+                   + f"; total {time.perf_counter() - t0:.1f} s")
+    raise SystemExit(0 if report.ok else 1)

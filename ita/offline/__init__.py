@@ -1,0 +1,1 @@
+"""Offline components: preparation of a part for inspection (`ita prepare`)."""

@@ -1,0 +1,30 @@
+"""`ita prepare`: the offline main job."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+from click.testing import CliRunner
+
+from ita.cli import main
+
+
+def test_prepare_builds_and_checks_everything(builtin_part) -> None:
+    result = CliRunner().invoke(main, ["prepare", "--json", "--quiet"])
+    assert result.exit_code == 0, result.output
+    report = json.loads(result.stdout)
+    assert report["ok"] and report["part"]["spec_count"] == 1076
+    assert report["reach"] == {"reachable": 1076}
+    assert report["knowledge_bases"]["problems"] == []
+    assert {"world.pl", "operators.pl", "planner.pl"} <= set(report["knowledge_bases"]["files"])
+
+
+def test_prepare_rejects_a_part_with_bad_specs(builtin_part, tmp_path: Path) -> None:
+    part = tmp_path / "p"
+    assert CliRunner().invoke(main, ["part", "build", "-o", str(part)]).exit_code == 0
+    specs = part / "specs.csv"
+    specs.write_text(specs.read_text().replace("web_thickness", "web_thicknes", 1))
+    result = CliRunner().invoke(main, ["prepare", "--part", str(part), "--quiet"])
+    assert result.exit_code == 2
+    assert f"{specs}:2 [kind]: unknown kind 'web_thicknes'" in result.stderr
