@@ -48,3 +48,14 @@ def test_wheel_carries_the_resources(installed: Path, tmp_path: Path) -> None:
         assert Path(path).is_relative_to(installed / "ita" / "_resources"), line
         assert int(count) > 0, line
     assert len(lines) == 3
+
+
+def test_installed_ita_answers_kb_queries_from_any_directory(installed: Path, tmp_path: Path) -> None:
+    code = ("import sys\nfrom ita.cli import main\n"
+            "sys.argv = ['ita', 'kb', 'query', 'type(T, us_tool)']\nmain()\n")
+    env = {**os.environ, "PYTHONPATH": str(installed), "ITA_HOME": str(tmp_path / "home")}
+    out = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, env=env,
+                         capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert "us_probe_1" in out.stdout and "us_probe_2" in out.stdout
+    assert str(ROOT) not in out.stdout + out.stderr
