@@ -6,7 +6,8 @@
             domain_fact/1,              % ?Fact
             kind_tool_type/2,           % ?Kind, ?ToolType
             measurement_goal/4,         % +Id, +Kind, -Goal, -Constraints
-            world_state/3               % +Arm, +Pose, -State
+            world_state/3,              % +Arm, +Pose, -State
+            planning_state/4            % +Arm, +Pose, +Holding, -State
           ]).
 
 /** <module> Static and deductive operators of the inspection domain
@@ -400,6 +401,36 @@ world_state(Arm, Pose, State) :-
     must_be(ground, Pose),
     findall(Fact, world_fact(Arm, Fact), Facts),
     sort([at(Arm, Pose)|Facts], State).
+
+%!  planning_state(+Arm, +Pose, +Holding, -State:list) is det.
+%
+%   State is the planning state with Arm at Pose holding Holding (a tool, or `none`):
+%   the other tools where the world model has them, their conditions, the free slots.
+%   A held tool is out of the rack whatever the world model says, so its slot is free.
+%   This is the state the Operation Planner's facade plans from; the executive keeps
+%   Arm, Pose and Holding between measurements and the world model the rest.
+%
+%   @error existence_error(tool, Holding) if Holding is neither a tool nor `none`
+
+planning_state(Arm, Pose, Holding, State) :-
+    must_be(atom, Arm),
+    must_be(ground, Pose),
+    must_be(atom, Holding),
+    (   ( Holding == none ; world:tool(Holding) )
+    ->  true
+    ;   existence_error(tool, Holding)
+    ),
+    findall(Fact, held_state_fact(Holding, Fact), Facts),
+    sort([at(Arm, Pose), holding(Arm, Holding)|Facts], State).
+
+held_state_fact(Holding, location(Tool, in_rack(Slot))) :-
+    world:location(Tool, in_rack(Slot)),
+    Tool \== Holding.
+held_state_fact(_, tool_condition(Tool, Condition)) :-
+    world:tool_condition(Tool, Condition).
+held_state_fact(Holding, slot_free(Slot)) :-
+    world:rack_slot(_, Slot),
+    \+ ( world:location(Tool, in_rack(Slot)), Tool \== Holding ).
 
 world_fact(_, location(Tool, in_rack(Slot))) :-
     world:location(Tool, in_rack(Slot)).

@@ -7,8 +7,13 @@
             store_macrops/2,            % +File, -Macrops
             store_counts/4,             % +File, -Lookups, -Hits, -Misses
             add_macrop/3,               % +File, +Macrop, -Id
+            clear_store/1,              % +File
             lookup/5,                   % +File, +Goals, +State, +Options, -Plan
-            operation_plan/5            % +File, +Goals, +State, +Options, -Result
+            operation_plan/5,           % +File, +Goals, +State, +Options, -Result
+            measurement_plan/8,         % +File, +Id, +Kind, +Arm, +Pose, +Holding, +Mode, -Reply
+            macrop_template/3,          % +File, +Id, -Template
+            macrop_rows/2,              % +File, -Rows
+            macrop_text/3               % +File, +Id, -Text
           ]).
 
 /** <module> Plan generalization and MACROP lookup
@@ -39,10 +44,17 @@ and the initial state (each precondition must match a fact), checks the constrai
 returns the plan with the bindings plugged in.  Shorter plans are tried first.
 
 *The store.*  MACROPs persist in a Prolog file, one `macrop(Id, NameAndFormat, Fields,
-hits(N))` clause each and a `store_counts(Lookups, Hits, Misses)` clause, so a user can
+hits(N))` clause each, a `store_counts(Lookups, Hits, Misses)` clause and a
+`written_hits(Name, N)` clause per hand-written MACROP that was used, so a user can
 read the file or consult it.  A store is opened by its file name, which the caller
 chooses: learned MACROPs live apart from the hand-written ones of kb/macrops.pl, which
-lookup/5 also consults.
+lookup/5 also consults.  An open store lives in memory, with a lookup index; it is
+written back to its file (atomically) only by save_store/1.
+
+*The facade's entry point.*  measurement_plan/8 is the Operation Planner for one
+measurement in a single call with a compact reply: the MACROP's number and the values
+of its variables rather than the plan, which the caller plugs into the MACROP's plan
+(macrop_template/3), as the seed's lookup "plugs the MACROP with the bindings found".
 
 Options: domain(Spec) and facts(Facts) as for planner:plan/4; constraints(Goals), goal
 constraints that the bindings must satisfy.
@@ -57,8 +69,17 @@ constraints that the bindings must satisfy.
 :- use_module(planner).
 :- use_module('../kb/macrops', []).
 
-:- dynamic stored/5.            % stored(File, Id, NameAndFormat, Fields, Hits)
+:- use_module(library(aggregate)).
+:- use_module('../kb/operators', [measurement_goal/4, planning_state/4]).
+
+% The open stores, in memory; save_store/1 writes one back to its file.
+:- dynamic stored/4.            % stored(File, Id, NameAndFormat, Fields)
+:- dynamic hits/3.              % hits(File, Id, Hits); Id kb(Name) for hand-written ones
 :- dynamic counts/4.            % counts(File, Lookups, Hits, Misses)
+:- dynamic generation/2.        % generation(File, G): changes when Ids may be reused
+% The lookup index of a store, in lookup order (fewest steps first, learned first):
+:- dynamic candidate/6.         % candidate(File, Id, Purpose, Pre, Constraints, Vars)
+:- dynamic candidate_plan/5.    % candidate_plan(File, Id, Vars, Steps, Adders)
 
 
                  /*******************************
@@ -267,24 +288,42 @@ match_all([P|Ps], State) :-
 %   replacing what was loaded from it before.
 %
 %   @error syntax_error(...) if File is not a readable Prolog file
+%   @error domain_error(macrop_store_term(File), Term) for a term that is not a store's
 
 open_store(File) :-
     must_be(atom, File),
     close_store(File),
     assertz(counts(File, 0, 0, 0)),
+    new_generation(File),
     (   exists_file(File)
     ->  read_file_to_terms(File, Terms, []),
         maplist(load_term(File), Terms)
     ;   true
-    ).
+    ),
+    reindex(File).
 
 load_term(File, macrop(Id, Name, Fields, hits(Hits))) :- !,
-    assertz(stored(File, Id, Name, Fields, Hits)).
+    must_be(positive_integer, Id),
+    must_be(list, Fields),
+    must_be(nonneg, Hits),
+    assertz(stored(File, Id, Name, Fields)),
+    set_hits(File, Id, Hits).
 load_term(File, store_counts(Lookups, Hits, Misses)) :- !,
     retractall(counts(File, _, _, _)),
     assertz(counts(File, Lookups, Hits, Misses)).
+load_term(File, written_hits(Name, Hits)) :- !,
+    set_hits(File, kb(Name), Hits).
 load_term(File, Term) :-
     domain_error(macrop_store_term(File), Term).
+
+set_hits(File, Id, Hits) :-
+    retractall(hits(File, Id, _)),
+    assertz(hits(File, Id, Hits)).
+
+new_generation(File) :-
+    flag(macrop_store_generation, G, G + 1),
+    retractall(generation(File, _)),
+    assertz(generation(File, G)).
 
 %!  close_store(+File) is det.
 %
@@ -292,8 +331,28 @@ load_term(File, Term) :-
 
 close_store(File) :-
     must_be(atom, File),
-    retractall(stored(File, _, _, _, _)),
-    retractall(counts(File, _, _, _)).
+    retractall(stored(File, _, _, _)),
+    retractall(hits(File, _, _)),
+    retractall(counts(File, _, _, _)),
+    retractall(generation(File, _)),
+    retractall(candidate(File, _, _, _, _, _)),
+    retractall(candidate_plan(File, _, _, _, _)).
+
+%!  clear_store(+File) is det.
+%
+%   Forget the learned MACROPs, the hits and the counts of the open store File (the
+%   file is unchanged until save_store/1).
+%
+%   @error existence_error(macrop_store, File) if File is not open
+
+clear_store(File) :-
+    must_be_open(File),
+    retractall(stored(File, _, _, _)),
+    retractall(hits(File, _, _)),
+    retractall(counts(File, _, _, _)),
+    assertz(counts(File, 0, 0, 0)),
+    new_generation(File),
+    reindex(File).
 
 %!  save_store(+File) is det.
 %
@@ -305,17 +364,19 @@ close_store(File) :-
 save_store(File) :-
     must_be_open(File),
     counts(File, Lookups, Hits, Misses),
-    findall(macrop(Id, Name, Fields, hits(H)), stored(File, Id, Name, Fields, H), Macrops),
+    store_macrops(File, Macrops),
+    findall(written_hits(Name, H), hits(File, kb(Name), H), Written),
     atom_concat(File, '.tmp', Tmp),
     setup_call_cleanup(open(Tmp, write, Out),
-                       write_store(Out, Lookups, Hits, Misses, Macrops),
+                       write_store(Out, Lookups, Hits, Misses, Macrops, Written),
                        close(Out)),
     rename_file(Tmp, File).
 
-write_store(Out, Lookups, Hits, Misses, Macrops) :-
+write_store(Out, Lookups, Hits, Misses, Macrops, Written) :-
     format(Out, '%   Learned MACROPs of the ITA Operation Planner (prolog/macrop.pl).~n', []),
     format(Out, '%   macrop(Id, NameAndFormat, Fields, hits(Hits)); read with open_store/1.~n~n', []),
     portray_clause(Out, store_counts(Lookups, Hits, Misses)),
+    forall(member(W, Written), portray_clause(Out, W)),
     nl(Out),
     forall(member(M, Macrops), (portray_clause(Out, M), nl(Out))).
 
@@ -332,7 +393,15 @@ must_be_open(File) :-
 
 store_macrops(File, Macrops) :-
     must_be_open(File),
-    findall(macrop(Id, Name, Fields, hits(H)), stored(File, Id, Name, Fields, H), Macrops).
+    findall(macrop(Id, Name, Fields, hits(H)),
+            ( stored(File, Id, Name, Fields), stored_hits(File, Id, H) ),
+            Macrops).
+
+stored_hits(File, Id, Hits) :-
+    (   hits(File, Id, Hits0)
+    ->  Hits = Hits0
+    ;   Hits = 0
+    ).
 
 %!  store_counts(+File, -Lookups:integer, -Hits:integer, -Misses:integer) is det.
 %
@@ -350,15 +419,57 @@ store_counts(File, Lookups, Hits, Misses) :-
 
 add_macrop(File, macrop(Name, Fields), Id) :-
     must_be_open(File),
-    (   stored(File, Id0, Name0, Fields0, _),
+    (   stored(File, Id0, Name0, Fields0),
         macrop(Name0, Fields0) =@= macrop(Name, Fields)
     ->  Id = Id0
-    ;   aggregate_all(max(I), stored(File, I, _, _, _), Max)
-    ->  Id is Max + 1,
-        assertz(stored(File, Id, Name, Fields, 0))
-    ;   Id = 1,
-        assertz(stored(File, Id, Name, Fields, 0))
+    ;   (   aggregate_all(max(I), stored(File, I, _, _), Max)
+        ->  Id is Max + 1
+        ;   Id = 1
+        ),
+        assertz(stored(File, Id, Name, Fields)),
+        reindex(File)
     ).
+
+%   reindex(+File)
+%
+%   Rebuild the lookup index of store File: one candidate/6 and one candidate_plan/5
+%   clause per MACROP, learned and hand-written, in lookup order.  Vars, the variables
+%   of the MACROP's plan and adders, is shared by the two clauses of a MACROP.
+
+reindex(File) :-
+    retractall(candidate(File, _, _, _, _, _)),
+    retractall(candidate_plan(File, _, _, _, _)),
+    findall(Len-(Id-macrop(Name, Fields)),
+            ( stored(File, Id, Name, Fields),
+              plan_length(Fields, Len)
+            ),
+            Learned),
+    findall(Len-(kb(Name)-macrop(NameAndFormat, Fields)),
+            ( macrops:macrop(NameAndFormat, Fields),
+              functor(NameAndFormat, Name, _),
+              plan_length(Fields, Len)
+            ),
+            Written),
+    append(Learned, Written, All),
+    keysort(All, Sorted),
+    pairs_values(Sorted, Candidates),
+    forall(member(Id-Macrop, Candidates), index_macrop(File, Id, Macrop)).
+
+index_macrop(File, Id, macrop(_, Fields)) :-
+    memberchk(purpose(Purpose), Fields),
+    memberchk(preconditions(Pre), Fields),
+    memberchk(unary_constraints(Unary), Fields),
+    memberchk(n_ary_constraints(Nary), Fields),
+    memberchk(plan(Steps), Fields),
+    (   memberchk(adders(Adders), Fields) -> true ; Adders = [] ),
+    append(Unary, Nary, Constraints),
+    term_variables(Steps-Adders, Vars),
+    assertz(candidate(File, Id, Purpose, Pre, Constraints, Vars)),
+    assertz(candidate_plan(File, Id, Vars, Steps, Adders)).
+
+plan_length(Fields, Len) :-
+    memberchk(plan(Steps), Fields),
+    length(Steps, Len).
 
 %!  lookup(+File, +Goals:list, +State:list, +Options:list, -Found) is det.
 %
@@ -374,50 +485,41 @@ lookup(File, Goals, State, Options, Found) :-
     plan_domain(Options, Domain),
     option(facts(Facts), Options, []),
     option(constraints(GoalConstraints), Options, []),
-    candidates(File, Candidates),
-    (   member(Id-Macrop, Candidates),
-        applies(Macrop, Domain, Facts, GoalConstraints, Goals, State, Plan)
-    ->  Found = found(Id, Plan),
-        count(File, hit(Id))
-    ;   Found = none,
-        count(File, miss)
+    (   lookup_bindings(File, Goals, State, Domain, Facts, GoalConstraints, Id, Vars)
+    ->  candidate_plan(File, Id, Vars, Plan, _),
+        Found = found(Id, Plan)
+    ;   Found = none
     ).
 
-candidates(File, Candidates) :-
-    findall(Len-(Id-macrop(Name, Fields)),
-            ( stored(File, Id, Name, Fields, _),
-              plan_length(Fields, Len)
-            ),
-            Learned),
-    findall(Len-(kb(Name)-macrop(Name, Fields)),
-            ( macrops:macrop(Name, Fields),
-              plan_length(Fields, Len)
-            ),
-            Written),
-    append(Learned, Written, All),
-    keysort(All, Sorted),
-    pairs_values(Sorted, Candidates).
+%   lookup_bindings(+File, +Goals, +State, +Domain, +Facts, +GoalConstraints, -Id, -Vars)
+%   is semidet.
+%
+%   The first MACROP Id of the index of File that achieves Goals from State, and the
+%   values Vars of its variables; counts the lookup as a hit or a miss.
 
-plan_length(Fields, Len) :-
-    memberchk(plan(Steps), Fields),
-    length(Steps, Len).
+lookup_bindings(File, Goals, State, Domain, Facts, GoalConstraints, Id, Vars) :-
+    (   candidate(File, Id, Purpose, Pre, Constraints, Vars),
+        maplist(in_purpose(Purpose), Goals),
+        match_all(Pre, State),
+        append(Constraints, GoalConstraints, All),
+        constraints_hold(Domain, Facts, All),
+        ground(Vars)
+    ->  count(File, hit(Id))
+    ;   count(File, miss),
+        fail
+    ).
 
 count(File, Event) :-
     retract(counts(File, L0, H0, M0)),
     L is L0 + 1,
     (   Event = hit(Id)
     ->  H is H0 + 1, M = M0,
-        hit(File, Id)
+        stored_hits(File, Id, N0),
+        N is N0 + 1,
+        set_hits(File, Id, N)
     ;   H = H0, M is M0 + 1
     ),
     assertz(counts(File, L, H, M)).
-
-hit(File, Id) :-
-    (   retract(stored(File, Id, Name, Fields, N0))
-    ->  N is N0 + 1,
-        assertz(stored(File, Id, Name, Fields, N))
-    ;   true                               % a hand-written MACROP
-    ).
 
 %!  operation_plan(+File, +Goals:list, +State:list, +Options:list, -Result) is det.
 %
@@ -441,3 +543,185 @@ operation_plan(File, Goals, State, Options, Result) :-
         ;   Result = Planned
         )
     ).
+
+
+                 /*******************************
+                 *      THE FACADE'S ENTRY      *
+                 *******************************/
+
+%!  measurement_plan(+File, +Id, +Kind, +Arm, +Pose, +Holding, +Mode, -Reply) is det.
+%
+%   Pose is a pose term or, flat, `[PoseKind, Place]` or `[PoseKind, PlaceName, Arg]`
+%   (e.g. `[in_contact_point, meas, 'WT-1']`).
+%
+%   The Operation Planner for measurement Id of Kind (operators:measurement_goal/4)
+%   from the state of Arm at Pose holding Holding (operators:planning_state/4), with
+%   the MACROPs of the open store File.  Mode is `lookup_first` (MACROP lookup; when
+%   none applies, plan from scratch, generalize and store) or `from_scratch` (no
+%   lookup: plan, generalize and store).  Reply is
+%
+%     - `[macrop, Generation, MacropId, Bindings]`: a MACROP applies
+%     - `[scratch, Generation, MacropId, Bindings]`: planned, stored as MacropId
+%     - `[scratch, Generation, none, []]`: the goal holds already (empty plan)
+%     - `[no_plan, ReasonText]`
+%
+%   Bindings are the values of the MACROP's variables in the order of its template
+%   (macrop_template/3); Generation changes whenever MACROP numbers of File may be
+%   reused (open_store/1, clear_store/1), so a caller may cache templates under
+%   Generation-MacropId.  The reply is compact because every atom costs time on its
+%   way to Python.
+%
+%   @error existence_error(macrop_store, File) if File is not open
+%   @error domain_error(measurement_kind, Kind) for an unknown kind
+
+measurement_plan(File, Id, Kind, Arm, PoseSpec, Holding, Mode, Reply) :-
+    must_be_open(File),
+    must_be(oneof([lookup_first, from_scratch]), Mode),
+    pose_term(PoseSpec, Pose),
+    measurement_goal(Id, Kind, Goal, Constraints),
+    planning_state(Arm, Pose, Holding, State),
+    operators_domain(Domain),
+    generation(File, Gen),
+    (   Mode == lookup_first,
+        lookup_bindings(File, [Goal], State, Domain, [], Constraints, MacropId, Vars)
+    ->  Reply = [macrop, Gen, MacropId, Vars]
+    ;   Options = [domain(Domain), constraints(Constraints)],
+        plan_result([Goal], State, Options, Result),
+        planned_reply(Result, File, Goal, State, Options, Gen, Reply)
+    ).
+
+planned_reply(plan([]), _, _, _, _, Gen, [scratch, Gen, none, []]) :- !.
+planned_reply(plan(Plan), File, Goal, State, Options, Gen, [scratch, Gen, Id, Vars]) :- !,
+    generalize_plan([Goal], State, Plan, Options, Macrop),
+    add_macrop(File, Macrop, Id),
+    candidate_plan(File, Id, Vars, Steps, _),
+    maplist(same_action, Steps, Plan),
+    must_be(ground, Vars).
+planned_reply(no_plan(Reason), _, _, _, _, _, [no_plan, Text]) :-
+    format(atom(Text), '~q', [Reason]).
+
+same_action(step(N, Action, _), step(N, Action, _)).
+
+%   pose_term(+PoseSpec, -Pose)
+%
+%   A pose given flat, `[PoseKind, Place]` or `[PoseKind, PlaceName, PlaceArg]` (fewer
+%   JSON objects to cross the bridge), or as the pose term itself.
+
+pose_term([Kind, Place], Pose) :- !,
+    must_be(oneof([approach_point, in_contact_point, viewing_pose]), Kind),
+    must_be(atom, Place),
+    Pose =.. [Kind, Place].
+pose_term([Kind, Name, Arg], Pose) :- !,
+    must_be(oneof([approach_point, in_contact_point, viewing_pose]), Kind),
+    must_be(atom, Name),
+    must_be(atomic, Arg),
+    Place =.. [Name, Arg],
+    Pose =.. [Kind, Place].
+pose_term(Pose, Pose) :-
+    must_be(ground, Pose).
+
+%   operators_domain(-Domain)
+%
+%   The compiled domain of kb/operators.pl, compiled once per thread and again when
+%   the operators change (a reload).
+
+operators_domain(Domain) :-
+    operators_generation(Generation),
+    (   nb_current(macrop_operators_domain, domain(Generation0, Domain0)),
+        Generation0 == Generation
+    ->  Domain = Domain0
+    ;   compile_domain(module(operators), Domain),
+        nb_setval(macrop_operators_domain, domain(Generation, Domain))
+    ).
+
+operators_generation(Generation) :-
+    aggregate_all(max(G),
+                  ( member(Head, [static_operator(_, _), deductive_operator(_, _),
+                                  criticality(_, _)]),
+                    predicate_property(operators:Head, last_modified_generation(G))
+                  ),
+                  Generation).
+
+%!  macrop_template(+File, +Id, -Template) is det.
+%
+%   Template is `template(NVars, Steps, Adders)`: the plan and overall adders of MACROP
+%   Id of the open store File with its variables numbered `'$VAR'(0)` to
+%   `'$VAR'(NVars-1)` in the order of the Bindings of measurement_plan/8.
+%
+%   @error existence_error(macrop, Id) if the store has no MACROP Id
+
+macrop_template(File, Id, template(NVars, Steps, Adders)) :-
+    must_be_open(File),
+    (   candidate_plan(File, Id, Vars, Steps, Adders)
+    ->  numbervars(Vars, 0, NVars)
+    ;   existence_error(macrop, Id)
+    ).
+
+%!  macrop_rows(+File, -Rows:list) is det.
+%
+%   One row `[Id, Name, Steps, Hits, Purpose]` per MACROP of the open store File, in
+%   lookup order: Id a number (learned) or `kb(Name)` (hand-written), Name the functor
+%   of its name and format, Steps the length of its plan, Purpose its purpose as text.
+
+macrop_rows(File, Rows) :-
+    must_be_open(File),
+    findall([Id, Name, Len, Hits, PurposeText],
+            ( candidate(File, Id, Purpose, _, _, _),
+              macrop_fields(File, Id, NameAndFormat, Fields),
+              functor(NameAndFormat, Name, _),
+              plan_length(Fields, Len),
+              stored_hits(File, Id, Hits),
+              term_text(Purpose, PurposeText)
+            ),
+            Rows).
+
+%   term_text(+Term, -Text): Term written with its variables as A, B, ...
+
+term_text(Term, Text) :-
+    copy_term(Term, Copy),
+    numbervars(Copy, 0, _),
+    format(atom(Text), '~W', [Copy, [quoted(true), numbervars(true), spacing(next_argument)]]).
+
+macrop_fields(_File, kb(Name), NameAndFormat, Fields) :- !,
+    macrops:macrop(NameAndFormat, Fields),
+    functor(NameAndFormat, Name, _).
+macrop_fields(File, Id, NameAndFormat, Fields) :-
+    stored(File, Id, NameAndFormat, Fields).
+
+%!  macrop_text(+File, +Id, -Text) is det.
+%
+%   Text is MACROP Id of the open store File as a Prolog clause
+%   `macrop(NameAndFormat, Fields)`, laid out like the seed's Figure 4.
+%
+%   @error existence_error(macrop, Id) if the store has no MACROP Id
+
+macrop_text(File, Id, Text) :-
+    must_be_open(File),
+    (   macrop_fields(File, Id, NameAndFormat, Fields)
+    ->  copy_term(NameAndFormat-Fields, Copy),
+        numbervars(Copy, 0, _),
+        with_output_to(string(Text0), write_macrop(Copy)),
+        atom_string(Text, Text0)
+    ;   existence_error(macrop, Id)
+    ).
+
+write_macrop(NameAndFormat-Fields) :-
+    Options = [quoted(true), numbervars(true), spacing(next_argument)],
+    format('macrop(~W,~n', [NameAndFormat, Options]),
+    length(Fields, N),
+    forall(nth1(I, Fields, Field),
+           ( Field =.. [Key, Items],
+             (   I == 1 -> Open = '[ ' ; Open = '  ' ),
+             (   I == N -> Close = ' ]).' ; Close = ',' ),
+             (   is_list(Items), Items \== []
+             ->  format('       ~w~w([ ', [Open, Key]),
+                 length(Items, M),
+                 forall(nth1(J, Items, Item),
+                        (   J == M
+                        ->  format('~W ])~w~n', [Item, Options, Close])
+                        ;   atom_length(Key, KL),
+                            Indent is 7 + 2 + KL + 3,
+                            format('~W,~n~*c', [Item, Options, Indent, 0' ])
+                        ))
+             ;   format('       ~w~w(~W)~w~n', [Open, Key, Items, Options, Close])
+             ))).

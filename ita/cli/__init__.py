@@ -18,6 +18,9 @@ COMMANDS: dict[str, str] = {
     "spec": "ita.cli.spec:spec",
     "prepare": "ita.cli.prepare:prepare",
     "sequence": "ita.cli.sequence:sequence",
+    "plan": "ita.cli.plan:plan",
+    "macrop": "ita.cli.plan:macrop",
+    "pddl": "ita.cli.pddl:pddl",
 }
 
 

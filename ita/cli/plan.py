@@ -1,0 +1,147 @@
+"""`ita plan MEAS_ID` and `ita macrop list|show|clear`: the Operation Planner.
+
+The learned MACROPs of a part live in ``$ITA_HOME/macrops/<part name>.pl`` (a Prolog
+file a user can read), apart from the hand-written ones of kb/macrops.pl.
+
+Exit codes: 0 success; 1 no plan for the measurement; 2 bad input (unknown measurement,
+tool or MACROP, a part or knowledge base that does not load).
+"""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import click
+
+from ita.cli.common import part_option, reports_errors
+from ita.errors import InputError, Location
+
+if TYPE_CHECKING:
+    from ita.planning import OperationPlan, OperationPlanner
+
+
+def _planner(part_dir: Path | None) -> tuple["OperationPlanner", object]:
+    """The part and an Operation Planner on its MACROP store (slow imports here)."""
+    from ita.logic.bridge import KnowledgeBase
+    from ita.part.store import load_part
+    from ita.planning import OperationPlanner, store_path
+
+    part = load_part(part_dir)
+    return OperationPlanner(KnowledgeBase(), store_path(part.name)), part
+
+
+def _table(headers: tuple[str, ...], rows: list[tuple[str, ...]]) -> str:
+    widths = [max([len(h)] + [len(r[i]) for r in rows]) for i, h in enumerate(headers)]
+    lines = ["  ".join(h.ljust(w) for h, w in zip(headers, widths)).rstrip(),
+             "  ".join("-" * w for w in widths)]
+    lines += ["  ".join(v.ljust(w) for v, w in zip(row, widths)).rstrip() for row in rows]
+    return "\n".join(lines)
+
+
+def format_plan(plan: "OperationPlan", kind: str) -> str:
+    """The plan as text: what matched, then a table of steps with their predecessors."""
+    if plan.matched:
+        head = f"MACROP {plan.macrop_name} matched"
+    elif plan.macrop_name:
+        head = f"no MACROP matched: planned from scratch, stored as MACROP {plan.macrop_name}"
+    else:
+        head = "nothing to do: the goal holds already"
+    lines = [f"{plan.measurement} ({kind}): {head} ({plan.seconds * 1000:.2f} ms)",
+             f"from: {plan.initial_state.pose}, holding {plan.initial_state.holding or 'nothing'}"]
+    if plan.steps:
+        rows = [(str(s.number), s.text, ", ".join(map(str, s.predecessors)) or "-") for s in plan.steps]
+        lines += ["", _table(("step", "action", "after"), rows), ""]
+    lines.append(f"then: {plan.final_state.pose}, holding {plan.final_state.holding or 'nothing'}")
+    return "\n".join(lines)
+
+
+@click.command()
+@click.argument("meas_id")
+@click.option("--from-scratch", is_flag=True, help="Skip MACROP lookup: plan, generalize and store.")
+@click.option("--holding", "holding", default=None, metavar="TOOL",
+              help="Start with TOOL in hand (default: an empty hand).")
+@click.option("--after", "after", default=None, metavar="MEAS_ID",
+              help="Start where the plan of measurement MEAS_ID leaves the arm.")
+@click.option("--json", "as_json", is_flag=True, help="Print the plan as JSON.")
+@part_option
+@reports_errors
+def plan(meas_id: str, from_scratch: bool, holding: str | None, after: str | None,
+         as_json: bool, part_dir: Path | None) -> None:
+    """Plan measurement MEAS_ID: MACROP lookup first, else plan from scratch and learn."""
+    from ita.planning import NoPlanError, WorldState
+    from ita.specs.io import read_specs
+
+    planner, part = _planner(part_dir)
+    with planner:
+        specs = {s.id: s for s in read_specs(part.specs_path)}
+        for wanted in (meas_id, after):
+            if wanted is not None and wanted not in specs:
+                raise InputError([(Location(str(part.specs_path)), f"no measurement {wanted!r}")])
+        state = WorldState(holding=holding)
+        try:
+            if after is not None:
+                state = planner.plan_measurement(specs[after], state).final_state
+            result = planner.plan_measurement(specs[meas_id], state, from_scratch=from_scratch)
+        except NoPlanError as exc:
+            if as_json:
+                click.echo(json.dumps({"measurement": meas_id, "source": None, "reason": exc.reason}))
+            click.echo(f"error: {exc}", err=True)
+            sys.exit(exc.exit_code)
+    if as_json:
+        data = result.to_dict()
+        data["kind"] = specs[meas_id].kind.value
+        click.echo(json.dumps(data, indent=2))
+    else:
+        click.echo(format_plan(result, specs[meas_id].kind.value))
+
+
+@click.group()
+def macrop() -> None:
+    """List, show and clear the learned MACROPs (generalized plans) of a part."""
+
+
+@macrop.command("list")
+@part_option
+@reports_errors
+def list_macrops(part_dir: Path | None) -> None:
+    """The MACROPs in lookup order, with their hits, and the store's counts."""
+    planner, _ = _planner(part_dir)
+    with planner:
+        infos = planner.macrops()
+        counts = planner.counts()
+    rows = [(m.name, "learned" if m.learned else "hand-written", str(m.steps), str(m.hits), m.purpose)
+            for m in infos]
+    click.echo(_table(("name", "origin", "steps", "hits", "purpose"), rows))
+    click.echo(f"\n{counts.lookups} lookups: {counts.hits} hits, {counts.misses} misses"
+               f"  (store: {planner.path})")
+
+
+@macrop.command()
+@click.argument("name")
+@part_option
+@reports_errors
+def show(name: str, part_dir: Path | None) -> None:
+    """Show MACROP NAME (m<N>, or kb:<name> for a hand-written one) like the seed's Figure 4."""
+    planner, _ = _planner(part_dir)
+    with planner:
+        try:
+            text = planner.macrop_text(name)
+        except (KeyError, ValueError):
+            known = ", ".join(m.name for m in planner.macrops())
+            raise InputError([(Location(str(planner.path)),
+                               f"no MACROP {name!r} (known: {known or 'none'})")]) from None
+    click.echo(text, nl=False)
+
+
+@macrop.command()
+@part_option
+@reports_errors
+def clear(part_dir: Path | None) -> None:
+    """Forget the learned MACROPs and the hit and miss counts (hand-written ones stay)."""
+    planner, _ = _planner(part_dir)
+    with planner:
+        forgotten = planner.clear()
+    click.echo(f"cleared {forgotten} learned MACROP{'s' if forgotten != 1 else ''} from {planner.path}")
