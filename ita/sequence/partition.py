@@ -1,0 +1,209 @@
+"""Partition measurements by the tool that will take them (the Sequence Planner's first step).
+
+The decision is Prolog's (``kb/tools.pl``: tool rules, meta-level preferences, the world
+model's tool availability); this module computes the facts about each measurement that
+the rules need, sends all measurements in ONE bridge call (``tools:select_tools/2``) and
+groups the answers::
+
+    facts = reach_facts(workcell, specs)               # list of fact lists, one per spec
+    part = partition_specs(kb, specs, feature_kinds, facts, done=("WT-P01-1",))
+    part.groups      # one ToolGroup per physical tool to be used
+    part.done        # ids already done (not sent to the rules)
+    part.cannot      # (id, reason) of those no rule and tool can do
+
+Facts (see kb/tools.pl): ``reach(ToolType, Verdict)`` from the arm's geometric reach test
+(ita.workcell.reach_report) for the pose the measurement needs with that tool type.  The
+ultrasonic probe touches the spec point, except for a rib's width, where it touches the
+rib's side wall a little below the top (either side; the better verdict counts).  A
+later facts function may add ``pose(ToolType, Verdict)`` from the inverse kinematics:
+pass it as `facts` in place of :func:`reach_facts`.
+"""
+
+from __future__ import annotations
+
+from collections import Counter
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from ita.logic.terms import Term
+from ita.specs.model import MeasurementKind, MeasurementSpec, Tool
+
+if TYPE_CHECKING:
+    from ita.logic.bridge import KnowledgeBase
+    from ita.workcell.model import Workcell
+
+#: the probe touches a rib's side wall this far below the rib's top (mm)
+RIB_CONTACT_BELOW_TOP_MM = 8.0
+#: feature kind sent for a spec whose feature the part does not describe
+UNKNOWN_FEATURE = "unknown"
+
+FactsFunction = Callable[["Workcell", Sequence[MeasurementSpec]], list[list[Term]]]
+
+
+@dataclass(frozen=True)
+class Selection:
+    """The rules' answer for one measurement.
+
+    tool_class/tool/rule: the chosen tool type, physical tool and rule (None when it
+    cannot be done); reason: why it cannot be done (Prolog text, e.g.
+    ``no_working_tool(us_tool)``), None when it can; why: the steps of the choice as
+    Prolog text (``chosen(Rule, How)``, ``rejected(Rule, Reason)``).
+    """
+
+    spec_id: str
+    tool_class: str | None
+    tool: str | None
+    rule: str | None
+    reason: str | None
+    why: tuple[str, ...]
+
+
+@dataclass(frozen=True)
+class ToolGroup:
+    """The measurements one physical tool takes (unordered: input order)."""
+
+    tool: str
+    tool_class: str
+    spec_ids: tuple[str, ...]
+    rules: tuple[tuple[str, int], ...]  # (rule, count), most used first
+
+
+@dataclass(frozen=True)
+class Partition:
+    """Measurements grouped by tool, plus the done and the cannot-be-done groups.
+
+    groups: one per physical tool used, sorted by tool name; done: ids already done;
+    cannot: (id, reason) pairs, input order; selections: spec id -> Selection for every
+    measurement that was not done.
+    """
+
+    groups: tuple[ToolGroup, ...]
+    done: tuple[str, ...]
+    cannot: tuple[tuple[str, str], ...]
+    selections: Mapping[str, Selection]
+
+    def cannot_counts(self) -> dict[str, int]:
+        """Reason -> number of measurements that cannot be done for it, commonest first."""
+        return dict(Counter(r for _, r in self.cannot).most_common())
+
+    def group_of(self, tool: str) -> ToolGroup | None:
+        """The group of physical tool `tool`, or None."""
+        return next((g for g in self.groups if g.tool == tool), None)
+
+
+def term_text(value: Any) -> str:
+    """Prolog-like text of a decoded term: ``no_working_tool(us_tool)``, ``[a, b]``."""
+    if isinstance(value, Term):
+        return f"{value.name}({', '.join(term_text(a) for a in value.args)})"
+    if isinstance(value, list):
+        return "[" + ", ".join(term_text(v) for v in value) + "]"
+    return str(value)
+
+
+def feature_kinds_of(features: Iterable[Any]) -> dict[str, str]:
+    """Feature id -> feature kind spelling, for a part's features."""
+    return {f.id: f.kind.value for f in features}
+
+
+def contact_poses(specs: Sequence[MeasurementSpec]) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Where the ultrasonic probe must touch for each spec: two candidate poses.
+
+    Returns (points_a, normals_a, points_b, normals_b), each ``(n, 3) float``, part frame,
+    mm.  For most kinds both candidates are the spec's point and normal; for a rib's
+    width they are the two side walls, :data:`RIB_CONTACT_BELOW_TOP_MM` below the top,
+    normals along -/+ the measuring direction.
+    """
+    p = np.array([s.point for s in specs], dtype=float).reshape(-1, 3)
+    nrm = np.array([s.normal for s in specs], dtype=float).reshape(-1, 3)
+    pa, na, pb, nb = p.copy(), nrm.copy(), p.copy(), nrm.copy()
+    for i, s in enumerate(specs):
+        if s.kind is MeasurementKind.STIFFENER_WIDTH and s.direction is not None:
+            d = np.asarray(s.direction, dtype=float)
+            below = p[i] - nrm[i] * RIB_CONTACT_BELOW_TOP_MM
+            half = 0.5 * s.nominal
+            pa[i], na[i] = below - d * half, -d
+            pb[i], nb[i] = below + d * half, d
+    return pa, na, pb, nb
+
+
+def reach_facts(workcell: Workcell, specs: Sequence[MeasurementSpec]) -> list[list[Term]]:
+    """``[reach(us_tool, V1), reach(slra_tool, V2)]`` for each spec (vectorised reach test)."""
+    from ita.workcell.reach import Reach, reach_report
+
+    n = len(specs)
+    if n == 0:
+        return []
+    pa, na, pb, nb = contact_poses(specs)
+    us_a = reach_report(workcell, pa, na, [Tool.ULTRASONIC] * n).verdicts
+    us_b = reach_report(workcell, pb, nb, [Tool.ULTRASONIC] * n).verdicts
+    us = [a if a is Reach.REACHABLE or b is not Reach.REACHABLE else b for a, b in zip(us_a, us_b)]
+    points = np.array([s.point for s in specs], dtype=float)
+    normals = np.array([s.normal for s in specs], dtype=float)
+    slra = reach_report(workcell, points, normals, [Tool.SLRA] * n).verdicts
+    return [[Term("reach", (Tool.ULTRASONIC.value, u.value)), Term("reach", (Tool.SLRA.value, v.value))]
+            for u, v in zip(us, slra)]
+
+
+def select_tools(
+    kb: KnowledgeBase, specs: Sequence[MeasurementSpec], feature_kinds: Mapping[str, str],
+    facts: Sequence[Sequence[Term]],
+) -> list[Selection]:
+    """The rules' choice for each spec, in input order: one call of ``tools:select_tools/2``."""
+    from ita.logic.terms import Var
+
+    if len(facts) != len(specs):
+        raise ValueError(f"{len(specs)} specs but {len(facts)} fact lists")
+    if not specs:
+        return []
+    requests = [Term("request", (s.id, s.kind.value, feature_kinds.get(s.feature, UNKNOWN_FEATURE), list(f)))
+                for s, f in zip(specs, facts)]
+    answer = kb.once("tools", "select_tools", requests, Var("Choices"))
+    if answer is None:  # select_tools/2 is det: failing is a bug in the rule base
+        raise RuntimeError("tools:select_tools/2 failed")
+    return [_selection(c) for c in answer["Choices"]]
+
+
+def _selection(choice: Term) -> Selection:
+    spec_id, decided, why = choice.args
+    steps = tuple(term_text(w) for w in why)
+    if decided.name == "use":
+        tool_class, tool, rule = (str(a) for a in decided.args)
+        return Selection(str(spec_id), tool_class, tool, rule, None, steps)
+    return Selection(str(spec_id), None, None, None, term_text(decided.args[0]), steps)
+
+
+def partition_specs(
+    kb: KnowledgeBase, specs: Sequence[MeasurementSpec], feature_kinds: Mapping[str, str],
+    facts: Sequence[Sequence[Term]], done: Iterable[str] = (),
+) -> Partition:
+    """Group `specs` by tool; `done` ids form the done group and are not decided.
+
+    facts: one fact list per spec (parallel to `specs`, e.g. from :func:`reach_facts`).
+    The world model's current tool state (in `kb`) decides which physical tools are usable.
+    """
+    if len(facts) != len(specs):
+        raise ValueError(f"{len(specs)} specs but {len(facts)} fact lists")
+    done_set = set(done)
+    todo = [i for i, s in enumerate(specs) if s.id not in done_set]
+    chosen = select_tools(kb, [specs[i] for i in todo], feature_kinds, [facts[i] for i in todo])
+    by_tool: dict[str, list[Selection]] = {}
+    cannot: list[tuple[str, str]] = []
+    for sel in chosen:
+        if sel.tool is None:
+            cannot.append((sel.spec_id, sel.reason or "unknown"))
+        else:
+            by_tool.setdefault(sel.tool, []).append(sel)
+    groups = tuple(
+        ToolGroup(tool=tool, tool_class=sels[0].tool_class or "", spec_ids=tuple(s.spec_id for s in sels),
+                  rules=tuple(Counter(s.rule for s in sels).most_common()))
+        for tool, sels in sorted(by_tool.items())
+    )
+    return Partition(
+        groups=groups,
+        done=tuple(s.id for s in specs if s.id in done_set),
+        cannot=tuple(cannot),
+        selections={s.spec_id: s for s in chosen},
+    )

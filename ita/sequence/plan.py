@@ -1,0 +1,372 @@
+"""Build the whole sequence plan: partition by tool, order each group, order the groups.
+
+    ctx = planning_context()                 # the built-in bulkhead, its workcell, the KB
+    plan = build_plan(ctx)                   # SequencePlan (frozen), ~2 s for 1000 specs
+    plan.groups[0].order                     # spec ids in visiting order
+    plan.total_s                             # estimated seconds of arm motion
+
+Each tool group is a closed tour that starts at the tool's rack slot (pick it up), visits
+every measurement of the group and returns to the slot (put it back), solved with
+ita.sequence.tour.solve_tour.  Groups are visited one after the other, one visit to the
+rack per tool: the tool changes are as few as the groups (one fewer when the arm already
+holds the first group's tool), and the group order is the one with the least transfer
+time between rack slots, the held tool's group first.
+
+COST MODEL: pluggable (:class:`CostModel`).  Until the arm's joint-space motion time
+(ita/kinematics/timing.py) is wired in, :data:`INTERIM_COST` estimates seconds as the
+straight-line distance of the tool centre point over the controller's top TCP speed
+(workcell.toml `max_tool_speed`): a lower bound of the true motion time, NOT arm motion
+time.  LEAD: wire the kinematics cost here (make a CostModel whose `tour` returns the
+joint-space motion times between the stops, and pass it in PlanningContext.cost_model).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import itertools
+import time
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from dataclasses import dataclass, field, replace
+from datetime import UTC, datetime
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from ita.sequence.partition import (
+    FactsFunction,
+    Partition,
+    feature_kinds_of,
+    partition_specs,
+    reach_facts,
+)
+from ita.specs.model import MeasurementSpec
+
+if TYPE_CHECKING:
+    from ita.logic.bridge import KnowledgeBase
+    from ita.part.model import Part
+    from ita.workcell.model import ToolSpec, Workcell
+
+PLAN_VERSION = 1
+
+
+# -- cost models ---------------------------------------------------------------------
+
+TourCost = Callable[["Workcell", "ToolSpec", Sequence[MeasurementSpec]], np.ndarray]
+TransferCost = Callable[["Workcell", str, str], float]
+
+
+@dataclass(frozen=True)
+class CostModel:
+    """How many seconds the arm needs between stops.
+
+    tour(workcell, tool, specs) -> ``(n + 1, n + 1) float`` seconds between the stops of a
+    tool group: stop 0 is the tool's rack slot, stop i + 1 is specs[i] (may be
+    asymmetric).  transfer(workcell, tool_a, tool_b) -> seconds from tool_a's slot to
+    tool_b's (after putting one tool back, to pick up the next).  `interim` marks an
+    estimate that is not the arm's motion time.
+    """
+
+    name: str
+    description: str
+    tour: TourCost
+    transfer: TransferCost
+    interim: bool = False
+
+
+def tool_points_world(workcell: Workcell, tool: ToolSpec, specs: Sequence[MeasurementSpec]) -> np.ndarray:
+    """``(n, 3) float``: world position (m) of the tool centre point at each spec.
+
+    The probe's tip on the spec point; the SLRA's optical centre on the normal at its
+    nominal stand-off.
+    """
+    points = np.array([s.point for s in specs], dtype=float).reshape(-1, 3)
+    normals = np.array([s.normal for s in specs], dtype=float).reshape(-1, 3)
+    world = workcell.part.to_world(points)
+    if tool.standoff_nominal:
+        n_world = workcell.part.normals_to_world(normals)
+        n_world /= np.linalg.norm(n_world, axis=1, keepdims=True)
+        world = world + n_world * tool.standoff_nominal
+    return world
+
+
+def slot_position(workcell: Workcell, tool_name: str) -> np.ndarray:
+    """``(3,) float``: world position (m) of the rack slot where `tool_name` is parked."""
+    for slot in workcell.rack.slots:
+        if slot.tool == tool_name:
+            return np.asarray(slot.pose.position, dtype=float)
+    raise ValueError(f"no rack slot holds tool {tool_name!r}")
+
+
+def euclidean_tcp_seconds(workcell: Workcell, tool: ToolSpec, specs: Sequence[MeasurementSpec]) -> np.ndarray:
+    """INTERIM tour cost: straight-line TCP distance / max TCP speed, ``(n + 1, n + 1)`` s."""
+    stops = np.vstack([slot_position(workcell, tool.name)[None, :], tool_points_world(workcell, tool, specs)])
+    diff = stops[:, None, :] - stops[None, :, :]
+    return np.sqrt(np.einsum("ijk,ijk->ij", diff, diff)) / workcell.arm.max_tool_speed
+
+
+def euclidean_slot_seconds(workcell: Workcell, tool_a: str, tool_b: str) -> float:
+    """INTERIM transfer cost: straight-line distance between two rack slots / max TCP speed."""
+    d = np.linalg.norm(slot_position(workcell, tool_a) - slot_position(workcell, tool_b))
+    return float(d / workcell.arm.max_tool_speed)
+
+
+INTERIM_COST = CostModel(
+    name="euclidean_tcp_interim",
+    description="straight-line tool-point distance / max tool speed (interim lower bound, not arm motion time)",
+    tour=euclidean_tcp_seconds,
+    transfer=euclidean_slot_seconds,
+    interim=True,
+)
+
+
+# -- the plan --------------------------------------------------------------------------
+
+@dataclass(frozen=True)
+class PlannedGroup:
+    """One tool's measurements in visiting order.
+
+    order: spec ids; cost_s: seconds of the closed tour rack slot -> specs -> rack slot
+    under the plan's cost model; rules: (rule, count) of the rules that chose the tool.
+    """
+
+    tool: str
+    tool_class: str
+    order: tuple[str, ...]
+    cost_s: float
+    rules: tuple[tuple[str, int], ...] = ()
+
+
+@dataclass(frozen=True)
+class SequencePlan:
+    """A stored sequence plan and its progress.
+
+    groups: in execution order; done: ids done before the plan was (re)made; cannot:
+    (id, reason); transfer_s: seconds between rack slots; tool_changes: tool pick-ups;
+    tool_state: tool -> {"condition", "location"} the plan was made for; handed_out: ids
+    handed out by next_step, in order; history: what happened to the plan (made,
+    resequenced and why).
+    """
+
+    part: str
+    specs_digest: str
+    method: str
+    cost_model: str
+    cost_interim: bool
+    created: str
+    build_seconds: float
+    tool_state: Mapping[str, Mapping[str, str]]
+    groups: tuple[PlannedGroup, ...]
+    done: tuple[str, ...]
+    cannot: tuple[tuple[str, str], ...]
+    transfer_s: float
+    tool_changes: int
+    handed_out: tuple[str, ...] = ()
+    history: tuple[str, ...] = ()
+    version: int = PLAN_VERSION
+
+    @property
+    def total_s(self) -> float:
+        """Seconds of the whole plan: every tour plus the transfers between rack slots."""
+        return float(sum(g.cost_s for g in self.groups) + self.transfer_s)
+
+    @property
+    def measurement_count(self) -> int:
+        """Every measurement of the plan: planned, done and cannot-be-done."""
+        return sum(len(g.order) for g in self.groups) + len(self.done) + len(self.cannot)
+
+    def pending(self) -> list[tuple[int, str]]:
+        """(group index, spec id) of every planned measurement not handed out, in order."""
+        out = set(self.handed_out)
+        return [(k, i) for k, g in enumerate(self.groups) for i in g.order if i not in out]
+
+    def finished(self) -> tuple[str, ...]:
+        """Ids done before the plan was made or handed out since, without repeats."""
+        return tuple(dict.fromkeys(self.done + self.handed_out))
+
+
+@dataclass(frozen=True, eq=False)
+class PlanningContext:
+    """Everything building a plan needs, passed explicitly.
+
+    feature_kinds: feature id -> kind spelling; facts: the facts function of
+    ita.sequence.partition (reach test by default); cost_model: seconds between stops.
+    """
+
+    kb: KnowledgeBase
+    part_name: str
+    specs: tuple[MeasurementSpec, ...]
+    feature_kinds: Mapping[str, str]
+    workcell: Workcell
+    specs_digest: str
+    method: str = "default"
+    cost_model: CostModel = INTERIM_COST
+    facts: FactsFunction = reach_facts
+    seed: int = 0
+    _facts_cache: dict = field(default_factory=dict, repr=False)
+
+    def spec_facts(self) -> list:
+        """The facts of every spec (computed once per specs and facts function)."""
+        key = ("facts", id(self.specs), self.facts)
+        if key not in self._facts_cache:
+            self._facts_cache[key] = (self.specs, self.facts(self.workcell, self.specs))
+        return self._facts_cache[key][1]
+
+    def spec(self, spec_id: str) -> MeasurementSpec:
+        """The spec with id `spec_id`; KeyError when there is none."""
+        key = ("by_id", id(self.specs))
+        if key not in self._facts_cache:
+            self._facts_cache[key] = (self.specs, {s.id: s for s in self.specs})
+        return self._facts_cache[key][1][spec_id]
+
+
+def specs_digest(path: Path) -> str:
+    """Hex SHA-256 of a specs file: a stored plan is stale when it changes."""
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+def planning_context(
+    part_dir: Path | None = None, kb: KnowledgeBase | None = None, method: str = "default",
+    cost_model: CostModel = INTERIM_COST, part: Part | None = None,
+) -> PlanningContext:
+    """A context for the part in `part_dir` (default: the built-in bulkhead) and its workcell."""
+    from ita.part.store import load_part
+    from ita.specs.io import read_specs
+    from ita.workcell import load_workcell
+
+    if kb is None:
+        from ita.logic.bridge import KnowledgeBase
+
+        kb = KnowledgeBase()
+    loaded = part if part is not None else load_part(part_dir)
+    specs = tuple(read_specs(loaded.specs_path))
+    return PlanningContext(
+        kb=kb, part_name=loaded.name, specs=specs, feature_kinds=feature_kinds_of(loaded.features),
+        workcell=load_workcell(), specs_digest=specs_digest(loaded.specs_path), method=method,
+        cost_model=cost_model,
+    )
+
+
+def tool_state(kb: KnowledgeBase) -> dict[str, dict[str, str]]:
+    """Tool -> {"condition": ..., "location": ...} of the world model now."""
+    from ita.logic.terms import Var
+    from ita.sequence.partition import term_text
+
+    state: dict[str, dict[str, str]] = {}
+    for row in kb.call("world", "tool", Var("T")):
+        tool = row["T"]
+        cond = kb.once("world", "tool_condition", tool, Var("C"))
+        where = kb.once("world", "location", tool, Var("W"))
+        state[tool] = {"condition": str(cond["C"]) if cond else "unknown",
+                       "location": term_text(where["W"]) if where else "unknown"}
+    return state
+
+
+def held_tool(kb: KnowledgeBase) -> str | None:
+    """The tool the arm holds now, or None."""
+    from ita.logic.terms import Var
+
+    found = kb.once("world", "holding", Var("A"), Var("T"))
+    return str(found["T"]) if found else None
+
+
+def order_group(ctx: PlanningContext, tool: str, spec_ids: Sequence[str],
+                keep: Sequence[str] | None = None) -> PlannedGroup:
+    """Order one tool's measurements into a closed tour from and back to its rack slot.
+
+    keep: an order to reuse (its ids must be exactly `spec_ids`); it is costed, not solved.
+    """
+    from ita.sequence.tour import solve_tour, tour_cost
+
+    spec = ctx.workcell.tool(tool)
+    ids = list(spec_ids)
+    specs = [ctx.spec(i) for i in ids]
+    matrix = ctx.cost_model.tour(ctx.workcell, spec, specs)
+    if keep is not None:
+        if sorted(keep) != sorted(ids):
+            raise ValueError("the order to keep does not have the group's measurements")
+        pos = {i: k + 1 for k, i in enumerate(ids)}
+        order = (0, *[pos[i] for i in keep])
+        cost = tour_cost(matrix, order, closed=True)
+        return PlannedGroup(tool, spec.tool_class.value, tuple(keep), float(cost))
+    coords = np.vstack([slot_position(ctx.workcell, tool)[None, :], tool_points_world(ctx.workcell, spec, specs)])
+    tour = solve_tour(matrix, method=ctx.method, coords=coords, start=0, end=0, seed=ctx.seed)
+    order = tuple(ids[k - 1] for k in tour.order if k != 0)
+    return PlannedGroup(tool, spec.tool_class.value, order, float(tour.cost))
+
+
+def order_groups(ctx: PlanningContext, tools: Sequence[str], held: str | None) -> tuple[list[str], float]:
+    """The visiting order of the tools' groups and its transfer seconds between rack slots.
+
+    One visit to the rack per tool; the held tool's group first (no pick-up); among the
+    rest the order with the least transfer time (all orders tried: there are few tools),
+    ties broken by tool name.
+    """
+    tools = sorted(tools)
+    first = [t for t in tools if t == held]
+    rest = [t for t in tools if t != held]
+    best: tuple[float, list[str]] | None = None
+    for perm in itertools.permutations(rest):
+        seq = first + list(perm)
+        cost = sum(ctx.cost_model.transfer(ctx.workcell, a, b) for a, b in itertools.pairwise(seq))
+        if best is None or cost < best[0] - 1e-12:
+            best = (cost, seq)
+    return (best[1], best[0]) if best else ([], 0.0)
+
+
+def build_plan(
+    ctx: PlanningContext, done: Iterable[str] = (), previous: SequencePlan | None = None,
+    note: str | None = None,
+) -> SequencePlan:
+    """Partition the not-done specs by tool, order each group and the groups: a new plan.
+
+    The world model in ``ctx.kb`` decides tool availability (apply the stored tool state
+    first, see ita.sequence.store).  With `previous` (resequencing), its progress and
+    history carry over, and a group whose remaining measurements are exactly those of a
+    previous group of the same tool class keeps its order (a spare continues where the
+    broken tool stopped).
+    """
+    t0 = time.perf_counter()
+    done_ids = tuple(dict.fromkeys(done))
+    partition = partition_specs(ctx.kb, ctx.specs, ctx.feature_kinds, ctx.spec_facts(), done=done_ids)
+    kept = _remaining_orders(previous) if previous else {}
+    held = held_tool(ctx.kb)
+    tools, transfer = order_groups(ctx, [g.tool for g in partition.groups], held)
+    groups = []
+    for tool in tools:
+        group = partition.group_of(tool)
+        assert group is not None
+        keep = kept.get(group.tool_class)
+        if keep is not None and sorted(keep) != sorted(group.spec_ids):
+            keep = None
+        planned = order_group(ctx, tool, group.spec_ids, keep=keep)
+        groups.append(replace(planned, rules=group.rules))
+    changes = len(groups) - (1 if groups and groups[0].tool == held else 0)
+    now = datetime.now(UTC).isoformat(timespec="seconds")
+    history = (previous.history if previous else ()) + (f"{now} {note or 'made'}",)
+    return SequencePlan(
+        part=ctx.part_name, specs_digest=ctx.specs_digest, method=ctx.method,
+        cost_model=ctx.cost_model.name, cost_interim=ctx.cost_model.interim, created=now,
+        build_seconds=round(time.perf_counter() - t0, 3), tool_state=tool_state(ctx.kb), groups=tuple(groups),
+        done=partition.done, cannot=partition.cannot, transfer_s=transfer, tool_changes=changes,
+        handed_out=previous.handed_out if previous else (), history=history,
+    )
+
+
+def _remaining_orders(plan: SequencePlan) -> dict[str, tuple[str, ...]]:
+    """Tool class -> the not-handed-out part of its group's order in `plan`."""
+    out = set(plan.handed_out)
+    return {g.tool_class: tuple(i for i in g.order if i not in out) for g in plan.groups}
+
+
+def partition_only(ctx: PlanningContext, done: Iterable[str] = ()) -> Partition:
+    """The partition of ``ctx.specs`` (no ordering), for reports and tests."""
+    return partition_specs(ctx.kb, ctx.specs, ctx.feature_kinds, ctx.spec_facts(), done=done)
+
+
+__all__ = [
+    "INTERIM_COST", "CostModel", "PlannedGroup", "PlanningContext", "SequencePlan",
+    "build_plan", "euclidean_slot_seconds", "euclidean_tcp_seconds", "held_tool", "order_group",
+    "order_groups", "partition_only", "planning_context", "slot_position", "specs_digest",
+    "tool_points_world", "tool_state",
+]
