@@ -1,0 +1,242 @@
+"""The Collision Avoidance Model: primitives, conservative cover of the part, the region
+tree's skipping, updates, and no missed collision against exact references."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import trimesh
+
+from ita.collision import ArmChecker, Regions, RegionTree, build_tree, kernels, mesh_regions, shapes, tool_tube
+from ita.collision.reference import BulletScene, FclScene, urdf_tubes
+from ita.workcell import load_workcell
+
+
+@pytest.fixture(scope="module")
+def cell():
+    return load_workcell()
+
+
+@pytest.fixture(scope="module")
+def part():
+    from ita.part.store import load_part
+    return load_part(None)
+
+
+@pytest.fixture(scope="module")
+def tree(cell, part):
+    return build_tree(cell, part)
+
+
+def _random_rotations(rng, n):
+    q = rng.normal(size=(n, 4))
+    q /= np.linalg.norm(q, axis=1, keepdims=True)
+    x, y, z, w = q.T
+    return np.stack([
+        np.stack([1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)], -1),
+        np.stack([2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)], -1),
+        np.stack([2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)], -1)], -2)
+
+
+def _random_regions(rng, n):
+    kinds = rng.integers(0, 3, n)
+    return Regions(kinds.astype(np.int8), rng.uniform(-1, 1, (n, 3)), _random_rotations(rng, n),
+                   rng.uniform(0.05, 0.5, (n, 3)) * np.where(kinds[:, None] == 0, 0.0, 1.0),
+                   np.where(kinds == 2, rng.uniform(0, 0.1, n) * (rng.random(n) < 0.3), rng.uniform(0.02, 0.4, n)))
+
+
+def _queries(rng, n, point_share=0.3):
+    p0 = rng.uniform(-1.5, 1.5, (n, 3))
+    p1 = p0 + rng.normal(size=(n, 3)) * rng.uniform(0, 1.0, (n, 1))
+    points = rng.random(n) < point_share
+    p1[points] = p0[points]
+    r = np.where(rng.random(n) < 0.5, 0.0, rng.uniform(0, 0.2, n))
+    return p0, p1, r
+
+
+# ---- primitives ------------------------------------------------------------------------
+
+def _box_point_distance(p, c, rot, half):
+    local = np.einsum("...ji,...j->...i", rot, p - c)
+    return np.linalg.norm(np.maximum(np.abs(local) - half, 0.0), axis=-1)
+
+
+def test_segment_box_distance_matches_dense_sampling():
+    rng = np.random.default_rng(1)
+    n = 300
+    p0, p1 = rng.uniform(-2, 2, (n, 3)), rng.uniform(-2, 2, (n, 3))
+    c, rot, half = rng.uniform(-0.5, 0.5, (n, 3)), _random_rotations(rng, n), rng.uniform(0.05, 1, (n, 3))
+    exact = shapes.segment_box_distance(p0, p1, c, rot, half)
+    t = np.linspace(0, 1, 4001)[:, None, None]
+    sampled = _box_point_distance(p0 + t * (p1 - p0), c, rot, half).min(axis=0)
+    assert np.all(exact <= sampled + 1e-12)
+    assert np.all(sampled - exact < 2e-3)       # the sampling's own step
+    assert np.array_equal(shapes.segment_hits_box(p0, p1, c, rot, half), exact == 0.0)
+    assert (exact == 0.0).any() and (exact > 0.0).any()
+
+
+def test_segment_segment_distance_matches_dense_sampling():
+    rng = np.random.default_rng(2)
+    n = 200
+    p0, p1, q0, q1 = (rng.uniform(-1, 1, (n, 3)) for _ in range(4))
+    p1[:20] = p0[:20]            # points
+    q1[10:30] = q0[10:30]
+    exact = shapes.segment_segment_distance(p0, p1, q0, q1)
+    s = np.linspace(0, 1, 401)
+    a = p0[:, None, :] + s[None, :, None] * (p1 - p0)[:, None, :]
+    b = q0[:, None, :] + s[None, :, None] * (q1 - q0)[:, None, :]
+    sampled = np.linalg.norm(a[:, :, None] - b[:, None, :], axis=-1).min(axis=(1, 2))
+    assert np.all(exact <= sampled + 1e-12)
+    assert np.all(sampled - exact < 1e-2)
+
+
+def test_point_tests_agree_with_distances():
+    rng = np.random.default_rng(3)
+    pts = rng.uniform(-1, 1, (500, 3))
+    c, rot, half = np.zeros(3), _random_rotations(rng, 1)[0], np.array([0.5, 0.3, 0.2])
+    assert np.array_equal(shapes.points_in_boxes(pts, c, rot, half), _box_point_distance(pts, c, rot, half) == 0)
+    a, b = np.array([-0.5, 0, 0]), np.array([0.5, 0.2, 0])
+    assert np.array_equal(shapes.points_in_tubes(pts, a, b, 0.3), shapes.point_segment_distance(pts, a, b) <= 0.3)
+    assert np.array_equal(shapes.points_in_spheres(pts, c, 0.6), np.linalg.norm(pts, axis=1) <= 0.6)
+
+
+def test_compiled_overlaps_equal_numpy_reference():
+    rng = np.random.default_rng(4)
+    reg = _random_regions(rng, 60)
+    p0, p1, r = _queries(rng, 400)
+    ref = shapes.queries_hit_regions(p0, p1, r, reg.kind, reg.position, reg.rotation, reg.half, reg.rad)
+    got = kernels.query_pairs(p0, p1, r, reg.kind, reg.position, reg.rotation, reg.half, reg.rad,
+                              reg.bounding_radius(), np.arange(len(reg)))
+    assert ref.mean() > 0.01
+    assert np.array_equal(got, ref)
+
+
+# ---- the tree ----------------------------------------------------------------------------
+
+def test_skipping_children_equals_brute_force():
+    rng = np.random.default_rng(5)
+    reg = _random_regions(rng, 400)
+    reg = Regions(reg.kind, reg.position * 4, reg.rotation, reg.half * 0.3, reg.rad * 0.3)
+    t = RegionTree(leaf_size=4)
+    for k, idx in enumerate(np.array_split(np.arange(400), 7)):
+        t.add(f"o{k}", Regions(*(getattr(reg, f)[idx] for f in ("kind", "position", "rotation", "half", "rad"))),
+              np.eye(4) if k % 2 else np.block([[_random_rotations(rng, 1)[0], np.zeros((3, 1))], [0, 0, 0, 1]]))
+    t.add_group("g", ["o0", "o1", "o2"])
+    assert t.containment_gaps() == []
+    p0, p1, r = _queries(rng, 5000)
+    p0, p1 = p0 * 3, p1 * 3
+    got = t.first_hits(p0, p1, r) >= 0
+    assert 0.03 < got.mean() < 0.9
+    assert np.array_equal(got, t.brute_force(p0, p1, r))
+
+
+def test_built_tree_is_sound(tree):
+    assert tree.containment_gaps() == []
+    rng = np.random.default_rng(6)
+    p0 = rng.uniform([-0.5, -2.9, -0.1], [3.3, 2.9, 2.5], (4000, 3))
+    p1 = p0 + rng.normal(size=p0.shape) * 0.3
+    r = rng.uniform(0, 0.1, len(p0))
+    assert np.array_equal(tree.first_hits(p0, p1, r) >= 0, tree.brute_force(p0, p1, r))
+
+
+@pytest.mark.parametrize("source", ["features", "mesh"])
+def test_part_cover_is_conservative(cell, part, source):
+    """Every mesh vertex and 20,000 surface points lie inside some solid region of the part."""
+    pts, _ = trimesh.sample.sample_surface(part.mesh, 20000, seed=7)
+    pts = np.vstack([pts, part.mesh.vertices])
+    if source == "features":
+        t = build_tree(cell, part)
+        hit = t.first_hits(cell.part.to_world(pts), cell.part.to_world(pts))
+        assert set(t.object_names(hit)) == {"part"}
+    else:
+        t = RegionTree()
+        t.add("part", mesh_regions(part.mesh))
+        assert t.points_hit(pts).all()
+        inside = part.mesh.contains(np.random.default_rng(8).uniform(*part.mesh.bounds, (20000, 3)))
+        probe = np.random.default_rng(8).uniform(*part.mesh.bounds, (20000, 3))[inside]
+        assert len(probe) > 100 and t.points_hit(probe).all()
+
+
+def test_updates_move_add_and_remove_without_rebuild(cell, part, tree):
+    t = build_tree(cell, part)
+    tool = cell.tool("us_probe_1")
+    slot = cell.slot_of("us_probe_1").pose.matrix()
+    centre_parked = (slot @ np.r_[tool.body_center, 1.0])[:3]
+    assert t.object_names(t.first_hits(centre_parked, centre_parked))[0] == "us_probe_1"
+    new = slot.copy()
+    new[:3, 3] += [0.3, -1.2, 0.5]                      # into free space above the floor
+    t.update("us_probe_1", new)
+    centre_new = (new @ np.r_[tool.body_center, 1.0])[:3]
+    assert t.object_names(t.first_hits(centre_new, centre_new))[0] == "us_probe_1"
+    assert not t.points_hit(centre_parked)[0]
+    assert t.containment_gaps() == []
+    rng = np.random.default_rng(9)
+    p0 = centre_new + rng.normal(size=(3000, 3)) * 0.2
+    p1 = p0 + rng.normal(size=p0.shape) * 0.1
+    assert np.array_equal(t.segments_hit(p0, p1), t.brute_force(p0, p1))
+    t.remove("us_probe_1")
+    assert not t.points_hit(centre_new)[0] and "us_probe_1" not in t.objects
+    ends, radius = tool_tube(tool)
+    t.add("held", Regions.tubes(*(new[:3, :3] @ ends.T).T + new[:3, 3], radius), new)
+    assert t.points_hit(centre_new)[0]
+
+
+def test_tool_tube_encloses_the_tool_box(cell):
+    for tool in cell.tools:
+        ends, radius = tool_tube(tool)
+        corners = np.array(tool.body_center) + np.array(tool.body_size) / 2 * np.array(
+            np.meshgrid([-1, 1], [-1, 1], [-1, 1])).reshape(3, -1).T
+        assert shapes.points_in_tubes(corners, ends[0], ends[1], radius + 1e-12).all()
+
+
+# ---- exact references ------------------------------------------------------------------
+
+def _near_scene_queries(cell, part, rng, n):
+    """Points and short segments near the part's surface, near box faces and anywhere."""
+    surf, _ = trimesh.sample.sample_surface(part.mesh, n // 3, seed=int(rng.integers(1 << 30)))
+    near_part = cell.part.to_world(surf) + rng.normal(size=(n // 3, 3)) * 0.004
+    boxes = cell.static_boxes()
+    pick = rng.integers(len(boxes), size=n // 3)
+    local = rng.uniform(-0.5, 0.5, (n // 3, 3))
+    face = rng.integers(3, size=n // 3)
+    local[np.arange(n // 3), face] = np.sign(local[np.arange(n // 3), face]) * 0.5
+    near_box = np.array([boxes[k].pose.matrix()[:3, :3] @ (np.array(boxes[k].size) * l) + boxes[k].pose.position
+                         for k, l in zip(pick, local)]) + rng.normal(size=(n // 3, 3)) * 0.004
+    anywhere = rng.uniform([-0.5, -2.9, -0.1], [3.3, 2.9, 2.5], (n - 2 * (n // 3), 3))
+    p0 = np.vstack([near_part, near_box, anywhere])
+    p1 = p0 + rng.normal(size=p0.shape) * rng.uniform(0.0, 0.05, (len(p0), 1))
+    return p0, p1
+
+
+def test_no_missed_collision_against_fcl(cell, part, tree):
+    """Whenever python-fcl (exact part mesh and boxes) says a point or a segment touches the
+    scene, the tree says so too; the false-positive rate is reported."""
+    pytest.importorskip("fcl", reason="python-fcl is a test extra: pip install python-fcl")
+    scene = FclScene(cell, part.mesh)
+    rng = np.random.default_rng(10)
+    p0, p1 = _near_scene_queries(cell, part, rng, 3000)
+    in_material = part.mesh.contains(cell.part.to_part(p0))    # fcl sees the mesh's surface only
+    for name, ref, got in (("points", scene.points_hit(p0) | in_material, tree.points_hit(p0)),
+                           ("segments", scene.segments_hit(p0, p1), tree.segments_hit(p0, p1))):
+        assert ref.sum() > 200
+        assert not np.any(ref & ~got), f"{name}: {np.sum(ref & ~got)} collisions missed"
+        print(f"\n{name}: fcl {ref.mean():.3f} hit, tree {got.mean():.3f}, false positives "
+              f"{np.sum(got & ~ref) / max(1, np.sum(~ref)):.3f} of the free ones")
+
+
+def test_no_missed_arm_collision_against_pybullet(cell, part, tree):
+    """Random configurations: whenever pybullet (real cylinders, exact part mesh) finds a
+    penetration deeper than 0.1 mm, the tube model finds a collision."""
+    rng = np.random.default_rng(11)
+    lo, hi = np.array(cell.arm.joints.lower), np.array(cell.arm.joints.upper)
+    q = rng.uniform(lo, hi, (400, 6))
+    with BulletScene(cell, part.mesh) as scene:
+        links, ends, radii, _ = urdf_tubes(cell.arm.urdf, BulletScene.LINKS)
+        frames = np.stack([scene.link_frames(c)[links] for c in q])          # (n, t, 4, 4)
+        segs = np.einsum("ntij,tkj->ntki", frames[..., :3, :3], ends) + frames[:, :, None, :3, 3]
+        ref = np.array([scene.arm_collides(c) for c in q])
+    got = ArmChecker(tree, radii, links, mount=[cell.pedestal.name]).collides(segs)
+    assert 0.05 < ref.mean() < 0.95
+    assert not np.any(ref & ~got), f"{np.sum(ref & ~got)} arm collisions missed"
+    print(f"\narm: pybullet {ref.mean():.3f} collide, tree {got.mean():.3f}, false positives "
+          f"{np.sum(got & ~ref) / max(1, np.sum(~ref)):.3f} of the free ones")
