@@ -1,0 +1,31 @@
+"""Robot controls of the simulated workcell: trajectories, the controller, the tool changer.
+
+    from ita.robot import RobotController, ToolChanger, from_waypoints
+    controller = RobotController(world)                     # world: ita.sim.world.SimWorld
+    reply = controller.execute(from_waypoints(world.model, [world.q, q_goal]))
+    reply = ToolChanger(controller).pick_up("us_probe_1")
+
+Every command answers with a `Reply`: DONE with the time taken, or an exception reply
+(BUMP, TIMEOUT, JOINT_LIMIT, REJECTED) saying what went wrong; nothing is raised.
+"""
+
+from ita.robot.controller import (
+    CONTROLLER,
+    Reply,
+    ReplyStatus,
+    RobotController,
+    joint_offset,
+)
+from ita.robot.toolchanger import ToolChanger
+from ita.robot.trajectory import TimedTrajectory, from_waypoints
+
+__all__ = [
+    "CONTROLLER",
+    "Reply",
+    "ReplyStatus",
+    "RobotController",
+    "TimedTrajectory",
+    "ToolChanger",
+    "from_waypoints",
+    "joint_offset",
+]

@@ -1,0 +1,184 @@
+"""Robot controls: execute a timed joint trajectory on the simulated arm and reply.
+
+    controller = RobotController(world)                 # world: ita.sim.world.SimWorld
+    reply = controller.execute(trajectory)              # a Reply, never an exception
+    if reply.ok: ... reply.time_s ...
+    else: reply.status (BUMP / TIMEOUT / JOINT_LIMIT / REJECTED), reply.contact, reply.joint
+
+The controller runs at a fixed control rate: every period it sets the joints to the
+trajectory's configuration at that time (kinematically: the arm follows its commands
+exactly while it moves) and checks for unplanned contact of the arm and its tool with
+everything else (`SimWorld.contacts`), bodies named in `allowed` excepted.  A contact
+stops the arm where it is and the reply is BUMP, naming what touched what and where.
+
+At the end of a move the arm settles with a positioning error: a Gaussian TCP offset of
+standard deviation repeatability / 3 per axis (the data sheet's +- figure read as 3
+sigma), plus the accumulated drift of the POSITION_DRIFT fault, applied as the smallest
+joint change that moves the TCP by that offset.  A controller hit by CONTROLLER_SILENT
+does not move and does not answer: the reply is TIMEOUT after the trajectory's duration
+plus `reply_timeout_s`.  The simulated clock advances by each reply's `time_s`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from dataclasses import dataclass, replace
+from enum import Enum
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ita.kinematics import ArmModel, flange_poses
+from ita.robot.trajectory import TimedTrajectory
+from ita.sim.faults import Fault
+from ita.sim.world import Contact, SimWorld
+
+FloatArray = NDArray[np.float64]
+CONTROLLER = "controller"       # the fault target naming the robot controller
+_START_TOLERANCE = 0.01         # rad: how far a trajectory may start from the arm's joints
+_LIMIT_TOLERANCE = 1e-9         # rad, and relative for speeds
+
+
+class ReplyStatus(str, Enum):
+    """How a command ended.  DONE is the normal reply; the others are exception replies."""
+
+    DONE = "done"
+    BUMP = "bump"
+    TIMEOUT = "timeout"
+    JOINT_LIMIT = "joint_limit"
+    REJECTED = "rejected"
+
+
+@dataclass(frozen=True)
+class Reply:
+    """The controller's answer to one command.
+
+    time_s: simulated time from the command to the reply; q: joint angles at the reply
+    (None after a timeout: nobody knows); contact: what bumped (BUMP); joint: the joint at
+    fault (JOINT_LIMIT); message: one line for people.
+    """
+
+    status: ReplyStatus
+    command: str
+    time_s: float
+    q: tuple[float, ...] | None
+    contact: Contact | None = None
+    joint: str = ""
+    message: str = ""
+
+    @property
+    def ok(self) -> bool:
+        """Whether this is the normal reply."""
+        return self.status is ReplyStatus.DONE
+
+
+class RobotController:
+    """The simulated arm's controller (see the module docstring).
+
+    rate_hz: control rate; reply_timeout_s: how long the caller waits beyond a command's
+    own duration before calling it a timeout; contact_margin: a gap (m) below which a
+    near miss counts as a bump (0: touching).
+    """
+
+    def __init__(self, world: SimWorld, *, rate_hz: float = 125.0, reply_timeout_s: float = 5.0,
+                 contact_margin: float = 0.0) -> None:
+        if rate_hz <= 0.0:
+            raise ValueError("rate_hz must be > 0")
+        self.world = world
+        self.rate_hz = float(rate_hz)
+        self.reply_timeout_s = float(reply_timeout_s)
+        self.contact_margin = float(contact_margin)
+        self._drift_direction = _unit(np.random.default_rng([world.seed, 3]).normal(size=3))
+
+    @property
+    def period(self) -> float:
+        """Control period (s)."""
+        return 1.0 / self.rate_hz
+
+    def execute(self, trajectory: TimedTrajectory, *, allowed: Iterable[str] = (),
+                command: str = "move") -> Reply:
+        """Run `trajectory` from the arm's current joints; the Reply says how it went."""
+        world = self.world
+        if world.faults.has(Fault.CONTROLLER_SILENT, CONTROLLER):
+            wait = trajectory.duration + self.reply_timeout_s
+            world.clock.advance(wait)
+            return Reply(ReplyStatus.TIMEOUT, command, wait, None,
+                         message=f"no reply from the controller within {wait:.1f} s")
+        problem = self._check(trajectory)
+        if problem is not None:
+            return replace(problem, command=command)
+        skip = tuple(allowed)
+        start = world.q
+        offset = start - trajectory.start          # blend the small start error out linearly
+        steps = max(1, int(np.ceil(trajectory.duration * self.rate_hz - 1e-9)))
+        times = np.minimum(np.arange(1, steps + 1) * self.period, trajectory.duration)
+        fade = 1.0 - times / trajectory.duration if trajectory.duration > 0 else np.zeros(steps)
+        configs = trajectory.sample(times) + fade[:, None] * offset
+        for t, q in zip(times, configs):
+            world.set_q(q)
+            hits = world.contacts(self.contact_margin, skip)
+            if hits:
+                return self._bump(command, float(t), hits)
+        world.set_q(trajectory.end + self._settle_error(trajectory.end))
+        hits = world.contacts(self.contact_margin, skip)
+        if hits:
+            return self._bump(command, trajectory.duration, hits)
+        world.clock.advance(trajectory.duration)
+        return Reply(ReplyStatus.DONE, command, trajectory.duration, tuple(map(float, world.q)))
+
+    def _bump(self, command: str, t: float, hits: list[Contact]) -> Reply:
+        self.world.clock.advance(t)
+        worst = min(hits, key=lambda c: c.distance)
+        return Reply(ReplyStatus.BUMP, command, t, tuple(map(float, self.world.q)), contact=worst,
+                     message=f"{worst.moving} touched {worst.obstacle} at {t:.3f} s")
+
+    def _check(self, trajectory: TimedTrajectory) -> Reply | None:
+        model = self.world.model
+        q = self.world.q
+        names = model.joint_names
+        if trajectory.q.shape[1] != model.dof:
+            return Reply(ReplyStatus.REJECTED, "", 0.0, tuple(q), message="wrong number of joints")
+        gap = np.abs(trajectory.start - q)
+        if gap.max() > _START_TOLERANCE:
+            j = int(np.argmax(gap))
+            return Reply(ReplyStatus.REJECTED, "", 0.0, tuple(q), joint=names[j],
+                         message=f"trajectory starts {gap[j]:.4f} rad from the arm at {names[j]}")
+        outside = (trajectory.q < model.lower - _LIMIT_TOLERANCE) | (trajectory.q > model.upper + _LIMIT_TOLERANCE)
+        if outside.any():
+            k, j = map(int, np.argwhere(outside)[0])
+            return Reply(ReplyStatus.JOINT_LIMIT, "", 0.0, tuple(q), joint=names[j],
+                         message=f"{names[j]} = {trajectory.q[k, j]:.4f} rad at {trajectory.times[k]:.3f} s "
+                                 f"is outside [{model.lower[j]:.4f}, {model.upper[j]:.4f}]")
+        if len(trajectory.times) > 1:
+            speed = np.abs(trajectory.velocities()).max(axis=0)
+            over = speed > model.velocity * (1.0 + 1e-6)
+            if over.any():
+                j = int(np.argmax(speed / model.velocity))
+                return Reply(ReplyStatus.JOINT_LIMIT, "", 0.0, tuple(q), joint=names[j],
+                             message=f"{names[j]} speed {speed[j]:.3f} rad/s exceeds {model.velocity[j]:.3f}")
+        return None
+
+    def _settle_error(self, q: FloatArray) -> FloatArray:
+        """Joint change (6,) that puts the TCP off by the repeatability draw plus drift."""
+        world = self.world
+        if world.faults.has(Fault.POSITION_DRIFT, CONTROLLER):
+            world.drift_m = world.drift_m + world.faults.drift_per_move_m * self._drift_direction
+        sigma = world.cell.arm.repeatability_m / 3.0
+        offset = world.rng.normal(0.0, sigma, 3) + world.drift_m
+        tcp = world.held_tool.tcp.matrix() if world.held_tool is not None else np.eye(4)
+        return joint_offset(world.model, q, tcp, offset)
+
+
+def joint_offset(model: ArmModel, q: ArrayLike, tcp: ArrayLike, offset: ArrayLike) -> FloatArray:
+    """The least-norm joint change (6,) that moves the TCP (4, 4 in the flange frame) at
+    joints q (6,) by the small world offset (3,) m (position Jacobian pseudo-inverse)."""
+    q = np.asarray(q, dtype=float)
+    eps = 1e-6
+    qs = np.vstack([q, q + eps * np.eye(model.dof)])
+    points = (flange_poses(model, qs) @ np.asarray(tcp, dtype=float))[:, :3, 3]
+    jac = ((points[1:] - points[0]) / eps).T                     # (3, 6)
+    return np.linalg.pinv(jac) @ np.asarray(offset, dtype=float)
+
+
+def _unit(v: FloatArray) -> FloatArray:
+    return v / np.linalg.norm(v)

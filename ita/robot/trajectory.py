@@ -1,0 +1,123 @@
+"""Timed joint trajectories: what the robot controller executes.
+
+A `TimedTrajectory` is knots (times (m,) s from 0, strictly increasing; q (m, 6) rad);
+between knots the controller interpolates linearly, so a builder puts knots densely
+enough that the straight pieces follow the intended profile.
+
+`from_waypoints` is a simple builder for tests and benchmarks (the path planner makes
+the real ones): rest-to-rest segments through joint waypoints, every joint following
+one trapezoidal speed profile scaled to its own distance (synchronised: all joints start
+and stop together).  The profile's peak speed and acceleration are the largest that keep
+every joint within its velocity and acceleration limits, so a segment takes at least as
+long as `ita.kinematics.move_time` says (exactly as long when one joint limits both).
+The TCP speed limit is not applied.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from itertools import pairwise
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ita.kinematics import ArmModel
+
+FloatArray = NDArray[np.float64]
+KNOT_PERIOD = 0.02  # s between the knots the builder writes
+
+
+@dataclass(frozen=True, eq=False)
+class TimedTrajectory:
+    """Joint configurations q (m, 6) rad to pass at times (m,) s (times[0] = 0)."""
+
+    times: FloatArray
+    q: FloatArray
+
+    def __post_init__(self) -> None:
+        t = np.array(self.times, dtype=float).reshape(-1)
+        q = np.array(self.q, dtype=float)
+        if q.ndim != 2 or q.shape[0] != t.size or t.size < 1:
+            raise ValueError(f"times (m,) and q (m, dof) must agree, got {t.shape} and {q.shape}")
+        if not np.all(np.isfinite(t)) or not np.all(np.isfinite(q)):
+            raise ValueError("times and q must be finite")
+        if t[0] != 0.0 or np.any(np.diff(t) <= 0.0):
+            raise ValueError("times must start at 0 and increase strictly")
+        t.setflags(write=False)
+        q.setflags(write=False)
+        object.__setattr__(self, "times", t)
+        object.__setattr__(self, "q", q)
+
+    @property
+    def duration(self) -> float:
+        """Total time (s)."""
+        return float(self.times[-1])
+
+    @property
+    def start(self) -> FloatArray:
+        """First configuration (dof,)."""
+        return self.q[0].copy()
+
+    @property
+    def end(self) -> FloatArray:
+        """Last configuration (dof,)."""
+        return self.q[-1].copy()
+
+    def sample(self, t: ArrayLike) -> FloatArray:
+        """Configurations (k, dof) at times t (k,) (clamped to [0, duration]), linearly
+        interpolated between knots."""
+        tt = np.clip(np.atleast_1d(np.asarray(t, dtype=float)), 0.0, self.duration)
+        return np.stack([np.interp(tt, self.times, self.q[:, j]) for j in range(self.q.shape[1])], axis=-1)
+
+    def velocities(self) -> FloatArray:
+        """Joint speeds (m - 1, dof) rad/s of the straight pieces between knots."""
+        return np.diff(self.q, axis=0) / np.diff(self.times)[:, None]
+
+
+def profile_time(distance: ArrayLike, velocity: ArrayLike, acceleration: ArrayLike) -> tuple[float, float, float]:
+    """Synchronised rest-to-rest profile for joint distances (dof,): (T, V, A) where every
+    joint moves s(t) * distance with s rising 0 -> 1 at peak rate V (1/s) and A (1/s^2)."""
+    d = np.abs(np.asarray(distance, dtype=float))
+    if not np.any(d > 0.0):
+        return 0.0, 0.0, 0.0
+    moving = d > 0.0
+    vmax = float(np.min(np.asarray(velocity, float)[moving] / d[moving]))
+    amax = float(np.min(np.asarray(acceleration, float)[moving] / d[moving]))
+    if vmax * vmax / amax >= 1.0:  # triangle: never reaches the speed limit
+        return 2.0 / np.sqrt(amax), float(np.sqrt(amax)), amax
+    return 1.0 / vmax + vmax / amax, vmax, amax
+
+
+def profile_position(t: ArrayLike, duration: float, peak: float, accel: float) -> FloatArray:
+    """Normalised position s(t) in [0, 1] of a trapezoidal (or triangular) profile."""
+    t = np.clip(np.asarray(t, dtype=float), 0.0, duration)
+    ta = peak / accel if accel > 0 else 0.0
+    rise = 0.5 * accel * t * t
+    cruise = 0.5 * accel * ta * ta + peak * (t - ta)
+    back = duration - t
+    fall = 1.0 - 0.5 * accel * back * back
+    return np.where(t < ta, rise, np.where(t > duration - ta, fall, cruise))
+
+
+def from_waypoints(model: ArmModel, waypoints: ArrayLike, knot_period: float = KNOT_PERIOD,
+                   speed_scale: float = 1.0) -> TimedTrajectory:
+    """A rest-to-rest trajectory through joint waypoints (k, 6), k >= 1 (see module doc).
+
+    speed_scale in (0, 1] slows every segment (velocity x s, acceleration x s^2).
+    A single waypoint (or all equal) gives a one-knot trajectory of duration 0.
+    """
+    w = np.asarray(waypoints, dtype=float).reshape(-1, model.dof)
+    if not 0.0 < speed_scale <= 1.0:
+        raise ValueError(f"speed_scale must be in (0, 1], got {speed_scale}")
+    times, qs = [0.0], [w[0]]
+    for a, b in pairwise(w):
+        total, peak, accel = profile_time(b - a, model.velocity * speed_scale,
+                                          model.acceleration * speed_scale**2)
+        if total <= 0.0:
+            continue
+        n = max(2, int(np.ceil(total / knot_period)))
+        local = np.linspace(0.0, total, n + 1)[1:]
+        s = profile_position(local, total, peak, accel)
+        qs.extend(a + s[:, None] * (b - a))
+        times.extend(times[-1] + local)
+    return TimedTrajectory(np.array(times), np.array(qs))

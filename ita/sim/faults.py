@@ -1,0 +1,65 @@
+"""Faults of the simulated workcell, switched on by tests and (later) by fault injection.
+
+A `FaultSet` is a value: `FaultSet().with_fault(Fault.BROKEN_PROBE, "us_probe_1")` is a
+new set; the world holds the current one (`SimWorld.faults`) and the simulated devices
+read it on every command.  A fault has a target, the name of the tool (or device) it
+hits; the empty target hits every one.
+
+    BROKEN_PROBE       the probe's element is dead: no echo at all
+    WORN_PROBE         a worn probe face: weak echo, the gauge locks on the second
+                       back-wall echo and reads double
+    DRY_COUPLANT       the dispenser gives nothing (empty or dried): no coupling
+    CONTROLLER_SILENT  the robot controller stops answering: commands time out
+    SENSOR_GARBAGE     the gauge's replies are corrupt (out-of-domain values)
+    POSITION_DRIFT     the arm's position drifts a little further with every move
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, replace
+from enum import Enum
+
+
+class Fault(str, Enum):
+    """A fault that can be switched on.  The value is the spelling in files and Prolog."""
+
+    BROKEN_PROBE = "broken_probe"
+    WORN_PROBE = "worn_probe"
+    DRY_COUPLANT = "dry_couplant"
+    CONTROLLER_SILENT = "controller_silent"
+    SENSOR_GARBAGE = "sensor_garbage"
+    POSITION_DRIFT = "position_drift"
+
+
+@dataclass(frozen=True)
+class FaultSet:
+    """The faults switched on: (fault, target) pairs; target '' hits every tool/device.
+
+    drift_per_move_m: how far (m) the TCP drifts, in one fixed direction, with every
+    move while POSITION_DRIFT is on.
+    """
+
+    active: frozenset[tuple[Fault, str]] = frozenset()
+    drift_per_move_m: float = 5e-5
+
+    def with_fault(self, fault: Fault | str, target: str = "") -> FaultSet:
+        """This set plus `fault` on `target` ('' = everything)."""
+        return replace(self, active=self.active | {(Fault(fault), target)})
+
+    def without(self, fault: Fault | str, target: str | None = None) -> FaultSet:
+        """This set minus `fault` on `target` (None: on every target)."""
+        f = Fault(fault)
+        return replace(self, active=frozenset(
+            (g, t) for g, t in self.active if not (g is f and (target is None or t == target))))
+
+    def has(self, fault: Fault | str, target: str = "") -> bool:
+        """Whether `fault` hits `target`: switched on for it or for everything."""
+        f = Fault(fault)
+        return (f, "") in self.active or (target != "" and (f, target) in self.active)
+
+    def __bool__(self) -> bool:
+        return bool(self.active)
+
+    def names(self) -> list[str]:
+        """'fault' or 'fault@target' of each active fault, sorted (for logs and reports)."""
+        return sorted(f.value + (f"@{t}" if t else "") for f, t in self.active)

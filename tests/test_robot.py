@@ -1,0 +1,195 @@
+"""Robot controls: trajectories, execution, bumps, limits, positioning error, faults, tool changes."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from ita.kinematics import flange_poses, move_time
+from ita.robot import (
+    CONTROLLER,
+    ReplyStatus,
+    RobotController,
+    TimedTrajectory,
+    ToolChanger,
+    from_waypoints,
+)
+from ita.robot.trajectory import profile_position, profile_time
+from ita.sim.faults import Fault, FaultSet
+from ita.sim.world import SimWorld
+
+READY = np.array([0.0, 0.057, 0.614, 0.0, 0.114, 1.571])
+# found by sampling: joint moves from READY that run into these bodies
+INTO_FIXTURE = np.array([0.111, 0.507, -0.435, -0.162, 0.128, 1.7])
+INTO_PART = np.array([-0.224, 1.041, -0.483, 0.232, 0.053, 1.808])
+
+
+@pytest.fixture(scope="module")
+def world(builtin_part):
+    with SimWorld(part_dir=builtin_part.directory, seed=5, q0=READY) as w:
+        yield w
+
+
+@pytest.fixture()
+def ctl(world):
+    """A controller on the module's world, which is put back as it was after the test."""
+    with world.saved_state():
+        world.set_q(READY)
+        world.faults = FaultSet()
+        yield RobotController(world)
+        world.faults = FaultSet()
+
+
+def test_trajectory_rejects_bad_knots():
+    with pytest.raises(ValueError, match="increase"):
+        TimedTrajectory(np.array([0.0, 1.0, 1.0]), np.zeros((3, 6)))
+    with pytest.raises(ValueError, match="agree"):
+        TimedTrajectory(np.array([0.0, 1.0]), np.zeros((3, 6)))
+    with pytest.raises(ValueError, match="start at 0"):
+        TimedTrajectory(np.array([0.5, 1.0]), np.zeros((2, 6)))
+
+
+def test_builder_is_synchronised_and_within_limits(world):
+    model = world.model
+    a, b = READY, READY + np.array([0.6, -0.3, 0.4, 1.0, -0.5, 2.0])
+    traj = from_waypoints(model, [a, b], knot_period=0.005)
+    np.testing.assert_allclose(traj.start, a)
+    np.testing.assert_allclose(traj.end, b)
+    assert traj.duration >= float(move_time(model, a, b)) - 1e-9
+    speed = np.abs(traj.velocities())
+    assert np.all(speed <= model.velocity * (1 + 1e-6))
+    accel = np.abs(np.diff(traj.velocities(), axis=0)) / 0.005
+    assert np.all(accel <= model.acceleration * 1.01)
+    share = (traj.q - a) / (b - a)                          # every joint at the same fraction
+    np.testing.assert_allclose(share, share[:, :1].repeat(6, axis=1), atol=1e-9)
+
+
+def test_single_joint_move_takes_the_kinematics_move_time(world):
+    b = READY + np.array([0.0, 0.0, 0.0, 0.0, 0.0, 0.7])
+    traj = from_waypoints(world.model, [READY, b])
+    assert traj.duration == pytest.approx(float(move_time(world.model, READY, b)))
+    total, peak, accel = profile_time(b - READY, world.model.velocity, world.model.acceleration)
+    assert total == pytest.approx(traj.duration)
+    assert profile_position([0.0, total / 2, total], total, peak, accel) == pytest.approx([0.0, 0.5, 1.0])
+
+
+def test_execution_takes_the_trajectory_duration(ctl):
+    world = ctl.world
+    goal = READY + np.array([0.3, -0.1, 0.2, 0.2, -0.2, 0.3])
+    traj = from_waypoints(world.model, [READY, goal])
+    t0 = world.clock.now
+    reply = ctl.execute(traj, command="test move")
+    assert reply.ok and reply.command == "test move"
+    assert reply.time_s == pytest.approx(traj.duration)
+    assert world.clock.now - t0 == pytest.approx(traj.duration)
+    tip_error = flange_poses(world.model, world.q)[0, :3, 3] - flange_poses(world.model, goal)[0, :3, 3]
+    assert np.linalg.norm(tip_error) < 0.5e-3          # only the positioning error
+
+
+@pytest.mark.parametrize("goal, obstacle", [(INTO_FIXTURE, "fixture_beam_high"), (INTO_PART, "part")])
+def test_driving_into_something_stops_with_a_bump(ctl, goal, obstacle):
+    world = ctl.world
+    traj = from_waypoints(world.model, [READY, goal])
+    reply = ctl.execute(traj)
+    assert reply.status is ReplyStatus.BUMP and not reply.ok
+    assert reply.contact.obstacle == obstacle
+    assert reply.contact.moving.startswith("link")
+    assert 0.0 < reply.time_s < traj.duration
+    assert obstacle in reply.message
+    np.testing.assert_allclose(world.q, reply.q)
+    assert not np.allclose(world.q, goal, atol=1e-3)       # stopped on the way
+    assert world.contacts()                                 # where it touched
+
+
+def test_allowed_contact_is_not_a_bump(ctl):
+    world = ctl.world
+    traj = from_waypoints(world.model, [READY, INTO_FIXTURE])
+    reply = ctl.execute(traj, allowed=["fixture_beam_high"])
+    assert reply.status is ReplyStatus.BUMP and reply.contact.obstacle != "fixture_beam_high"
+    world.set_q(READY)
+    assert ctl.execute(traj, allowed=list(world.bodies)).ok
+
+
+def test_joint_limits_are_refused_before_moving(ctl):
+    world = ctl.world
+    bad = READY.copy()
+    bad[1] = world.model.upper[1] + 0.05
+    t0 = world.clock.now
+    reply = ctl.execute(TimedTrajectory(np.array([0.0, 10.0]), np.array([READY, bad])))
+    assert reply.status is ReplyStatus.JOINT_LIMIT and reply.joint == "j2"
+    assert reply.time_s == 0.0 and world.clock.now == t0
+    np.testing.assert_allclose(world.q, READY)
+    fast = READY + np.array([0.0, 0.0, 0.0, 0.0, 0.0, 1.0])
+    reply = ctl.execute(TimedTrajectory(np.array([0.0, 0.1]), np.array([READY, fast])))
+    assert reply.status is ReplyStatus.JOINT_LIMIT and reply.joint == "j6" and "speed" in reply.message
+
+
+def test_trajectory_must_start_at_the_arm(ctl):
+    far = READY + 0.2
+    reply = ctl.execute(from_waypoints(ctl.world.model, [far, READY]))
+    assert reply.status is ReplyStatus.REJECTED
+
+
+def _tcp_errors(ctl, moves):
+    world = ctl.world
+    target = flange_poses(world.model, READY)[0, :3, 3]
+    errors = []
+    still = TimedTrajectory(np.array([0.0]), READY[None])
+    for _ in range(moves):
+        world.set_q(READY)
+        assert ctl.execute(still).ok
+        errors.append(world.flange_pose()[:3, 3] - target)
+    return np.array(errors)
+
+
+def test_repeatability_error_has_the_stated_spread(ctl):
+    errors = _tcp_errors(ctl, 400)
+    sigma = ctl.world.cell.arm.repeatability_m / 3.0
+    np.testing.assert_allclose(errors.std(axis=0), sigma, rtol=0.15)
+    assert np.all(np.abs(errors.mean(axis=0)) < 4 * sigma / np.sqrt(400))
+    assert np.max(np.abs(errors)) < 5 * sigma
+
+
+def test_drift_accumulates_move_after_move(ctl):
+    world = ctl.world
+    world.faults = FaultSet(drift_per_move_m=1e-4).with_fault(Fault.POSITION_DRIFT, CONTROLLER)
+    errors = _tcp_errors(ctl, 30)
+    offsets = np.linalg.norm(errors, axis=1)
+    assert offsets[-5:].mean() > 2.5e-3                   # about 30 x 0.1 mm
+    assert offsets[-5:].mean() > 5 * offsets[:3].mean()
+    world.faults = FaultSet()
+    assert np.linalg.norm(_tcp_errors(ctl, 3), axis=1).min() > 2.5e-3   # the drift stays until recalibrated
+
+
+def test_silent_controller_times_out_without_moving(ctl):
+    world = ctl.world
+    world.faults = FaultSet().with_fault(Fault.CONTROLLER_SILENT)
+    traj = from_waypoints(world.model, [READY, READY + 0.1])
+    t0 = world.clock.now
+    reply = ctl.execute(traj)
+    assert reply.status is ReplyStatus.TIMEOUT and reply.q is None
+    assert reply.time_s == pytest.approx(traj.duration + ctl.reply_timeout_s)
+    assert world.clock.now - t0 == pytest.approx(reply.time_s)
+    np.testing.assert_allclose(world.q, READY)
+
+
+def test_tool_pick_up_and_put_down(ctl):
+    world = ctl.world
+    changer = ToolChanger(ctl)
+    t0 = world.clock.now
+    reply = changer.pick_up("us_probe_1")
+    assert reply.ok, reply
+    assert world.held == "us_probe_1"
+    assert reply.time_s > changer.latch_time_s and world.clock.now - t0 == pytest.approx(reply.time_s)
+    np.testing.assert_allclose(world.tool_pose("us_probe_1"), world.flange_pose(), atol=1e-6)
+    lifted = world.q + np.array([0.0, -0.2, 0.0, 0.0, 0.0, 0.0])
+    assert ctl.execute(from_waypoints(world.model, [world.q, lifted])).ok
+    np.testing.assert_allclose(world.tool_pose("us_probe_1"), world.flange_pose(), atol=1e-6)
+    assert changer.pick_up("us_probe_2").status is ReplyStatus.REJECTED
+    reply = changer.put_down()
+    assert reply.ok, reply
+    assert world.held is None
+    np.testing.assert_allclose(world.tool_pose("us_probe_1"), world.cell.slot_of("us_probe_1").pose.matrix(),
+                               atol=1e-6)
+    assert changer.put_down().status is ReplyStatus.REJECTED
+    assert changer.pick_up("no_such_tool").status is ReplyStatus.REJECTED
