@@ -36,7 +36,8 @@ from ita.kinematics.fk import ArmModel, invert_poses
 
 FloatArray = NDArray[np.float64]
 TWO_PI = 2.0 * np.pi
-_ANGLE_TOL = 1e-9   # rad: slack at the joint limits
+_ANGLE_TOL = 1e-7   # rad: slack at the joint limits (IK near a singularity loses ~1e-8 rad);
+                    # solutions within it are clipped onto the limit
 _REACH_TOL = 1e-12  # slack on |sin j3| <= 1 at the edge of the workspace
 _TURN_SLACK = 1e-3  # rad: a range this little over a turn (j4's +-3.141593) gives no second turn
 
@@ -152,6 +153,7 @@ def ik_flange(model: ArmModel, poses: ArrayLike, wrist_margin: float = 0.0) -> I
     q, solved = _branches(model, invert_poses(model.base) @ flat)          # (m, 8, 6), (m, 8)
     q, solved = _wrap_into_limits(model, q, solved)                          # (m, K, 6), (m, K)
     inside = (q >= model.lower - _ANGLE_TOL) & (q <= model.upper + _ANGLE_TOL)
+    q = np.where(inside, np.clip(q, model.lower, model.upper), q)
     violations = solved[..., None] & ~inside
     clearance = np.abs(np.sin(q[..., 4]))
     in_limits = solved & inside.all(axis=-1)
