@@ -31,7 +31,8 @@ def test_sequence_prints_groups_and_stores_the_plan(ita, tmp_path):
     assert result.exit_code == 0, result.output
     out = result.output
     assert "1. slra_1" in out and "2. us_probe_1" in out
-    assert "tool changes: 2" in out and "total:" in out and "not the arm's motion time" in out
+    assert "tool changes: 2" in out and "total:" in out and "seconds of arm motion" in out
+    assert "estimate" not in out
     assert (tmp_path / "home" / "plans" / "bulkhead.json").is_file()
     assert (tmp_path / "seq.png").stat().st_size > 10_000
 
@@ -44,7 +45,8 @@ def test_sequence_json(ita):
     assert [g["tool"] for g in data["groups"]] == ["slra_1", "us_probe_1"]
     assert data["total_s"] == pytest.approx(sum(g["cost_s"] for g in data["groups"]) + data["transfer_s"],
                                             abs=0.01)
-    assert data["cost_interim"] is True
+    assert data["cost_interim"] is False and data["cost_model"] == "arm_motion_time"
+    assert "joint-space move times" in data["cost_includes"]
 
 
 def test_next_resequences_after_a_tool_breaks(ita):

@@ -11,9 +11,8 @@ import pytest
 from ita.errors import InputError
 from ita.sequence.next_step import next_step, peek
 from ita.sequence.plan import (
-    INTERIM_COST,
+    MOTION_TIME_COST,
     build_plan,
-    euclidean_tcp_seconds,
     planning_context,
     tool_points_world,
 )
@@ -76,7 +75,7 @@ def test_plan_accounts_for_every_measurement(ctx, world):
     assert sorted(_all_ids(plan)) == sorted(ids)
     assert [g.tool for g in plan.groups] == ["slra_1", "us_probe_1"]
     assert plan.tool_changes == 2
-    assert plan.cost_interim and plan.cost_model == INTERIM_COST.name
+    assert not plan.cost_interim and plan.cost_model == MOTION_TIME_COST.name
     assert plan.total_s == pytest.approx(sum(g.cost_s for g in plan.groups) + plan.transfer_s)
     assert plan.transfer_s > 0
 
@@ -87,7 +86,7 @@ def test_group_cost_is_the_closed_tour_from_the_rack(ctx, world):
     g = plan.groups[1]
     spec = ctx.workcell.tool(g.tool)
     specs = [ctx.spec(i) for i in g.order]
-    m = euclidean_tcp_seconds(ctx.workcell, spec, specs)  # stops in visiting order
+    m = ctx.cost_model.tour(ctx.workcell, spec, specs)  # stops in visiting order
     n = len(specs)
     expected = m[0, 1] + sum(m[k, k + 1] for k in range(1, n)) + m[n, 0]
     assert g.cost_s == pytest.approx(expected)

@@ -52,13 +52,22 @@ def _unit(plan: SequencePlan) -> str:
     return "s (estimate)" if plan.cost_interim else "s"
 
 
+def cost_includes(plan: SequencePlan) -> str:
+    """What the plan's seconds include: its cost model's description."""
+    from ita.sequence.cost import COST_MODELS
+
+    model = COST_MODELS.get(plan.cost_model)
+    return model.description if model else f"unknown cost model {plan.cost_model!r}"
+
+
 def plan_summary(plan: SequencePlan) -> dict[str, Any]:
     """The figures of a plan for people and scripts (no orders)."""
     from collections import Counter
 
     return {
         "part": plan.part, "method": plan.method, "cost_model": plan.cost_model,
-        "cost_interim": plan.cost_interim, "measurements": plan.measurement_count,
+        "cost_interim": plan.cost_interim, "cost_includes": cost_includes(plan),
+        "measurements": plan.measurement_count,
         "groups": [{"tool": g.tool, "tool_class": g.tool_class, "count": len(g.order),
                     "cost_s": round(g.cost_s, 3), "rules": dict(g.rules)} for g in plan.groups],
         "done": len(plan.finished()),
@@ -85,11 +94,17 @@ def format_plan(plan: SequencePlan) -> str:
         reasons[r] = reasons.get(r, 0) + 1
     for reason, count in sorted(reasons.items(), key=lambda kv: -kv[1]):
         lines.append(f"      {count:>5}  {reason}")
-    lines.append(f"tool changes: {plan.tool_changes}   between rack slots: {plan.transfer_s:.1f} {unit}")
+    at_rack = "between rack slots" if plan.cost_interim else "at the rack (pick-ups, put-downs, slot to slot)"
+    lines.append(f"tool changes: {plan.tool_changes}   {at_rack}: {plan.transfer_s:.1f} {unit}")
     lines.append(f"total: {plan.total_s:.1f} {unit}")
     if plan.cost_interim:
         lines.append(f"  (cost model {plan.cost_model}: straight-line tool-point distance at the arm's top "
                      "tool speed, a lower bound; not the arm's motion time)")
+    else:
+        import textwrap
+
+        lines.append(textwrap.fill(f"(cost model {plan.cost_model}: {cost_includes(plan)})", width=92,
+                                   initial_indent="  ", subsequent_indent="   "))
     if plan.handed_out:
         lines.append(f"progress: {len(plan.handed_out)} handed out, {len(plan.pending())} to go")
     broken = {t: s for t, s in plan.tool_state.items()

@@ -1,23 +1,24 @@
 """Build the whole sequence plan: partition by tool, order each group, order the groups.
 
     ctx = planning_context()                 # the built-in bulkhead, its workcell, the KB
-    plan = build_plan(ctx)                   # SequencePlan (frozen), ~2 s for 1000 specs
+    plan = build_plan(ctx)                   # SequencePlan (frozen), ~3 s for 1000 specs
     plan.groups[0].order                     # spec ids in visiting order
-    plan.total_s                             # estimated seconds of arm motion
+    plan.total_s                             # seconds of arm motion, tool changes included
 
 Each tool group is a closed tour that starts at the tool's rack slot (pick it up), visits
 every measurement of the group and returns to the slot (put it back), solved with
 ita.sequence.tour.solve_tour.  Groups are visited one after the other, one visit to the
 rack per tool: the tool changes are as few as the groups (one fewer when the arm already
-holds the first group's tool), and the group order is the one with the least transfer
-time between rack slots, the held tool's group first.
+holds the first group's tool), and the group order is the one with the least time at the
+rack (tool changes, see ita.sequence.cost.rack_seconds), the held tool's group first.
 
-COST MODEL: pluggable (:class:`CostModel`).  Until the arm's joint-space motion time
-(ita/kinematics/timing.py) is wired in, :data:`INTERIM_COST` estimates seconds as the
-straight-line distance of the tool centre point over the controller's top TCP speed
-(workcell.toml `max_tool_speed`): a lower bound of the true motion time, NOT arm motion
-time.  LEAD: wire the kinematics cost here (make a CostModel whose `tour` returns the
-joint-space motion times between the stops, and pass it in PlanningContext.cost_model).
+COST MODEL: pluggable (:class:`ita.sequence.cost.CostModel`, by name in
+:data:`COST_MODELS`).  The default, :data:`MOTION_TIME_COST`, is the arm's joint-space
+motion time between one inverse-kinematics configuration per measurement (chosen before
+the ordering), with the tool changes at the rack; its facts function
+(:func:`ita.sequence.cost.pose_facts`) sends a measurement with no configuration to
+cannot-be-done as ``no_pose``.  :data:`INTERIM_COST` (straight-line tool-point distance
+over the top TCP speed, labelled an estimate) stays available for comparisons.
 """
 
 from __future__ import annotations
@@ -25,7 +26,7 @@ from __future__ import annotations
 import hashlib
 import itertools
 import time
-from collections.abc import Callable, Iterable, Mapping, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from datetime import UTC, datetime
 from pathlib import Path
@@ -33,91 +34,31 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ita.sequence.cost import (
+    COST_MODELS,
+    INTERIM_COST,
+    MOTION_TIME_COST,
+    CostModel,
+    euclidean_slot_seconds,
+    euclidean_tcp_seconds,
+    pose_facts,
+    slot_position,
+    tool_points_world,
+)
 from ita.sequence.partition import (
     FactsFunction,
     Partition,
     feature_kinds_of,
     partition_specs,
-    reach_facts,
 )
 from ita.specs.model import MeasurementSpec
 
 if TYPE_CHECKING:
     from ita.logic.bridge import KnowledgeBase
     from ita.part.model import Part
-    from ita.workcell.model import ToolSpec, Workcell
+    from ita.workcell.model import Workcell
 
 PLAN_VERSION = 1
-
-
-# -- cost models ---------------------------------------------------------------------
-
-TourCost = Callable[["Workcell", "ToolSpec", Sequence[MeasurementSpec]], np.ndarray]
-TransferCost = Callable[["Workcell", str, str], float]
-
-
-@dataclass(frozen=True)
-class CostModel:
-    """How many seconds the arm needs between stops.
-
-    tour(workcell, tool, specs) -> ``(n + 1, n + 1) float`` seconds between the stops of a
-    tool group: stop 0 is the tool's rack slot, stop i + 1 is specs[i] (may be
-    asymmetric).  transfer(workcell, tool_a, tool_b) -> seconds from tool_a's slot to
-    tool_b's (after putting one tool back, to pick up the next).  `interim` marks an
-    estimate that is not the arm's motion time.
-    """
-
-    name: str
-    description: str
-    tour: TourCost
-    transfer: TransferCost
-    interim: bool = False
-
-
-def tool_points_world(workcell: Workcell, tool: ToolSpec, specs: Sequence[MeasurementSpec]) -> np.ndarray:
-    """``(n, 3) float``: world position (m) of the tool centre point at each spec.
-
-    The probe's tip on the spec point; the SLRA's optical centre on the normal at its
-    nominal stand-off.
-    """
-    points = np.array([s.point for s in specs], dtype=float).reshape(-1, 3)
-    normals = np.array([s.normal for s in specs], dtype=float).reshape(-1, 3)
-    world = workcell.part.to_world(points)
-    if tool.standoff_nominal:
-        n_world = workcell.part.normals_to_world(normals)
-        n_world /= np.linalg.norm(n_world, axis=1, keepdims=True)
-        world = world + n_world * tool.standoff_nominal
-    return world
-
-
-def slot_position(workcell: Workcell, tool_name: str) -> np.ndarray:
-    """``(3,) float``: world position (m) of the rack slot where `tool_name` is parked."""
-    for slot in workcell.rack.slots:
-        if slot.tool == tool_name:
-            return np.asarray(slot.pose.position, dtype=float)
-    raise ValueError(f"no rack slot holds tool {tool_name!r}")
-
-
-def euclidean_tcp_seconds(workcell: Workcell, tool: ToolSpec, specs: Sequence[MeasurementSpec]) -> np.ndarray:
-    """INTERIM tour cost: straight-line TCP distance / max TCP speed, ``(n + 1, n + 1)`` s."""
-    stops = np.vstack([slot_position(workcell, tool.name)[None, :], tool_points_world(workcell, tool, specs)])
-    diff = stops[:, None, :] - stops[None, :, :]
-    return np.sqrt(np.einsum("ijk,ijk->ij", diff, diff)) / workcell.arm.max_tool_speed
-
-
-def euclidean_slot_seconds(workcell: Workcell, tool_a: str, tool_b: str) -> float:
-    """INTERIM transfer cost: straight-line distance between two rack slots / max TCP speed."""
-    d = np.linalg.norm(slot_position(workcell, tool_a) - slot_position(workcell, tool_b))
-    return float(d / workcell.arm.max_tool_speed)
-
-
-INTERIM_COST = CostModel(
-    name="euclidean_tcp_interim",
-    description="straight-line tool-point distance / max tool speed (interim lower bound, not arm motion time)",
-    tour=euclidean_tcp_seconds,
-    transfer=euclidean_slot_seconds,
-    interim=True,
-)
 
 
 # -- the plan --------------------------------------------------------------------------
@@ -142,7 +83,9 @@ class SequencePlan:
     """A stored sequence plan and its progress.
 
     groups: in execution order; done: ids done before the plan was (re)made; cannot:
-    (id, reason); transfer_s: seconds between rack slots; tool_changes: tool pick-ups;
+    (id, reason); transfer_s: seconds at the rack outside the tours (under the motion-time
+    model: every pick-up, put-down and move between slots, see
+    ita.sequence.cost.rack_seconds); tool_changes: tool pick-ups;
     tool_state: tool -> {"condition", "location"} the plan was made for; handed_out: ids
     handed out by next_step, in order; history: what happened to the plan (made,
     resequenced and why).
@@ -167,7 +110,7 @@ class SequencePlan:
 
     @property
     def total_s(self) -> float:
-        """Seconds of the whole plan: every tour plus the transfers between rack slots."""
+        """Seconds of the whole plan: every tour plus the time at the rack (tool changes)."""
         return float(sum(g.cost_s for g in self.groups) + self.transfer_s)
 
     @property
@@ -189,8 +132,9 @@ class SequencePlan:
 class PlanningContext:
     """Everything building a plan needs, passed explicitly.
 
-    feature_kinds: feature id -> kind spelling; facts: the facts function of
-    ita.sequence.partition (reach test by default); cost_model: seconds between stops.
+    feature_kinds: feature id -> kind spelling; facts: the facts function of the
+    partition (by default the reach test and the inverse kinematics,
+    ita.sequence.cost.pose_facts); cost_model: seconds between stops.
     """
 
     kb: KnowledgeBase
@@ -200,8 +144,8 @@ class PlanningContext:
     workcell: Workcell
     specs_digest: str
     method: str = "default"
-    cost_model: CostModel = INTERIM_COST
-    facts: FactsFunction = reach_facts
+    cost_model: CostModel = MOTION_TIME_COST
+    facts: FactsFunction = pose_facts
     seed: int = 0
     _facts_cache: dict = field(default_factory=dict, repr=False)
 
@@ -227,7 +171,7 @@ def specs_digest(path: Path) -> str:
 
 def planning_context(
     part_dir: Path | None = None, kb: KnowledgeBase | None = None, method: str = "default",
-    cost_model: CostModel = INTERIM_COST, part: Part | None = None,
+    cost_model: CostModel = MOTION_TIME_COST, part: Part | None = None,
 ) -> PlanningContext:
     """A context for the part in `part_dir` (default: the built-in bulkhead) and its workcell."""
     from ita.part.store import load_part
@@ -296,19 +240,23 @@ def order_group(ctx: PlanningContext, tool: str, spec_ids: Sequence[str],
 
 
 def order_groups(ctx: PlanningContext, tools: Sequence[str], held: str | None) -> tuple[list[str], float]:
-    """The visiting order of the tools' groups and its transfer seconds between rack slots.
+    """The visiting order of the tools' groups and its seconds at the rack.
 
     One visit to the rack per tool; the held tool's group first (no pick-up); among the
-    rest the order with the least transfer time (all orders tried: there are few tools),
-    ties broken by tool name.
+    rest the order with the least time at the rack (all orders tried: there are few
+    tools), ties broken by tool name.  The time counts the first pick-up, every change
+    between groups and the last put-down (``cost_model.transfer`` with None at the ends).
     """
     tools = sorted(tools)
     first = [t for t in tools if t == held]
     rest = [t for t in tools if t != held]
+    transfer = {(a, b): ctx.cost_model.transfer(ctx.workcell, a, b)
+                for a in [None, *tools] for b in [*tools, None] if a != b}
     best: tuple[float, list[str]] | None = None
     for perm in itertools.permutations(rest):
         seq = first + list(perm)
-        cost = sum(ctx.cost_model.transfer(ctx.workcell, a, b) for a, b in itertools.pairwise(seq))
+        ends = ([] if first else [(None, seq[0])]) + [(seq[-1], None)] if seq else []
+        cost = sum(transfer[pair] for pair in [*itertools.pairwise(seq), *ends])
         if best is None or cost < best[0] - 1e-12:
             best = (cost, seq)
     return (best[1], best[0]) if best else ([], 0.0)
@@ -365,8 +313,8 @@ def partition_only(ctx: PlanningContext, done: Iterable[str] = ()) -> Partition:
 
 
 __all__ = [
-    "INTERIM_COST", "CostModel", "PlannedGroup", "PlanningContext", "SequencePlan",
+    "COST_MODELS", "INTERIM_COST", "MOTION_TIME_COST", "CostModel", "PlannedGroup", "PlanningContext", "SequencePlan",
     "build_plan", "euclidean_slot_seconds", "euclidean_tcp_seconds", "held_tool", "order_group",
-    "order_groups", "partition_only", "planning_context", "slot_position", "specs_digest",
+    "order_groups", "partition_only", "planning_context", "pose_facts", "slot_position", "specs_digest",
     "tool_points_world", "tool_state",
 ]

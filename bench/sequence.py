@@ -1,0 +1,148 @@
+"""Benchmark the sequence plan on the bulkhead itself: seconds of arm motion, build time.
+
+    python bench/sequence.py [--ref-seconds 30] [--out FILE]
+
+Builds the whole plan of the built-in bulkhead (every tool available) with ``classic``
+and ``default`` under the default cost model (ita.sequence.cost.MOTION_TIME_COST: the
+arm's joint-space motion time between one IK configuration per measurement, the rack
+slot at each tour's ends, tool changes at the rack).  For each tool group, on the SAME
+cost matrix the plan was ordered on, a near-optimal reference: the best of fast-tsp
+(when importable; it needs a symmetric integer matrix, so the seconds are rounded to
+milliseconds and its tour is costed on the float matrix) and the default method given
+``--ref-seconds`` of search.  Prints per group n, classic s, default s, reference s and
+gaps, the plan totals with the tool changes, and the build times (the first build of the
+process separately: it loads the compiled ordering kernels); writes JSON.
+Figures, not assertions.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import time
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+from ita.sequence.plan import build_plan, planning_context
+from ita.sequence.store import tool_marks_applied
+from ita.sequence.tour import solve_tour, tour_cost
+
+DEFAULT_OUT = Path(__file__).resolve().parent / "results" / "sequence.json"
+
+
+def fast_tsp_reference(matrix: np.ndarray, seconds: float) -> tuple[int, ...] | None:
+    """fast-tsp's closed tour on the matrix in integer milliseconds, or None without it."""
+    try:
+        import fast_tsp
+    except ImportError:
+        return None
+    ms = np.rint(matrix * 1000.0).astype(np.int64)
+    ms = np.maximum(ms, ms.T)  # exact symmetry after rounding (the matrix is symmetric to 1e-12)
+    return tuple(fast_tsp.find_tour(ms.tolist(), duration_seconds=seconds))
+
+
+def timed_build(ctx):
+    t0 = time.perf_counter()
+    plan = build_plan(ctx)
+    return plan, time.perf_counter() - t0
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--ref-seconds", type=float, default=30.0,
+                        help="search seconds per group for each reference solver")
+    parser.add_argument("--out", type=Path, default=DEFAULT_OUT)
+    args = parser.parse_args()
+
+    t0 = time.perf_counter()
+    base = planning_context()
+    load_seconds = time.perf_counter() - t0
+    plans, builds, first_build = {}, {}, {}
+    with tool_marks_applied(base.kb, {}):
+        for method in ("classic", "default"):
+            ctx = replace(base, method=method, _facts_cache={})
+            plans[method], first_build[method] = timed_build(ctx)
+            _again, builds[method] = timed_build(replace(ctx, _facts_cache={}))
+    ctx = base
+    default_plan = plans["default"]
+    rows = []
+    for group in default_plan.groups:
+        ids = sorted(group.order, key=[s.id for s in ctx.specs].index)  # the partition's order
+        specs = [ctx.spec(i) for i in ids]
+        tool = ctx.workcell.tool(group.tool)
+        t = time.perf_counter()
+        matrix = ctx.cost_model.tour(ctx.workcell, tool, specs)
+        matrix_seconds = time.perf_counter() - t
+        pos = {i: k + 1 for k, i in enumerate(ids)}
+        costs = {}
+        for method, plan in plans.items():
+            g = next(g for g in plan.groups if g.tool == group.tool)
+            costs[method] = tour_cost(matrix, (0, *[pos[i] for i in g.order]))
+            assert abs(costs[method] - g.cost_s) < 1e-6 * max(1.0, g.cost_s), "plan cost != matrix cost"
+        refs = {}
+        order = fast_tsp_reference(matrix, args.ref_seconds)
+        if order is not None:
+            assert sorted(order) == list(range(len(matrix)))
+            refs["fast-tsp"] = tour_cost(matrix, order)
+        long = solve_tour(matrix, method="default", start=0, end=0, time_budget=args.ref_seconds, seed=1)
+        refs[f"default {args.ref_seconds:g} s"] = long.cost
+        ref_name = min(refs, key=refs.get)
+        ref = refs[ref_name]
+        rows.append({
+            "tool": group.tool, "n": len(ids),
+            "symmetric": bool(np.allclose(matrix, matrix.T, rtol=0, atol=1e-9)),
+            "matrix_seconds": round(matrix_seconds, 3),
+            "classic_s": costs["classic"], "default_s": costs["default"],
+            "references_s": refs, "reference": ref_name, "reference_s": ref,
+            "classic_gap_percent": 100.0 * (costs["classic"] - ref) / ref,
+            "default_gap_percent": 100.0 * (costs["default"] - ref) / ref,
+        })
+
+    header = f"{'group':12s} {'n':>5s} | {'classic s':>9s} {'gap%':>6s} | {'default s':>9s} {'gap%':>6s} | " \
+             f"{'reference s':>11s}  reference"
+    print(f"bulkhead: {len(ctx.specs)} measurements; cost model {ctx.cost_model.name} "
+          "(seconds of arm motion; tours include the rack slot at both ends)")
+    print(header)
+    print("-" * len(header))
+    for r in rows:
+        others = ", ".join(f"{k} {v:.1f}" for k, v in r["references_s"].items())
+        print(f"{r['tool']:12s} {r['n']:5d} | {r['classic_s']:9.1f} {r['classic_gap_percent']:6.2f} | "
+              f"{r['default_s']:9.1f} {r['default_gap_percent']:6.2f} | {r['reference_s']:11.1f}  "
+              f"{r['reference']} ({others})")
+    totals = {}
+    for method, plan in plans.items():
+        totals[method] = {"tours_s": sum(g.cost_s for g in plan.groups), "rack_s": plan.transfer_s,
+                          "tool_changes": plan.tool_changes, "total_s": plan.total_s,
+                          "cannot": len(plan.cannot)}
+    ref_tours = sum(r["reference_s"] for r in rows)
+    totals["reference"] = {"tours_s": ref_tours, "rack_s": default_plan.transfer_s,
+                           "total_s": ref_tours + default_plan.transfer_s}
+    print("-" * len(header))
+    for name, t in totals.items():
+        gap = 100.0 * (t["total_s"] - totals["reference"]["total_s"]) / totals["reference"]["total_s"]
+        t["gap_percent"] = gap
+        print(f"{'total ' + name:18s} tours {t['tours_s']:7.1f} s + at the rack {t['rack_s']:5.1f} s "
+              f"= {t['total_s']:7.1f} s   gap {gap:5.2f} %")
+    print(f"tool changes: {default_plan.tool_changes}; cannot be done: {len(default_plan.cannot)}")
+    print("plan build (partition + costs + ordering): "
+          + ", ".join(f"{m} {builds[m]:.2f} s (first in process {first_build[m]:.2f} s)" for m in builds)
+          + f"; loading part, workcell, KB {load_seconds:.2f} s")
+
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    args.out.write_text(json.dumps({
+        "machine": {"python": platform.python_version(), "processor": platform.machine(),
+                    "cpus": os.cpu_count()},
+        "measurements": len(ctx.specs), "cost_model": ctx.cost_model.name,
+        "cost_includes": ctx.cost_model.description, "ref_seconds": args.ref_seconds,
+        "groups": rows, "totals": totals,
+        "build_seconds": builds, "first_build_seconds": first_build, "load_seconds": load_seconds,
+    }, indent=2) + "\n")
+    print(f"wrote {args.out}")
+
+
+if __name__ == "__main__":
+    main()
