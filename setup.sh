@@ -42,7 +42,8 @@ setup() {
         apt_install swi-prolog-nox
     fi
     local py; py=$(find_python)
-    if [ ! -x "$venv/bin/python" ]; then
+    if ! "$venv/bin/python" -m pip --version >/dev/null 2>&1; then
+        rm -rf "$venv"      # absent, or left half-made by an earlier failed attempt
         say "creating virtual environment $venv"
         if ! "$py" -m venv "$venv" 2>/dev/null; then
             # Debian splits venv/ensurepip into its own package.
