@@ -1,35 +1,28 @@
 :- module(py_bridge,
-          [ py_call/2,                  % +RequestJSON, -ResponseJSON
+          [ py_run/5,                   % +Module, +Goal, +Reported, +Limit, -Reply
             load_source_files/2,        % +Files, -Diagnostics
-            file_module/2,              % +File, -Module
-            json_term/3                 % ?JSON, ?Term, +VarTable
+            file_module/2               % +File, -Module
           ]).
 
 /** <module> The Prolog side of the Python bridge
 
-Python (ita/logic/bridge.py) talks to Prolog through one deterministic predicate,
-py_call/2, which takes a request and returns a response, both as JSON text.  Values
-travel as data, never as query text, so no quoting or injection problem can arise.
+Python (ita/logic/bridge.py) calls Prolog through one deterministic predicate,
+py_run/5.  Python builds its arguments with SWI-Prolog's C interface, term by term
+(`PL_put_chars`, `PL_cons_functor_v`, `PL_cons_list`...): values arrive as data,
+never as text that is read or run, so an atom with quotes or spaces is just an atom.
 
-The JSON encoding of terms (both directions):
-
-  | Prolog              | JSON                                    |
-  |---------------------|-----------------------------------------|
-  | atom                | string                                  |
-  | number              | number                                  |
-  | string              | {"str": Text}                           |
-  | list                | array                                   |
-  | compound f(A1..An)  | {"functor": "f", "args": [A1, ..., An]} |
-  | variable            | {"var": Name}                           |
-
-Prolog strings come back to Python as plain strings, like atoms.
+The reply is text, written with quoted(true) and ignore_ops(true) (functional
+notation, no operators, '$VAR'(N) as itself) so that a small tokenizer
+(ita/logic/terms.py) reads it back: `[Values1, Values2, ...]`, the values of the
+reported variables in each solution, or `error(MessageString, GoalString)` when the
+goal raised an exception.  Prolog strings come back to Python as plain strings,
+like atoms.
 
 load_source_files/2 loads files while a message hook collects every error and warning
 with its file, line and column; on any error it unloads the whole batch again, so a
 caller never works with a half-loaded knowledge base.
 */
 
-:- use_module(library(http/json)).
 :- use_module(library(apply)).
 :- use_module(library(lists)).
 :- use_module(library(error)).
@@ -55,135 +48,75 @@ user:message_hook(Term, Kind, _Lines) :-
                  *        GENERIC CALLS         *
                  *******************************/
 
-%!  py_call(+Request:text, -Response:string) is det.
+%!  py_run(+Module, +Goal, +Reported:list, +Limit, -Reply:string) is det.
 %
-%   Run the goal that Request describes and return all (or the first `limit`)
-%   solutions.  Request is JSON text of the form
-%   `{"module": M, "name": N, "args": [A1, ...], "limit": L}` where the arguments use
-%   the encoding of this module and `limit` is a positive integer or null.  Response is
-%   JSON text: `{"solutions": [Bindings, ...]}` where each Bindings object maps the
-%   name of every variable of the arguments to its value, or `{"error": Message,
-%   "goal": GoalText}` when the goal raised an exception.
+%   Reply is the text of the list of the values of Reported (a list of variables of
+%   Goal) in all (Limit `all`) or the first Limit (a positive integer) solutions of
+%   Module:Goal, or of `error(Message, GoalText)` (two strings) when the call raised
+%   an exception, a bad Module, Goal or Limit included.
 
-py_call(Request, Response) :-
-    must_be(text, Request),
-    catch(parse_request(Request, Goal, Limit, Vars), Error,
-          error_dict(Error, "", Dict)),
-    (   var(Dict)
-    ->  catch(solutions(Goal, Limit, Vars, Dict), Error2,
-              ( format(string(GoalText), "~q", [Goal]),
-                error_dict(Error2, GoalText, Dict)
-              ))
-    ;   true
-    ),
-    with_output_to(string(Response),
-                   json_write_dict(current_output, Dict,
-                                   [ width(0),
-                                     true(@(true)), false(@(false)), null(@(null))
-                                   ])).
+py_run(Module, Goal, Reported, Limit, Reply) :-
+    reply_options(Options),
+    catch(( check_request(Module, Goal, Limit),
+            solutions_text(Limit, Module:Goal, Reported, Options, Reply)
+          ),
+          Error,
+          ( format(string(GoalText), "~q", [Module:Goal]),
+            error_reply(Error, GoalText, Result),
+            format(string(Reply), "~W", [Result, Options])
+          )).
 
-parse_request(Request, Module:Goal, Limit, Vars) :-
-    atom_json_dict(Request, Dict, [value_string_as(atom)]),
-    get_dict(module, Dict, Module), must_be(atom, Module),
-    get_dict(name, Dict, Name), must_be(atom, Name),
-    get_dict(args, Dict, JArgs), must_be(list, JArgs),
-    get_dict(limit, Dict, Limit),
-    json_args(JArgs, Args, Vars),
-    Goal =.. [Name|Args].
-
-solutions(Goal, Limit, Vars, _{solutions: Solutions}) :-
-    findall(Bindings,
+%   Each solution is written as soon as it is found, so a variable left unbound has
+%   one name in every solution, as in the goal.  The goal's own output is not
+%   redirected.
+solutions_text(1, Goal, Reported, Options, Reply) :- !,
+    (   call(Goal)
+    ->  format(string(Reply), "[~W]", [Reported, Options])
+    ;   Reply = "[]"
+    ).
+solutions_text(Limit, Goal, Reported, Options, Reply) :-
+    findall(Text,
             ( limited(Limit, Goal),
-              bindings_dict(Vars, Bindings)
+              format(string(Text), "~W", [Reported, Options])
             ),
-            Solutions).
+            Texts),
+    with_output_to(string(Reply), write_list_text(Texts)).
 
-limited(null, Goal) :- !, call(Goal).
-limited(Limit, Goal) :- must_be(positive_integer, Limit), limit(Limit, Goal).
+write_list_text([]) :-
+    write('[]').
+write_list_text([Text|Texts]) :-
+    write('['),
+    write(Text),
+    forall(member(More, Texts), (write(','), write(More))),
+    write(']').
 
-json_args(JArgs, Args, Vars) :-
-    foldl(json_arg, JArgs, Args, [], Vars0),
-    reverse(Vars0, Vars).
+check_request(Module, Goal, Limit) :-
+    atom(Module),
+    callable(Goal),
+    (   Limit == all
+    ->  true
+    ;   integer(Limit),
+        Limit > 0
+    ),
+    !.
+check_request(Module, Goal, Limit) :-
+    must_be(atom, Module),
+    must_be(callable, Goal),
+    (   Limit == all
+    ->  true
+    ;   must_be(positive_integer, Limit)
+    ).
 
-json_arg(JSON, Term, Vars0, Vars) :- json_term(JSON, Term, Vars0-Vars).
+limited(all, Goal) :- !, call(Goal).
+limited(Limit, Goal) :- limit(Limit, Goal).
 
-bindings_dict(Vars, Dict) :-
-    findall(Name-JSON,
-            ( member(Name=Var, Vars),
-              \+ sub_atom(Name, 0, _, _, '_'),
-              term_json(Var, JSON)
-            ),
-            Pairs),
-    dict_pairs(Dict, _, Pairs).
-
-error_dict(Error, GoalText, _{error: Message, goal: GoalText}) :-
+error_reply(Error, GoalText, error(Message, GoalText)) :-
     message_text(Error, Message).
 
-%!  json_term(+JSON, -Term, +VarTable) is det.
-%!  json_term(-JSON, +Term, +VarTable) is det.
-%
-%   Translate between the JSON encoding of this module (as read by
-%   atom_json_dict/3 with `value_string_as(atom)`) and a Prolog term.  VarTable is a
-%   pair `Vars0-Vars` of `Name=Var` lists: variables of the same name share one Prolog
-%   variable.  In the mode (-,+) VarTable is ignored and variables are named by
-%   their print name.
-
-json_term(JSON, Term, VarTable) :-
-    nonvar(JSON), !,
-    VarTable = Vars0-Vars,
-    json_to_term(JSON, Term, Vars0, Vars).
-json_term(JSON, Term, _) :-
-    term_json(Term, JSON).
-
-json_to_term(JSON, Term, Vars0, Vars) :-
-    (   is_dict(JSON)
-    ->  json_dict_to_term(JSON, Term, Vars0, Vars)
-    ;   is_list(JSON)
-    ->  foldl(json_arg, JSON, Term, Vars0, Vars)
-    ;   atomic(JSON)
-    ->  Term = JSON, Vars = Vars0
-    ;   type_error(json_term, JSON)
-    ).
-
-json_dict_to_term(Dict, Var, Vars0, Vars) :-
-    get_dict(var, Dict, Name), !,
-    must_be(atom, Name),
-    (   memberchk(Name=Var0, Vars0)
-    ->  Var = Var0, Vars = Vars0
-    ;   Vars = [Name=Var|Vars0]
-    ).
-json_dict_to_term(Dict, String, Vars, Vars) :-
-    get_dict(str, Dict, Text), !,
-    atom_string(Text, String).
-json_dict_to_term(Dict, Term, Vars0, Vars) :-
-    get_dict(functor, Dict, Name), !,
-    must_be(atom, Name),
-    get_dict(args, Dict, JArgs),
-    must_be(list, JArgs),
-    foldl(json_arg, JArgs, Args, Vars0, Vars),
-    compound_name_arguments(Term, Name, Args).
-json_dict_to_term(Dict, _, _, _) :-
-    domain_error(json_term, Dict).
-
-term_json(Term, JSON) :-
-    (   var(Term)
-    ->  format(atom(Name), "~p", [Term]), JSON = _{var: Name}
-    ;   Term == []
-    ->  JSON = []
-    ;   is_list(Term)
-    ->  maplist(term_json, Term, JSON)
-    ;   atom(Term)
-    ->  JSON = Term
-    ;   number(Term)
-    ->  JSON = Term
-    ;   string(Term)
-    ->  JSON = Term
-    ;   compound(Term)
-    ->  compound_name_arguments(Term, Name, Args),
-        maplist(term_json, Args, JArgs),
-        JSON = _{functor: Name, args: JArgs}
-    ;   format(string(JSON), "~q", [Term])
-    ).
+%   How replies are written: quoted, in functional notation, '$VAR'(N) as itself.
+%   (The other options that matter, dotlists(false), portray(false),
+%   character_escapes(true) and max_depth(0), are the defaults.)
+reply_options([quoted(true), ignore_ops(true), brace_terms(false), numbervars(false)]).
 
 
                  /*******************************

@@ -1,45 +1,44 @@
 :- begin_tests(py_bridge).
 
 :- use_module(py_bridge).
-:- use_module(library(http/json)).
 
-reply(Request, Dict) :-
-    py_call(Request, Text),
-    atom_json_dict(Text, Dict, [value_string_as(atom)]).
+reply(Module, Goal, Reported, Limit, Reply) :-
+    py_run(Module, Goal, Reported, Limit, Text),
+    term_string(Reply, Text).
 
-test(solutions_bind_variables, true(Xs == [a, b])) :-
-    reply("{\"module\":\"lists\",\"name\":\"member\",\"args\":[{\"var\":\"X\"},[\"a\",\"b\"]],\"limit\":null}",
-          Dict),
-    get_dict(solutions, Dict, Solutions),
-    findall(X, (member(S, Solutions), get_dict('X', S, X)), Xs).
+test(solutions_bind_variables, true(Reply == [[a], [b]])) :-
+    reply(lists, member(X, [a, b]), [X], all, Reply).
 
-test(limit_applies, true(N == 1)) :-
-    reply("{\"module\":\"lists\",\"name\":\"member\",\"args\":[{\"var\":\"X\"},[\"a\",\"b\"]],\"limit\":1}",
-          Dict),
-    get_dict(solutions, Dict, Solutions),
-    length(Solutions, N).
+test(limit_applies, true(Reply == [[a]])) :-
+    reply(lists, member(X, [a, b]), [X], 1, Reply).
 
-test(quotes_are_data, true(X == 'it\'s), halt')) :-
-    reply("{\"module\":\"system\",\"name\":\"=\",\"args\":[{\"var\":\"X\"},\"it's), halt\"],\"limit\":null}",
-          Dict),
-    get_dict(solutions, Dict, [Solution]),
-    get_dict('X', Solution, X).
+test(limit_of_two, true(Reply == [[a], [b]])) :-
+    reply(lists, member(X, [a, b, c]), [X], 2, Reply).
 
-test(compound_round_trip, true(Name-Args == in_rack-[slot_1])) :-
-    reply("{\"module\":\"system\",\"name\":\"=\",\"args\":[{\"var\":\"X\"},{\"functor\":\"in_rack\",\"args\":[\"slot_1\"]}],\"limit\":null}",
-          Dict),
-    get_dict(solutions, Dict, [Solution]),
-    get_dict('X', Solution, F),
-    get_dict(functor, F, Name),
-    get_dict(args, F, Args).
+test(failure_is_no_solutions, true(Reply == [])) :-
+    reply(system, fail, [], all, Reply).
+
+test(quotes_are_data, true(Reply == [['it\'s), halt']])) :-
+    reply(system, =(X, 'it\'s), halt'), [X], all, Reply).
+
+test(reply_has_no_operators,
+     true(Text == "[[[:(a,b),'$VAR'(1),{}(x),-(1),\"s\",'A b','\\n']]]")) :-
+    py_run(system, =(X, [a:b, '$VAR'(1), {x}, -(1), "s", 'A b', '\n']), [X], all, Text).
+
+test(shared_variables_keep_one_name, true(A == B)) :-
+    reply(system, =(X, f(Y, Y)), [X], all, [[f(A, B)]]).
 
 test(error_reported, true(sub_atom(Message, _, _, _, 'Type error'))) :-
-    reply("{\"module\":\"system\",\"name\":\"must_be\",\"args\":[\"positive_integer\",0],\"limit\":null}",
-          Dict),
-    get_dict(error, Dict, Message).
+    reply(system, must_be(positive_integer, 0), [], all, error(Message, _)).
 
-test(json_term_shares_variables, true(T = f(X, X))) :-
-    json_term(_{functor: f, args: [_{var: 'A'}, _{var: 'A'}]}, T, []-_).
+test(error_names_goal, true(sub_string(Goal, 0, _, _, "system:atom_length(f(x),"))) :-
+    reply(system, atom_length(f(x), _), [], all, error(_, Goal)).
+
+test(bad_limit_refused, true(Reply = error(_, _))) :-
+    reply(system, true, [], 0, Reply).
+
+test(bad_module_refused, true(Reply = error(_, _))) :-
+    reply(_, true, [], all, Reply).
 
 test(load_reports_syntax_error_and_unloads,
      [ setup(tmp_file_stream(text, File, S)), cleanup(delete_file(File)),
@@ -50,8 +49,5 @@ test(load_reports_syntax_error_and_unloads,
     load_source_files([Atom], Diagnostics),
     memberchk(diagnostic(error, Atom, Line, _, _), Diagnostics),
     (   catch(py_bridge_broken:q(1), _, fail) -> Loaded = true ; Loaded = false ).
-
-test(bad_request, error(type_error(text, 42))) :-
-    py_call(42, _).
 
 :- end_tests(py_bridge).

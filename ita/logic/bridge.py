@@ -9,8 +9,10 @@ in the Prolog files of ``prolog/`` (engines) and ``kb/`` (knowledge).  A
     kb.once("world", "location", "slra_1", Var("W"))  # {'W': Term('in_rack', ('slot_3',))}
 
 Arguments are Python values turned into Prolog terms as data (see ita.logic.terms):
-they travel as JSON text to ``py_bridge:py_call/2``, never spliced into query text, so
-an atom with quotes or spaces is just an atom.
+the goal is built term by term through SWI-Prolog's C interface and handed to
+``py_bridge:py_run/5``; no value is ever text that Prolog reads or runs, so an atom
+with quotes or spaces is just an atom.  Answers come back as quoted text that
+:func:`ita.logic.terms.read_term` decodes.
 
 SWI-Prolog can be initialised only once per process and has one global database, so the
 engine is necessarily a process-wide singleton.  It is created on first use by
@@ -24,7 +26,7 @@ borrows a Prolog engine for the duration of its call.
 from __future__ import annotations
 
 import ctypes
-import json
+import math
 import threading
 from collections.abc import Sequence
 from pathlib import Path
@@ -33,7 +35,7 @@ from typing import Any
 from ita.errors import KBLoadError, Location, PrologError, QueryLimitExceeded, QueryRefused
 from ita.logic.model import Diagnostic, PredicateDoc, ProofNode, QueryResult, Severity
 from ita.logic.pldoc import doc_comments
-from ita.logic.terms import Str, Term, Var, from_json, to_json
+from ita.logic.terms import Str, Term, Var, read_term
 from ita.paths import resource_dir
 
 __all__ = ["KnowledgeBase", "KBLoadFailed", "check_sources"]
@@ -43,12 +45,16 @@ _BRIDGE_FILES = ("py_bridge.pl", "kb_query.pl", "kb_explain.pl", "kb_check.pl")
 _BRIDGE_MODULES = frozenset(Path(f).stem for f in _BRIDGE_FILES)
 
 # SWI-Prolog.h constants used with PL_get_nchars / PL_put_chars.
+_PL_ATOM = 2
 _PL_STRING = 6
 _CVT_STRING = 0x0002
 _BUF_STACK = 0x00010000
 _REP_UTF8 = 0x00100000
 _PL_Q_NODEBUG = 0x0004
 _PL_Q_CATCH_EXCEPTION = 0x0008
+
+# How many atom handles the engine keeps (registered) for the atoms it sends.
+_ATOM_CACHE_SIZE = 8192
 
 
 class KBLoadFailed(KBLoadError):
@@ -62,24 +68,60 @@ class KBLoadFailed(KBLoadError):
 
 
 class _Engine:
-    """The process's SWI-Prolog, reached only through ``py_bridge:py_call/2``."""
+    """The process's SWI-Prolog, reached only through ``py_bridge:py_run/5``.
+
+    A call builds its goal with SWI-Prolog's C interface (``PL_put_chars``,
+    ``PL_cons_functor_v``, ``PL_cons_list``...): arguments become terms directly, never
+    text that Prolog reads, so no value can be mistaken for code.  The reply comes
+    back as text that ``py_run/5`` writes and :func:`ita.logic.terms.read_term` reads.
+    """
 
     def __init__(self) -> None:
         from pyswip import core  # the one pyswip import of the project (initialises Prolog)
 
         self._core = core
         self._lock = threading.RLock()
+        #: functor handles by (name, arity); SWI never frees functors, so neither do we
+        self._functors: dict[tuple[str, int], int] = {}
+        #: atom handles by text, each registered (safe from atom GC) while it is here
+        self._atoms: dict[str, int] = {}
         lib = core._lib
-        self._get_nchars = lib.PL_get_nchars
-        self._get_nchars.argtypes = [
-            ctypes.c_size_t,  # term_t
-            ctypes.POINTER(ctypes.c_size_t),
-            ctypes.POINTER(ctypes.c_char_p),
-            ctypes.c_uint,
-        ]
-        self._get_nchars.restype = ctypes.c_int
-        self._destroy_engine = lib.PL_thread_destroy_engine
-        self._destroy_engine.restype = ctypes.c_int
+        # Our own ctypes function objects (lib[name] makes a new one each time), so
+        # pyswip's declarations stay untouched; and no pyswip wrapper in between, which
+        # would add a Python call to each of the C calls a request makes.
+        size_t, int_, uint, char_p = ctypes.c_size_t, ctypes.c_int, ctypes.c_uint, ctypes.c_char_p
+        self._open_frame = _cfunc(lib["PL_open_foreign_frame"], size_t, [])
+        self._discard_frame = _cfunc(lib["PL_discard_foreign_frame"], None, [size_t])
+        self._new_term_ref = _cfunc(lib["PL_new_term_ref"], size_t, [])
+        self._new_term_refs = _cfunc(lib["PL_new_term_refs"], size_t, [int_])
+        self._put_chars = _cfunc(lib["PL_put_chars"], int_, [size_t, int_, size_t, char_p])
+        self._put_atom_c = _cfunc(lib["PL_put_atom"], int_, [size_t, size_t])
+        self._unregister_atom = _cfunc(lib["PL_unregister_atom"], None, [size_t])
+        self._put_int64 = _cfunc(lib["PL_put_int64"], int_, [size_t, ctypes.c_int64])
+        self._put_float_c = _cfunc(lib["PL_put_float"], int_, [size_t, ctypes.c_double])
+        self._put_nil = _cfunc(lib["PL_put_nil"], int_, [size_t])
+        self._put_variable = _cfunc(lib["PL_put_variable"], int_, [size_t])
+        self._put_term = _cfunc(lib["PL_put_term"], int_, [size_t, size_t])
+        self._cons_list = _cfunc(lib["PL_cons_list"], int_, [size_t, size_t, size_t])
+        self._cons_functor_v = _cfunc(lib["PL_cons_functor_v"], int_, [size_t, size_t, size_t])
+        self._chars_to_term = _cfunc(lib["PL_chars_to_term"], int_, [char_p, size_t])
+        self._new_atom = _cfunc(lib["PL_new_atom_mbchars"], size_t, [int_, size_t, char_p])
+        self._new_functor = _cfunc(lib["PL_new_functor_sz"], size_t, [size_t, size_t])
+        self._call_predicate = _cfunc(
+            lib["PL_call_predicate"], int_, [ctypes.c_void_p, int_, ctypes.c_void_p, size_t]
+        )
+        self._get_nchars = _cfunc(
+            lib["PL_get_nchars"], int_,
+            [size_t, ctypes.POINTER(size_t), ctypes.POINTER(char_p), uint],
+        )
+        self._thread_self = _cfunc(lib["PL_thread_self"], int_, [])
+        self._attach_engine = _cfunc(lib["PL_thread_attach_engine"], int_, [ctypes.c_void_p])
+        self._destroy_engine = _cfunc(lib["PL_thread_destroy_engine"], int_, [])
+        self._predicate = _cfunc(lib["PL_predicate"], ctypes.c_void_p, [char_p, int_, char_p])
+        self._length = size_t()
+        self._chars = char_p()
+        self._length_ref = ctypes.byref(self._length)
+        self._chars_ref = ctypes.byref(self._chars)
         self._bootstrap()
 
     def _bootstrap(self) -> None:
@@ -96,50 +138,174 @@ class _Engine:
                 core.PL_call_predicate(None, _PL_Q_NODEBUG | _PL_Q_CATCH_EXCEPTION, pred, args)
             finally:
                 core.PL_discard_foreign_frame(fid)
+        self._py_run = self._predicate(b"py_run", 5, b"py_bridge")
         try:
-            reply = self.request({"module": "system", "name": "true", "args": [], "limit": 1})
+            reply = self.run("system", "=", (Var("X"), "ok"), 1)
         except PrologError as exc:
             raise KBLoadError(
                 [(Location(str(resource_dir("prolog") / _BRIDGE_FILES[0])), str(exc))]
             ) from exc
-        if reply != {"solutions": [{}]}:
+        if reply != (("X",), [["ok"]]):
             raise KBLoadError([(Location(str(resource_dir("prolog") / _BRIDGE_FILES[0])),
                                 f"bridge self-test failed: {reply!r}")])
 
-    def request(self, payload: dict[str, Any]) -> dict[str, Any]:
-        """Send one request to ``py_bridge:py_call/2`` and return its decoded response."""
-        text = json.dumps(payload).encode("utf-8")
+    def run(self, module: str, name: str, args: Sequence[Any], limit: int | None
+            ) -> tuple[tuple[str, ...], Any]:
+        """``py_bridge:py_run/5`` on ``module:name(args...)``: the names of the reported
+        variables (sorted), and the decoded reply (a list of value lists, one per
+        solution, or an ``error(Message, GoalText)`` term)."""
         with self._lock:
-            borrowed = self._core.PL_thread_self() == -1
-            if borrowed and self._core.PL_thread_attach_engine(None) < 0:
-                raise PrologError("py_call", "cannot attach a Prolog engine to this thread")
+            borrowed = self._thread_self() == -1
+            if borrowed and self._attach_engine(None) < 0:
+                raise PrologError("py_run", "cannot attach a Prolog engine to this thread")
             try:
-                return json.loads(self._call(text))
+                names, text = self._run(module, name, args, limit)
             finally:
                 if borrowed:
                     self._destroy_engine()
-
-    def _call(self, text: bytes) -> str:
-        core = self._core
-        fid = core.PL_open_foreign_frame()
         try:
-            args = core.PL_new_term_refs(2)
-            core.PL_put_chars(args, _PL_STRING | _REP_UTF8, len(text), text)
-            pred = core.PL_predicate("py_call", 2, "py_bridge")
-            qid = core.PL_open_query(None, _PL_Q_NODEBUG | _PL_Q_CATCH_EXCEPTION, pred, args)
-            try:
-                if not core.PL_next_solution(qid):
-                    raise PrologError("py_bridge:py_call/2", "the bridge call failed or raised")
-                length = ctypes.c_size_t()
-                chars = ctypes.c_char_p()
-                flags = _CVT_STRING | _REP_UTF8 | _BUF_STACK
-                if not self._get_nchars(args + 1, ctypes.byref(length), ctypes.byref(chars), flags):
-                    raise PrologError("py_bridge:py_call/2", "the bridge returned no text")
-                return ctypes.string_at(chars, length.value).decode("utf-8")
-            finally:
-                core.PL_cut_query(qid)
+            return names, read_term(text)
+        except ValueError as exc:
+            raise PrologError(f"{module}:{name}/{len(args)}", f"cannot read the reply: {exc}") from None
+
+    def _run(self, module: str, name: str, args: Sequence[Any], limit: int | None
+             ) -> tuple[tuple[str, ...], str]:
+        """Build the call in a foreign frame, run it, and discard the frame."""
+        fid = self._open_frame()
+        try:
+            refs = self._new_term_refs(5)  # Module, Goal, Reported, Limit, Reply
+            self._put_atom(refs, module)
+            variables: dict[str, int] = {}
+            if args:
+                arity = len(args)
+                arg_refs = self._new_term_refs(arity)
+                put, atoms, put_atom = self._put, self._atoms, self._put_atom_c
+                for i, value in enumerate(args):
+                    if type(value) is str and value in atoms:  # the commonest argument
+                        if not put_atom(arg_refs + i, atoms[value]):
+                            raise PrologError(f"{module}:{name}/{arity}", "cannot build the goal")
+                    else:
+                        put(arg_refs + i, value, variables)
+                ok = self._cons_functor_v(refs + 1, self._functor(name, arity), arg_refs)
+            else:
+                ok = self._put_atom(refs + 1, name)
+            names = tuple(sorted(n for n in variables if not n.startswith("_")))
+            reported = refs + 2
+            ok = ok and self._put_nil(reported)
+            for n in reversed(names):
+                ok = ok and self._cons_list(reported, variables[n], reported)
+            if limit is None:
+                ok = ok and self._put_atom(refs + 3, "all")
+            else:
+                ok = ok and self._put_int64(refs + 3, limit)
+            if not ok:
+                raise PrologError(f"{module}:{name}/{len(args)}", "cannot build the goal")
+            if not self._call_predicate(None, _PL_Q_NODEBUG | _PL_Q_CATCH_EXCEPTION,
+                                        self._py_run, refs):
+                raise PrologError("py_bridge:py_run/5", "the bridge call failed or raised")
+            if not self._get_nchars(refs + 4, self._length_ref, self._chars_ref,
+                                    _CVT_STRING | _REP_UTF8 | _BUF_STACK):
+                raise PrologError("py_bridge:py_run/5", "the bridge returned no text")
+            return names, ctypes.string_at(self._chars, self._length.value).decode("utf-8")
         finally:
-            core.PL_discard_foreign_frame(fid)
+            self._discard_frame(fid)
+
+    def _atom(self, text: str) -> int:
+        """The handle of atom `text`, from the cache or made (and registered) now."""
+        atoms = self._atoms
+        if len(atoms) >= _ATOM_CACHE_SIZE:
+            for atom in atoms.values():
+                self._unregister_atom(atom)
+            atoms.clear()
+        data = text.encode("utf-8")
+        atom = atoms[text] = self._new_atom(_REP_UTF8, len(data), data)
+        return atom
+
+    def _put_atom(self, ref: int, text: str) -> int:
+        atom = self._atoms.get(text)
+        return self._put_atom_c(ref, atom if atom is not None else self._atom(text))
+
+    def _functor(self, name: str, arity: int) -> int:
+        key = (name, arity)
+        functor = self._functors.get(key)
+        if functor is None:
+            data = name.encode("utf-8")
+            atom = self._new_atom(_REP_UTF8, len(data), data)
+            functor = self._functors[key] = self._new_functor(atom, arity)
+        return functor
+
+    def _put(self, ref: int, value: Any, variables: dict[str, int]) -> None:
+        """Put the term for Python `value` in term reference `ref` (see ita.logic.terms).
+
+        `variables` maps the names of the :class:`Var` met so far to the reference
+        holding each; a name met again is the same Prolog variable.
+        """
+        kind = type(value)
+        if kind is str:
+            atom = self._atoms.get(value)
+            ok = self._put_atom_c(ref, atom if atom is not None else self._atom(value))
+        elif kind is list or kind is tuple:
+            ok = self._put_nil(ref)
+            if value:
+                head = self._new_term_ref()
+                put, cons = self._put, self._cons_list
+                for item in reversed(value):
+                    put(head, item, variables)
+                    ok = ok and cons(ref, head, ref)
+        elif kind is Term:
+            arity = len(value.args)
+            arg_refs = self._new_term_refs(arity)
+            for i, item in enumerate(value.args):
+                self._put(arg_refs + i, item, variables)
+            ok = self._cons_functor_v(ref, self._functor(value.name, arity), arg_refs)
+        elif kind is Var:
+            first = variables.get(value.name)
+            if first is None:
+                ok = self._put_variable(ref)
+                variables[value.name] = keep = self._new_term_ref()
+                ok = ok and self._put_term(keep, ref)
+            else:
+                ok = self._put_term(ref, first)
+        elif kind is int:
+            ok = self._put_int(ref, value)
+        elif kind is float:
+            ok = self._put_float(ref, value)
+        elif kind is Str:
+            data = value.text.encode("utf-8")
+            ok = self._put_chars(ref, _PL_STRING | _REP_UTF8, len(data), data)
+        elif kind is bool:
+            ok = self._put_atom(ref, "true" if value else "false")
+        # subclasses (str and int enums, numpy floats...) are passed as their base value
+        elif isinstance(value, str):
+            ok = self._put_atom(ref, str.__str__(value))
+        elif isinstance(value, int):
+            ok = self._put_int(ref, int(value))
+        elif isinstance(value, float):
+            ok = self._put_float(ref, float(value))
+        elif isinstance(value, (list, tuple)):
+            return self._put(ref, list(value), variables)
+        else:
+            raise TypeError(f"cannot pass {type(value).__name__} {value!r} to Prolog")
+        if not ok:
+            raise PrologError("py_bridge", f"cannot pass {value!r} to Prolog")
+
+    def _put_int(self, ref: int, value: int) -> int:
+        if -(2**63) <= value < 2**63:
+            return self._put_int64(ref, value)
+        return self._chars_to_term(str(value).encode("ascii"), ref)  # digits only: a big integer
+
+    def _put_float(self, ref: int, value: float) -> int:
+        if -math.inf < value < math.inf:
+            return self._put_float_c(ref, value)
+        text = "1.5NaN" if math.isnan(value) else ("1.0Inf" if value > 0 else "-1.0Inf")
+        return self._chars_to_term(text.encode("ascii"), ref)
+
+
+def _cfunc(function: Any, restype: Any, argtypes: list[Any]) -> Any:
+    """`function` of libswipl with its C signature declared."""
+    function.restype = restype
+    function.argtypes = argtypes
+    return function
 
 
 _ENGINE_LOCK = threading.Lock()
@@ -214,12 +380,13 @@ class KnowledgeBase:
         """
         if limit is not None and limit < 1:
             raise ValueError(f"limit must be positive, got {limit}")
-        reply = self._engine.request(
-            {"module": module, "name": name, "args": [to_json(a) for a in args], "limit": limit}
-        )
-        if "error" in reply:
-            raise PrologError(reply.get("goal") or f"{module}:{name}/{len(args)}", reply["error"])
-        return [{k: from_json(v) for k, v in s.items()} for s in reply["solutions"]]
+        if not (isinstance(module, str) and isinstance(name, str)):
+            raise TypeError(f"module and name must be str, got {module!r} and {name!r}")
+        names, reply = self._engine.run(str.__str__(module), str.__str__(name), args, limit)
+        if type(reply) is not list:
+            message, goal_text = reply.args
+            raise PrologError(goal_text or f"{module}:{name}/{len(args)}", message)
+        return [dict(zip(names, values)) for values in reply]
 
     def once(self, module: str, name: str, *args: Any) -> dict[str, Any] | None:
         """The first solution of ``module:name(args...)``, or None when it fails."""

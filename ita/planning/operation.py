@@ -17,13 +17,14 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass, field
 from enum import Enum
+from operator import itemgetter
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Callable
 
 from ita.errors import ItaError
 from ita.logic.terms import Term, Var
 from ita.paths import ita_home
-from ita.planning.state import NOTHING, Pose, WorldState
+from ita.planning.state import NOTHING, Place, Pose, PoseKind, WorldState
 
 if TYPE_CHECKING:
     from ita.logic.bridge import KnowledgeBase
@@ -184,58 +185,116 @@ def macrop_id(name: str) -> Any:
 _Builder = Callable[[list[Any]], Any]
 
 
-def _builder(template: Any) -> _Builder:
-    """A function from the MACROP's bindings to the term `template` with them plugged in."""
+def _builder(template: Any) -> tuple[_Builder, bool]:
+    """A function from the MACROP's bindings to the term `template` with them plugged in,
+    and whether `template` is ground (then the function returns one shared value)."""
     if isinstance(template, Term):
-        if template.name == "$VAR" and len(template.args) == 1 and isinstance(template.args[0], int):
-            index = template.args[0]
-            return lambda values: values[index]
+        index = _variable_index(template)
+        if index is not None:
+            return itemgetter(index), False
         name = template.name
         parts = [_builder(a) for a in template.args]
-        return lambda values: Term(name, tuple(p(values) for p in parts))
+        if all(ground for _, ground in parts):
+            value = Term(name, tuple(p(()) for p, _ in parts))
+            return (lambda values: value), True
+        builders = [p for p, _ in parts]
+        return (lambda values: Term(name, tuple([p(values) for p in builders]))), False
     if isinstance(template, list):
         parts = [_builder(a) for a in template]
-        return lambda values: [p(values) for p in parts]
-    return lambda values: template
+        builders = [p for p, _ in parts]
+        # not ground: a list is mutable, so each plan gets its own, as before
+        return (lambda values: [p(values) for p in builders]), False
+    return (lambda values: template), True
+
+
+def _step_builder(number: int, action: str, args: list[Any], preds: tuple[int, ...]) -> _Builder:
+    """A function from the MACROP's bindings to its step `number`."""
+    parts = [_builder(a) for a in args]
+    builders = [p for p, _ in parts]
+    if all(ground for _, ground in parts):
+        step = PlanStep(number, action, tuple(p(()) for p in builders), preds)
+        return lambda values: step
+    if len(args) > 1 and all(_variable_index(a) is not None for a in args):
+        # the commonest step: every argument a variable; one C call picks them all
+        pick = itemgetter(*(_variable_index(a) for a in args))
+        return lambda values: PlanStep(number, action, pick(values), preds)
+    return lambda values: PlanStep(number, action, tuple([p(values) for p in builders]), preds)
+
+
+def _variable_index(template: Any) -> int | None:
+    """N for a template variable ``'$VAR'(N)``, else None."""
+    if (isinstance(template, Term) and template.name == "$VAR" and len(template.args) == 1
+            and isinstance(template.args[0], int)):
+        return template.args[0]
+    return None
+
+
+def _pose_builder(template: Any) -> Callable[[list[Any]], Pose]:
+    """A function from the MACROP's bindings to the pose `template`, built directly
+    (the same value and errors as ``Pose.from_term`` of the plugged term)."""
+    build, ground = _builder(template)
+    if ground:
+        try:
+            constant = Pose.from_term(build(()))
+        except ValueError:
+            pass
+        else:
+            return lambda values: constant
+    if isinstance(template, Term) and len(template.args) == 1 and template.name in _POSE_KINDS:
+        kind = _POSE_KINDS[template.name]
+        place = template.args[0]
+        if isinstance(place, Term) and len(place.args) == 1 and place.name != "$VAR":
+            name, (arg_build, _) = place.name, _builder(place.args[0])
+
+            def pose(values: list[Any]) -> Pose:
+                arg = arg_build(values)
+                if isinstance(arg, str):
+                    return Pose(kind, Place(name, arg))
+                return Pose.from_term(build(values))  # raises the error it always raised
+
+            return pose
+    return lambda values: Pose.from_term(build(values))
+
+
+_POSE_KINDS = {k.value: k for k in PoseKind}
+_SOURCES = {s.value: s for s in PlanSource}
 
 
 @dataclass(frozen=True)
 class _Template:
     """A MACROP's plan and overall adders, ready to be plugged with bindings."""
 
+    name: str                        # the MACROP's name, e.g. m3
     nvars: int
-    steps: tuple[tuple[int, str, tuple[_Builder, ...], tuple[int, ...]], ...]
-    at: _Builder | None = None       # the final pose, from an adder at(Arm, Pose)
+    steps: tuple[_Builder, ...]
+    at: Callable[[list[Any]], Pose] | None = None  # the final pose, from an adder at(Arm, Pose)
     holding: _Builder | None = None  # the final tool, from an adder holding(Arm, Tool)
 
     @classmethod
-    def from_term(cls, template: Term) -> "_Template":
+    def from_term(cls, name: str, template: Term) -> "_Template":
         nvars, steps, adders = template.args
         compiled = []
         for step in steps:
             number, action, preds = step.args
             if isinstance(action, Term):
-                compiled.append((number, action.name, tuple(_builder(a) for a in action.args), tuple(preds)))
+                compiled.append(_step_builder(number, action.name, list(action.args), tuple(preds)))
             else:
-                compiled.append((number, action, (), tuple(preds)))
+                compiled.append(_step_builder(number, action, [], tuple(preds)))
         at = holding = None
         for adder in adders:
             if isinstance(adder, Term) and adder.name == "at" and len(adder.args) == 2:
-                at = _builder(adder.args[1])
+                at = _pose_builder(adder.args[1])
             elif isinstance(adder, Term) and adder.name == "holding" and len(adder.args) == 2:
-                holding = _builder(adder.args[1])
-        return cls(int(nvars), tuple(compiled), at, holding)
+                holding, _ = _builder(adder.args[1])
+        return cls(name, int(nvars), tuple(compiled), at, holding)
 
     def plug(self, values: list[Any]) -> tuple[PlanStep, ...]:
         if len(values) != self.nvars:
             raise ValueError(f"MACROP template has {self.nvars} variables, got {len(values)} values")
-        return tuple(
-            PlanStep(number, action, tuple(b(values) for b in builders), preds)
-            for number, action, builders, preds in self.steps
-        )
+        return tuple([step(values) for step in self.steps])
 
     def final_state(self, state: WorldState, values: list[Any]) -> WorldState:
-        pose = Pose.from_term(self.at(values)) if self.at else state.pose
+        pose = self.at(values) if self.at else state.pose
         if self.holding:
             tool = self.holding(values)
             holding = None if tool == NOTHING else tool
@@ -304,11 +363,11 @@ class OperationPlanner:
                 if source == "scratch":
                     self.save()  # a MACROP new to this planner: keep it even if we crash
             steps = template.plug(values)
-            final, name = template.final_state(state, values), macrop_name(mid)
+            final, name = template.final_state(state, values), template.name
         return OperationPlan(
             measurement=spec.id,
             steps=steps,
-            source=PlanSource(source),
+            source=_SOURCES.get(source) or PlanSource(source),
             macrop_name=name,
             seconds=time.perf_counter() - start,
             initial_state=state,
@@ -317,7 +376,7 @@ class OperationPlanner:
 
     def _template(self, mid: Any) -> _Template:
         solution = self.kb.once("macrop", "macrop_template", self._file, mid, Var("T"))
-        return _Template.from_term(solution["T"])
+        return _Template.from_term(macrop_name(mid), solution["T"])
 
     # -- the store -------------------------------------------------------------------
 
