@@ -45,7 +45,7 @@ setup() {
     if ! "$venv/bin/python" -m pip --version >/dev/null 2>&1; then
         rm -rf "$venv"      # absent, or left half-made by an earlier failed attempt
         say "creating virtual environment $venv"
-        if ! "$py" -m venv "$venv" 2>/dev/null; then
+        if ! "$py" -m venv "$venv" >/dev/null 2>&1; then
             # Debian splits venv/ensurepip into its own package.
             rm -rf "$venv"
             apt_install "python3-venv" "$(basename "$py")-venv" || apt_install python3-venv
