@@ -21,6 +21,7 @@ COMMANDS: dict[str, str] = {
     "plan": "ita.cli.plan:plan",
     "macrop": "ita.cli.plan:macrop",
     "pddl": "ita.cli.pddl:pddl",
+    "path": "ita.cli.path:path",
 }
 
 

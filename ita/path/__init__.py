@@ -1,0 +1,45 @@
+"""The Path Planner: collision-free, timed arm motions in the workcell (seed, Path Planner).
+
+Two levels, as in the 1987 system: the tool point among the regions grown by the tool's
+size (`visibility`: visibility lines and A*), then the whole arm at incremental positions
+along the lifted path, with intermediate subgoals where a link would collide (`lift`);
+then shortening, corners blended over the lookahead queue and a velocity profile within
+every joint's limits (`smooth`).
+
+    from ita.path import PathPlanner, workcell_planner
+    planner, tool = workcell_planner(load_workcell(), load_part(None), held="us_probe_1")
+    result = planner.plan(q_start, goal_tool_poses, tool)     # or a goal configuration (6,)
+    result.ok, result.reason, result.trajectory.times, result.trajectory.q
+
+Modules: `visibility`, `lift`, `smooth`, `planner` (the facade), `problems` (problem sets),
+`render` (pictures).  The planner takes an ArmModel, a RegionTree and an ArmChecker and
+hands plain callables (`config_free`, `segments_free`) to the levels below; no simulator.
+"""
+
+from ita.path.planner import (
+    HOME,
+    PathPlanner,
+    PathResult,
+    PlannerSettings,
+    Reason,
+    arm_with_tool,
+    checker_for,
+    planners_for,
+    workcell_planner,
+)
+from ita.path.smooth import Trajectory, limit_violations, time_parameterize
+
+__all__ = [
+    "HOME",
+    "PathPlanner",
+    "PathResult",
+    "PlannerSettings",
+    "Reason",
+    "Trajectory",
+    "arm_with_tool",
+    "checker_for",
+    "limit_violations",
+    "planners_for",
+    "time_parameterize",
+    "workcell_planner",
+]

@@ -1,0 +1,389 @@
+"""The Path Planner: reachable goal, tool-point route, collision-free joint path, trajectory.
+
+    planner = PathPlanner(model, tree, checker)          # ArmModel, RegionTree, ArmChecker
+    result = planner.plan(q_start, goal, tool)           # goal: q (6,), a tool pose (4, 4)
+    if result.ok:                                        #   or candidate poses (k, 4, 4)
+        result.trajectory.times, result.trajectory.q     # what the controller runs
+    else:
+        result.reason, result.message                    # why not
+
+A query (seed, Path Planner): verify that the goal is reachable (inverse kinematics within
+the limits, then collision-free; the candidates ordered by motion time from the start);
+plan the tool point among the regions grown by the tool's size (`visibility`); lift that
+route to joint space and check every link at incremental positions, replanning colliding
+stretches through intermediate subgoals (`lift`) within an effort bound; shorten the
+path; time it with blended corners within the joint limits (`smooth`).
+
+The held tool is one more collision tube on the flange (`tool_tube`), checked against the
+world and against the arm's links but its own wrist; the tree must not hold the held
+tool's parked copy (`workcell_planner` builds such a tree).  The planner reads the tree
+through `ArmChecker` and `RegionTree.tubes_hit` only: it takes no simulator.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from enum import Enum
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ita.collision import ArmChecker, RegionTree, build_tree, self_pairs, tool_tube
+from ita.kinematics import (
+    ArmModel,
+    arm_model,
+    ik_tool,
+    link_segments,
+    move_time,
+    tcp_poses,
+)
+from ita.path.lift import (
+    ConfigChecker,
+    Effort,
+    Lifter,
+    lever_arms,
+    lift_route,
+    path_time,
+)
+from ita.path.smooth import Trajectory, shortcut, time_parameterize
+from ita.path.visibility import VisibilityGraph, build_graph
+from ita.workcell.model import ToolSpec, Workcell
+
+FloatArray = NDArray[np.float64]
+HOME = (0.0, -0.6, 0.9, 0.0, 0.9, 0.0)   # rad: arm folded back, wrist down, clear of the cell
+
+
+class Reason(str, Enum):
+    """Why a query has no path; the value is the spelling in reports."""
+
+    GOAL_UNREACHABLE = "goal_unreachable"
+    START_OUT_OF_LIMITS = "start_out_of_limits"
+    START_IN_COLLISION = "start_in_collision"
+    GOAL_IN_COLLISION = "goal_in_collision"
+    NO_PATH_WITHIN_EFFORT = "no_path_within_effort"
+
+
+@dataclass(frozen=True)
+class PlannerSettings:
+    """Figures of the planner.
+
+    clearance: m beyond the tool's radius for visibility nodes; resolution: m of sweep
+    between incremental link checks; max_rounds / max_seconds: the effort bound (subgoal
+    rounds, seconds per query); goal_candidates: IK solutions of the goal tried, quickest
+    first; detour_rounds / detour_gain: when the quickest goal solution is blocked but a
+    slower one is free, subgoal rounds spent on the quicker one if its direct time is
+    under detour_gain of the free path's; shortcut_rounds: corner-pulling passes;
+    refine_rounds: random local descent rounds on each remaining corner;
+    knot_period: s between trajectory knots; blend: corners blended (else rest at every
+    via); seed: random subgoals (each query starts from it: a query's answer does not
+    depend on the queries before it)."""
+
+    clearance: float = 0.05
+    resolution: float = 0.02
+    max_rounds: int = 60
+    max_seconds: float = 2.0
+    goal_candidates: int = 6
+    detour_rounds: int = 2
+    detour_gain: float = 0.85
+    shortcut_rounds: int = 2
+    refine_rounds: int = 6
+    knot_period: float = 0.01
+    blend: bool = True
+    seed: int = 0
+    home: tuple[float, ...] = HOME
+
+
+@dataclass(frozen=True, eq=False)
+class PathResult:
+    """The answer to one query.
+
+    ok: a path was found; reason: why not (None when ok); message: one line for people.
+    waypoints (k, 6): the joint path (start first, goal last); route (r, 3): the tool
+    point's visibility route; tool_path (m, 3): the TCP along the trajectory's knots;
+    trajectory: the timed motion; seconds: planning time (all of it); stats: counts."""
+
+    ok: bool
+    reason: Reason | None
+    message: str
+    waypoints: FloatArray
+    route: FloatArray
+    tool_path: FloatArray
+    trajectory: Trajectory | None
+    seconds: float
+    stats: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def duration(self) -> float:
+        """Trajectory duration (s), nan without a path."""
+        return self.trajectory.duration if self.trajectory is not None else float("nan")
+
+    @property
+    def tool_path_length(self) -> float:
+        """Length (m) of the tool point's path, nan without a path."""
+        if not self.ok:
+            return float("nan")
+        return float(np.linalg.norm(np.diff(self.tool_path, axis=0), axis=1).sum())
+
+
+def arm_with_tool(model: ArmModel, tool: ToolSpec | None) -> ArmModel:
+    """The model with the held tool's enclosing tube appended on the flange link."""
+    if tool is None:
+        return model
+    ends, radius = tool_tube(tool)
+    return dataclasses.replace(
+        model,
+        tube_links=np.append(model.tube_links, model.dof + 1),
+        tube_ends=np.concatenate([model.tube_ends, ends[None]]),
+        tube_radii=np.append(model.tube_radii, radius),
+    )
+
+
+def checker_for(model: ArmModel, tree: RegionTree, mount: Sequence[str] = ()) -> ArmChecker:
+    """An ArmChecker for `model`'s tubes; a tool tube on the flange is not checked against
+    the wrist link it is bolted next to."""
+    links = model.tube_links
+    exclude = [(model.dof - 1, model.dof + 1)] if (links == model.dof + 1).any() else []
+    return ArmChecker(tree, model.tube_radii, links, pairs=self_pairs(links, exclude=exclude), mount=mount)
+
+
+@dataclass
+class _ToolContext:
+    model: ArmModel
+    checker: ArmChecker
+    tcp: FloatArray
+    radius: float
+    lever: FloatArray
+    config_free: ConfigChecker
+    graph: VisibilityGraph | None = None
+
+
+class PathPlanner:
+    """Plans collision-free, timed arm motions in one workcell state (see module doc).
+
+    model: the bare arm; tree: the region tree (without the held tool); checker: the
+    arm's checker over that tree (its `mount` is kept for tool variants)."""
+
+    def __init__(self, model: ArmModel, tree: RegionTree, checker: ArmChecker,
+                 settings: PlannerSettings | None = None) -> None:
+        self.model = model
+        self.tree = tree
+        self.checker = checker
+        self.settings = settings or PlannerSettings()
+        self._contexts: dict[str | None, _ToolContext] = {}
+
+    # ---- per tool --------------------------------------------------------------------
+    def context(self, tool: ToolSpec | None) -> _ToolContext:
+        """Model, checker, TCP and visibility graph for a held tool (cached by name)."""
+        key = None if tool is None else tool.name
+        if key not in self._contexts:
+            if tool is not None and tool.name in self.tree.objects:
+                raise ValueError(f"the held tool {tool.name!r} is still in the region tree as parked")
+            model = arm_with_tool(self.model, tool)
+            checker = self.checker if tool is None else checker_for(model, self.tree, self.checker.mount)
+            tcp = np.eye(4) if tool is None else tool.tcp.matrix()
+            radius = float(self.model.tube_radii[-1]) if tool is None else tool_tube(tool)[1]
+            reach = 0.0 if tool is None else float(np.linalg.norm(tool.tcp.position))
+            self._contexts[key] = _ToolContext(model, checker, tcp, radius, lever_arms(self.model, reach + radius),
+                                               ConfigChecker(model, checker))
+        return self._contexts[key]
+
+    def graph(self, tool: ToolSpec | None) -> VisibilityGraph:
+        """The static visibility graph for the tool's size (built on first use)."""
+        ctx = self.context(tool)
+        if ctx.graph is None:
+            k = self.model.kinematics
+            shoulder = self.model.base[:3, 3] + np.array([0.0, 0.0, k.d1])
+            reach = k.a1 + k.a2 + k.d4 + k.d6 + float(np.linalg.norm(ctx.tcp[:3, 3])) + ctx.radius
+            ctx.graph = build_graph(self.tree, ctx.radius, self.settings.clearance, reach=(shoulder, reach))
+        return ctx.graph
+
+    def invalidate(self) -> None:
+        """Forget cached graphs and checkers (after the tree changed shape)."""
+        self._contexts.clear()
+
+    def config_free(self, q: ArrayLike, tool: ToolSpec | None = None) -> NDArray[np.bool_]:
+        """Bool (n,): configurations (n, 6) within the limits and free of collision."""
+        return self.context(tool).config_free(q)
+
+    # ---- queries ---------------------------------------------------------------------
+    def goal_configs(self, q_start: FloatArray, goal: ArrayLike, tool: ToolSpec | None
+                     ) -> tuple[FloatArray, Reason | None, str]:
+        """Free goal configurations (m, 6), quickest from q_start first, or a reason."""
+        ctx = self.context(tool)
+        g = np.asarray(goal, dtype=float)
+        if g.shape == (self.model.dof,):
+            if not self.model.within_limits(g):
+                return np.zeros((0, 6)), Reason.GOAL_UNREACHABLE, "the goal configuration is outside the joint limits"
+            if not ctx.config_free(g)[0]:
+                return np.zeros((0, 6)), Reason.GOAL_IN_COLLISION, f"the goal configuration hits {self._culprit(g, ctx)}"
+            return g[None], None, ""
+        if g.shape[-2:] != (4, 4):
+            raise ValueError(f"goal must be a configuration (6,) or tool poses (..., 4, 4), got {g.shape}")
+        ik = ik_tool(self.model, g.reshape(-1, 4, 4), ctx.tcp)
+        q = ik.q[ik.valid]
+        if len(q) == 0:
+            status = ik.flatten_batch().status(()) if ik.shape else ik.status(())
+            return np.zeros((0, 6)), Reason.GOAL_UNREACHABLE, f"no joint solution within the limits ({status.value})"
+        free = ctx.config_free(q)
+        if not free.any():
+            return np.zeros((0, 6)), Reason.GOAL_IN_COLLISION, f"every joint solution of the goal hits something: {self._culprits(q, ctx)}"
+        q = q[free]
+        q = q[np.argsort(move_time(self.model, q_start, q), kind="stable")]
+        _, first = np.unique(np.round(q, 9), axis=0, return_index=True)
+        return q[np.sort(first)], None, ""
+
+    def plan(self, q_start: ArrayLike, goal: ArrayLike, tool: ToolSpec | None = None) -> PathResult:
+        """Plan one move from q_start (6,) to a goal configuration (6,), tool pose (4, 4) or
+        candidate tool poses (k, 4, 4) of the held tool (None: the bare flange)."""
+        t0 = time.perf_counter()
+        s = self.settings
+        ctx = self.context(tool)
+        start = np.asarray(q_start, dtype=float).reshape(self.model.dof)
+        if not self.model.within_limits(start):
+            return self._fail(Reason.START_OUT_OF_LIMITS, "the start configuration is outside the joint limits", t0)
+        if not ctx.config_free(start)[0]:
+            return self._fail(Reason.START_IN_COLLISION, f"the start configuration hits {self._culprit(start, ctx)}", t0)
+        goals, reason, message = self.goal_configs(start, goal, tool)
+        if reason is not None:
+            return self._fail(reason, message, t0)
+        goals = goals[: s.goal_candidates]
+        graph = self.graph(tool)
+        ends = tcp_poses(self.model, np.vstack([start, goals[0]]), ctx.tcp)
+        route = graph.route(ends[0, :3, 3], ends[1, :3, 3], -ends[0, :3, 2], -ends[1, :3, 2])
+        if route is None:
+            route = ends[:, :3, 3]
+        lifter = Lifter(self.model, ctx.tcp, ctx.config_free, ctx.lever, s.resolution,
+                        np.asarray(s.home, dtype=float), np.random.default_rng(s.seed))
+        effort = Effort(s.max_rounds, s.max_seconds)
+        stats: dict[str, Any] = {"route_corners": len(route) - 2, "goal_candidates": len(goals), "subgoals": 0}
+        # the direct joint move to every goal candidate and the lifted route, in one batch
+        options = [np.vstack([start, q]) for q in goals]
+        if len(route) > 2:
+            options.append(lift_route(self.model, ctx.tcp, route, start, goals[0]))
+        times = [path_time(self.model, w) for w in options]
+        path, order = None, np.argsort(times, kind="stable")
+        for rank, k in enumerate(order):                # the quickest free option wins
+            if lifter.free_segments(options[k][:-1], options[k][1:]).all():
+                path = options[k]
+                break
+        if path is not None and rank > 0:
+            # a quicker goal solution may still be worth a subgoal or two
+            for k in order[:min(rank, 2)]:
+                if times[k] >= s.detour_gain * path_time(self.model, path):
+                    break
+                detour = lifter.repair(options[k], Effort(s.detour_rounds, s.max_seconds))
+                if detour is not None and path_time(self.model, detour) < path_time(self.model, path):
+                    path = detour
+                    stats["subgoals"] = len(detour) - len(options[k])
+        if path is None:
+            # replan colliding stretches through subgoals, the quickest option first
+            for k in np.argsort(times, kind="stable"):
+                path = lifter.repair(options[k], effort)
+                if path is not None:
+                    stats["subgoals"] = len(path) - len(options[k])
+                    break
+                if effort.spent():
+                    break
+        stats.update(rounds=effort.rounds, subgoals_tried=lifter.subgoals_tried, graph_nodes=len(graph.nodes))
+        if path is None:
+            return self._fail(Reason.NO_PATH_WITHIN_EFFORT,
+                              f"no collision-free path within {effort.rounds} subgoal rounds "
+                              f"({time.perf_counter() - effort.started:.2f} s)", t0, route, stats)
+        path = shortcut(self.model, path, lifter.free_segments, s.shortcut_rounds, lifter.rng, s.refine_rounds)
+        traj = self.time(path, tool)
+        tool_path = tcp_poses(self.model, traj.q, ctx.tcp)[:, :3, 3]
+        stats["waypoints"] = len(path)
+        return PathResult(True, None, f"{len(path)} waypoints, {traj.duration:.2f} s", path, route, tool_path, traj,
+                          time.perf_counter() - t0, stats)
+
+    def time(self, waypoints: ArrayLike, tool: ToolSpec | None = None, stops: ArrayLike | None = None) -> Trajectory:
+        """The blended trajectory of a joint path (blends only where free; see `smooth`)."""
+        ctx = self.context(tool)
+        w = np.asarray(waypoints, dtype=float)
+        if not self.settings.blend:
+            stops = np.ones(len(w), dtype=bool)
+        return time_parameterize(self.model, w, stops, ctx.config_free, ctx.lever, self.settings.resolution,
+                                 self.settings.knot_period)
+
+    def plan_queue(self, q_start: ArrayLike, goals: Sequence[ArrayLike], tool: ToolSpec | None = None,
+                   stops: Sequence[bool] | None = None, lookahead: int = 4) -> tuple[list[PathResult], Trajectory | None]:
+        """Plan consecutive moves (the Executive's lookahead queue) and time them together:
+        up to `lookahead` moves are blended through their intermediate goals, except goals
+        flagged in `stops` (a measurement) and where a blend would collide; the arm rests
+        at the end of each window.  Returns each move's result and the whole trajectory
+        (None if a move failed)."""
+        results, q = [], np.asarray(q_start, dtype=float)
+        for g in goals:
+            r = self.plan(q, g, tool)
+            results.append(r)
+            if not r.ok:
+                return results, None
+            q = r.waypoints[-1]
+        flags = [False] * len(goals) if stops is None else list(stops)
+        path, rest = [results[0].waypoints[0]], [True]
+        for i, r in enumerate(results):
+            path.extend(r.waypoints[1:])
+            rest.extend([False] * (len(r.waypoints) - 2))
+            rest.append(bool(flags[i]) or (i + 1) % max(lookahead, 1) == 0)
+        return results, self.time(np.vstack(path), tool, np.array(rest))
+
+    # ---- helpers ---------------------------------------------------------------------
+    def _culprit(self, q: FloatArray, ctx: _ToolContext) -> str:
+        if not self.model.within_limits(q):
+            return "a joint limit"
+        hits = ctx.checker.check(link_segments(ctx.model, q))
+        if hits.status[0] == 2:
+            a, b = hits.pair[0]
+            names = ctx.model.link_names
+            link = [names[ctx.model.tube_links[t]] if ctx.model.tube_links[t] <= self.model.dof else "the tool"
+                    for t in (a, b)]
+            return f"itself ({link[0]} and {link[1]})"
+        return str(hits.obj[0])
+
+    def _culprits(self, q: FloatArray, ctx: _ToolContext) -> str:
+        """What the configurations q (n, 6) hit, most often first: 'part (10), itself (2)'."""
+        counts: dict[str, int] = {}
+        for row in q:
+            name = self._culprit(row, ctx)
+            name = "itself" if name.startswith("itself") else name
+            counts[name] = counts.get(name, 0) + 1
+        return ", ".join(f"{k} ({v})" for k, v in sorted(counts.items(), key=lambda kv: -kv[1]))
+
+    @staticmethod
+    def _fail(reason: Reason, message: str, t0: float, route: FloatArray | None = None,
+              stats: dict | None = None) -> PathResult:
+        empty = np.zeros((0, 6))
+        return PathResult(False, reason, message, empty, np.zeros((0, 3)) if route is None else route,
+                          np.zeros((0, 3)), None, time.perf_counter() - t0, stats or {})
+
+
+def planners_for(cell: Workcell, part: Any | None, settings: PlannerSettings | None = None
+                 ) -> Callable[[str | None], tuple[PathPlanner, ToolSpec | None]]:
+    """A cached `held tool name -> (PathPlanner, ToolSpec)` for one workcell and part."""
+    cache: dict[str | None, tuple[PathPlanner, ToolSpec | None]] = {}
+
+    def planner_for(held: str | None) -> tuple[PathPlanner, ToolSpec | None]:
+        if held not in cache:
+            cache[held] = workcell_planner(cell, part, held, settings)
+        return cache[held]
+
+    return planner_for
+
+
+def workcell_planner(cell: Workcell, part: Any | None, held: str | None = None,
+                     settings: PlannerSettings | None = None) -> tuple[PathPlanner, ToolSpec | None]:
+    """A planner over the workcell and part with tool `held` in the gripper (its parked
+    copy taken out of the tree), and that tool."""
+    tree = build_tree(cell, part)
+    tool = None
+    if held is not None:
+        tool = cell.tool(held)
+        if held in tree.objects:
+            tree.remove(held)
+    model = arm_model(cell.arm)
+    checker = ArmChecker(tree, model.tube_radii, model.tube_links, mount=[cell.pedestal.name])
+    return PathPlanner(model, tree, checker, settings), tool

@@ -1,0 +1,317 @@
+"""The Path Planner: reasons for failure, free paths, subgoals around obstacles, the
+trajectory's limits, smoothing that keeps paths free, problem sets, the CLI."""
+
+from __future__ import annotations
+
+import json
+from itertools import pairwise
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from ita.cli import main
+from ita.collision import ArmChecker, Regions, RegionTree
+from ita.errors import InputError
+from ita.kinematics import arm_model, link_segments, move_time, tcp_poses
+from ita.path.lift import (
+    ConfigChecker,
+    Effort,
+    Lifter,
+    path_free,
+    segments_free,
+)
+from ita.path.planner import HOME, PathPlanner, PlannerSettings, Reason, planners_for
+from ita.path.problems import (
+    Problem,
+    generate_problems,
+    measurement_targets,
+    read_problems,
+    run_problems,
+    summarize,
+    write_problems,
+)
+from ita.path.smooth import (
+    limit_violations,
+    lspb,
+    shortcut,
+    time_parameterize,
+    trajectory_free,
+)
+from ita.path.visibility import build_graph
+from ita.specs.io import read_specs
+from ita.workcell import load_workcell
+
+TOL = 1e-6
+
+
+@pytest.fixture(scope="module")
+def cell():
+    return load_workcell()
+
+
+@pytest.fixture(scope="module")
+def planner_for(cell, builtin_part):
+    return planners_for(cell, builtin_part)
+
+
+@pytest.fixture(scope="module")
+def specs(builtin_part):
+    return read_specs(builtin_part.specs_path)
+
+
+@pytest.fixture(scope="module")
+def wall_scene(cell):
+    """The bare arm on its pedestal with a floor and one beam hanging in front of it, which
+    the forearm's direct sweep between two stretched poses runs into."""
+    model = arm_model(cell.arm)
+    tree = RegionTree()
+    tree.add("floor", Regions.boxes([[0.0, 0.0, -0.05]], np.eye(3), [[8.0, 8.0, 0.1]]))
+    tree.add("pedestal", Regions.boxes([[0.0, 0.0, 0.3]], np.eye(3), [[0.9, 0.9, 0.6]]))
+    tree.add("beam", Regions.boxes([[1.5, 0.0, 2.45]], np.eye(3), [[0.3, 0.4, 0.6]]))
+    checker = ArmChecker(tree, model.tube_radii, model.tube_links, mount=["pedestal"])
+    planner = PathPlanner(model, tree, checker, PlannerSettings(seed=3))
+    start = np.array([-0.9, 0.3, -0.2, 0.0, 0.4, 0.0])
+    goal = np.array([0.9, 0.3, -0.2, 0.0, 0.4, 0.0])
+    return planner, start, goal
+
+
+def _colliding(planner, tool, rng):
+    q = rng.uniform(planner.model.lower, planner.model.upper, (400, 6))
+    return q[~planner.config_free(q, tool)][0]
+
+
+# ---- reasons for failure ---------------------------------------------------------------
+def test_start_outside_the_limits_is_refused(planner_for):
+    planner, tool = planner_for("us_probe_1")
+    start = np.array(HOME)
+    start[0] = 3.0
+    r = planner.plan(start, np.array(HOME), tool)
+    assert not r.ok and r.reason is Reason.START_OUT_OF_LIMITS and r.trajectory is None
+
+
+def test_start_in_collision_names_what_it_hits(planner_for):
+    planner, tool = planner_for("us_probe_1")
+    start = _colliding(planner, tool, np.random.default_rng(0))
+    r = planner.plan(start, np.array(HOME), tool)
+    assert not r.ok and r.reason is Reason.START_IN_COLLISION
+    assert "hits" in r.message and len(r.waypoints) == 0
+
+
+def test_goal_out_of_reach_is_unreachable(planner_for):
+    planner, tool = planner_for("us_probe_1")
+    pose = np.eye(4)
+    pose[:3, 3] = [5.0, 0.0, 1.0]
+    r = planner.plan(np.array(HOME), pose, tool)
+    assert not r.ok and r.reason is Reason.GOAL_UNREACHABLE and "out_of_reach" in r.message
+
+
+def test_goal_outside_the_limits_is_unreachable(planner_for):
+    planner, tool = planner_for(None)
+    goal = np.array(HOME)
+    goal[4] = 3.0
+    r = planner.plan(np.array(HOME), goal, tool)
+    assert not r.ok and r.reason is Reason.GOAL_UNREACHABLE
+
+
+def test_touching_the_part_is_a_goal_in_collision(planner_for, cell, specs):
+    """The probe's tip on the surface: every solution's tool tube meets the part's regions."""
+    planner, tool = planner_for("us_probe_1")
+    spec = min((s for s in specs if s.kind.value == "web_thickness"), key=lambda s: abs(s.point[0]) + abs(s.point[1]))
+    from ita.kinematics import measurement_poses
+
+    on_surface = measurement_poses(cell.part, np.array([spec.point]), np.array([spec.normal]), tool)[0]
+    r = planner.plan(np.array(HOME), on_surface, tool)
+    assert not r.ok and r.reason is Reason.GOAL_IN_COLLISION and "part" in r.message
+
+
+def test_effort_bound_gives_no_path_within_effort(wall_scene):
+    planner, start, goal = wall_scene
+    strict = PathPlanner(planner.model, planner.tree, planner.checker, PlannerSettings(max_rounds=0))
+    r = strict.plan(start, goal)
+    assert not r.ok and r.reason is Reason.NO_PATH_WITHIN_EFFORT and "0 subgoal rounds" in r.message
+
+
+# ---- paths -----------------------------------------------------------------------------
+def test_free_path_is_direct_and_ends_at_the_goal(planner_for):
+    planner, tool = planner_for("us_probe_1")
+    goal = np.array(HOME) + np.array([0.3, 0.1, -0.1, 0.2, 0.1, 0.5])
+    r = planner.plan(np.array(HOME), goal, tool)
+    assert r.ok and r.reason is None
+    assert len(r.waypoints) == 2
+    np.testing.assert_allclose(r.trajectory.q[0], HOME)
+    np.testing.assert_allclose(r.trajectory.q[-1], goal, atol=1e-9)
+    assert r.duration > 0 and r.tool_path_length > 0
+
+
+def test_path_around_an_obstacle_uses_a_subgoal(wall_scene):
+    planner, start, goal = wall_scene
+    ctx = planner.context(None)
+    assert not segments_free(ctx.config_free, start, goal, ctx.lever, 0.02)[0]   # the beam is in the way
+    r = planner.plan(start, goal)
+    assert r.ok and r.stats["subgoals"] >= 1 and len(r.waypoints) >= 3
+    assert path_free(ctx.config_free, r.waypoints, ctx.lever, 0.005).all()
+    assert trajectory_free(r.trajectory, lambda a, b: segments_free(ctx.config_free, a, b, ctx.lever, 0.005))
+
+
+def test_pose_goal_takes_the_quickest_free_solution(planner_for, cell, specs):
+    planner, tool = planner_for("slra_1")
+    goal = measurement_targets(cell, specs[10].point, specs[10].normal, tool)
+    q, reason, _ = planner.goal_configs(np.array(HOME), goal, tool)
+    assert reason is None and len(q) > 1
+    r = planner.plan(np.array(HOME), goal, tool)
+    assert r.ok
+    reached = tcp_poses(planner.model, r.waypoints[-1], tool.tcp.matrix())[0]
+    assert min(np.abs(reached - g).max() for g in goal) < 1e-6
+
+
+def test_compiled_checker_agrees_with_the_arm_checker(planner_for):
+    planner, tool = planner_for("us_probe_1")
+    ctx = planner.context(tool)
+    q = np.random.default_rng(1).uniform(ctx.model.lower - 0.2, ctx.model.upper + 0.2, (3000, 6))
+    expected = ctx.model.within_limits(q) & ~ctx.checker.collides(link_segments(ctx.model, q))
+    assert 0.1 < expected.mean() < 0.9
+    np.testing.assert_array_equal(ConfigChecker(ctx.model, ctx.checker)(q), expected)
+
+
+def test_visibility_route_goes_around_a_box():
+    tree = RegionTree()
+    tree.add("box", Regions.boxes([[0.0, 0.0, 0.0]], np.eye(3), [[0.4, 0.4, 0.4]]))
+    graph = build_graph(tree, radius=0.05, clearance=0.02)
+    a, b = np.array([-0.6, 0.0, 0.0]), np.array([0.6, 0.05, 0.0])
+    route = graph.route(a, b)
+    assert route is not None and len(route) >= 3
+    np.testing.assert_allclose(route[[0, -1]], [a, b])
+    assert not tree.tubes_hit(route[:-1], route[1:], 0.05).any()
+    assert np.linalg.norm(np.diff(route, axis=0), axis=1).sum() < 2.0
+    direct = graph.route(a, np.array([-0.6, 0.5, 0.3]))
+    assert len(direct) == 2
+
+
+# ---- smoothing and timing --------------------------------------------------------------
+def test_trajectory_stays_within_every_joint_limit(planner_for, wall_scene):
+    model = wall_scene[0].model
+    rng = np.random.default_rng(4)
+    for n in (2, 3, 6):
+        w = rng.uniform(model.lower, model.upper, (n, 6)) * 0.5
+        w[1:] = w[:1] + np.cumsum(rng.normal(size=(n - 1, 6)) * rng.uniform(0.01, 0.8), axis=0)
+        w = np.clip(w, model.lower, model.upper)
+        traj = time_parameterize(model, w, period=0.005)
+        ratios = limit_violations(model, traj)
+        assert ratios["velocity"] <= 1 + TOL and ratios["acceleration"] <= 1 + TOL
+        np.testing.assert_allclose(traj.q[[0, -1]], w[[0, -1]], atol=1e-9)
+    r = wall_scene[0].plan(wall_scene[1], wall_scene[2])
+    ratios = limit_violations(model, r.trajectory)
+    assert ratios["velocity"] <= 1 + TOL and ratios["acceleration"] <= 1 + TOL
+
+
+def test_blends_are_quicker_than_stops_and_stops_are_at_rest(wall_scene):
+    model = wall_scene[0].model
+    w = np.array([[0.0] * 6, [0.6, 0.2, 0.0, 0.0, 0.0, 0.0], [0.6, 0.6, 0.3, 0.5, 0.0, 0.0]])
+    blended = time_parameterize(model, w)
+    stopped = time_parameterize(model, w, stops=[False, True, False])
+    assert blended.duration < stopped.duration
+    t_via = stopped.vias[1]
+    near = np.abs(stopped.times - t_via) < 0.011
+    speed = np.abs(np.diff(stopped.q, axis=0) / np.diff(stopped.times)[:, None])
+    assert speed[near[:-1]].max() < 0.05
+    single = lspb(model, w[:2])                    # one segment: the rest-to-rest minimum
+    assert single.duration == pytest.approx(float(move_time(model, w[0], w[1])))
+
+
+def test_smoothing_never_introduces_a_collision(wall_scene):
+    planner, start, goal = wall_scene
+    ctx = planner.context(None)
+    rng = np.random.default_rng(7)
+
+    def free(a, b):
+        return segments_free(ctx.config_free, a, b, ctx.lever, 0.02)
+
+    lifter = Lifter(planner.model, np.eye(4), ctx.config_free, ctx.lever, 0.02, np.array(HOME), rng)
+    for trial in range(3):
+        raw = lifter.repair(np.vstack([start, goal]), Effort(60, 5.0))
+        assert raw is not None
+        # a jagged but free path: detours through random free configurations
+        extra = []
+        for a, b in pairwise(raw):
+            c = rng.uniform(planner.model.lower, planner.model.upper, (200, 6)) * 0.3 + (a + b) / 2 * 0.7
+            ok = ctx.config_free(c)
+            c = c[ok]
+            good = c[free(np.broadcast_to(a, c.shape), c) & free(c, np.broadcast_to(b, c.shape))]
+            extra.append([a, good[0]] if len(good) else [a])
+        jagged = np.vstack([q for pair in extra for q in pair] + [raw[-1]])
+        assert free(jagged[:-1], jagged[1:]).all()
+        short = shortcut(planner.model, jagged, free)
+        assert free(short[:-1], short[1:]).all()
+        np.testing.assert_allclose(short[[0, -1]], jagged[[0, -1]])
+        traj = time_parameterize(planner.model, short, config_free=ctx.config_free, lever=ctx.lever)
+        assert trajectory_free(traj, free)
+
+
+def test_queue_blends_through_intermediate_goals(planner_for):
+    planner, tool = planner_for(None)
+    goals = [np.array(HOME) + d for d in ([0.4, 0.1, 0, 0, 0, 0], [0.8, -0.1, 0.1, 0, 0.2, 0], [0.8, 0.2, 0, 0, 0, 0])]
+    results, blended = planner.plan_queue(np.array(HOME), goals, tool, lookahead=4)
+    _, stopped = planner.plan_queue(np.array(HOME), goals, tool, stops=[True, True, False], lookahead=4)
+    assert all(r.ok for r in results)
+    assert blended.duration < stopped.duration <= sum(r.duration for r in results) + 1e-9
+
+
+# ---- problem sets ----------------------------------------------------------------------
+def test_problem_set_round_trip_and_run(cell, specs, planner_for, tmp_path):
+    problems = generate_problems(cell, specs, 8, 5, planner_for)
+    assert len(problems) == 8
+    path = tmp_path / "p.json"
+    write_problems(path, problems, 5)
+    assert read_problems(path) == problems
+    rows = run_problems(problems, planner_for)
+    summary = summarize(rows)
+    assert summary["solved"] == 8 and summary["median_ms"] > 0
+    assert all(planner_for(p.tool)[0].config_free(np.array(p.start_q), planner_for(p.tool)[1])[0] for p in problems)
+
+
+def test_malformed_problem_file_is_an_input_error(tmp_path):
+    path = tmp_path / "bad.json"
+    path.write_text(json.dumps({"format": "ita-path-problems/1", "problems": [
+        {"id": "x", "kind": "random", "tool": None, "start_q": [0, 0, 0]}]}))
+    with pytest.raises(InputError, match="problems\\[0\\]"):
+        read_problems(path)
+    path.write_text("{}")
+    with pytest.raises(InputError, match="not a problem set"):
+        read_problems(path)
+    assert Problem.from_json(Problem("a", "random", None, "", "", (0.0,) * 6, (1.0,) * 6).to_json()).goal.shape == (6,)
+
+
+# ---- CLI -------------------------------------------------------------------------------
+def test_cli_plan_renders_and_reports(builtin_part, tmp_path):
+    runner = CliRunner()
+    png = tmp_path / "path.png"
+    r = runner.invoke(main, ["path", "plan", "home", "rack:slot_3", "--render", str(png)])
+    assert r.exit_code == 0, r.output
+    assert "slra_1" in r.output and "duration" in r.output
+    assert png.stat().st_size > 20_000
+    r = runner.invoke(main, ["path", "plan", "home", "no_such_spec"])
+    assert r.exit_code == 2
+    r = runner.invoke(main, ["path", "plan", "home", "home", "--tool", "none", "--json"])
+    assert r.exit_code == 0 and json.loads(r.output)["ok"]
+
+
+def test_cli_plan_without_a_path_exits_1(builtin_part, specs, cell, planner_for):
+    r = CliRunner().invoke(main, ["path", "plan", "home", specs[0].id, "--tool", "none"])
+    assert r.exit_code == 2            # a measurement needs a tool
+    planner, tool = planner_for("us_probe_1")
+    blocked = next(s for s in specs if planner.goal_configs(
+        np.array(HOME), measurement_targets(cell, s.point, s.normal, tool), tool)[1] is not None)
+    r = CliRunner().invoke(main, ["path", "plan", "home", blocked.id, "--tool", "us_probe_1"])
+    assert r.exit_code == 1 and "no path: goal_" in r.output
+
+
+def test_cli_problems_and_bench(builtin_part, tmp_path):
+    runner = CliRunner()
+    out = tmp_path / "probs.json"
+    r = runner.invoke(main, ["path", "problems", "--n", "4", "--seed", "2", "-o", str(out)])
+    assert r.exit_code == 0, r.output
+    r = runner.invoke(main, ["path", "bench", str(out), "--json"])
+    assert r.exit_code == 0, r.output
+    data = json.loads(r.output[r.output.index("{"):])
+    assert data["summary"]["problems"] == 4 and data["summary"]["solved"] == 4
