@@ -7,7 +7,9 @@
             kind_tool_type/2,           % ?Kind, ?ToolType
             measurement_goal/4,         % +Id, +Kind, -Goal, -Constraints
             world_state/3,              % +Arm, +Pose, -State
-            planning_state/4            % +Arm, +Pose, +Holding, -State
+            planning_state/4,           % +Arm, +Pose, +Holding, -State
+            must_be_planning_state/3,   % +Arm, +Pose, +Holding
+            planning_state_facts/3      % +Holding, ?Pattern, -Facts
           ]).
 
 /** <module> Static and deductive operators of the inspection domain
@@ -384,11 +386,13 @@ kind_tool_type(edge_distance, slra_tool).
 %   @error domain_error(measurement_kind, Kind) for an unknown kind
 
 measurement_goal(Id, Kind, measured(Tool, Arm, meas(Id)), [type(Tool, ToolType), type(Arm, arm)]) :-
-    must_be(atomic, Id),
-    must_be(atom, Kind),
-    (   kind_tool_type(Kind, ToolType)
-    ->  true
-    ;   domain_error(measurement_kind, Kind)
+    (   atomic(Id),
+        atom(Kind),
+        kind_tool_type(Kind, ToolType0)
+    ->  ToolType = ToolType0
+    ;   must_be(atomic, Id),
+        must_be(atom, Kind),
+        domain_error(measurement_kind, Kind)
     ).
 
 %!  world_state(+Arm, +Pose, -State:list) is det.
@@ -413,15 +417,43 @@ world_state(Arm, Pose, State) :-
 %   @error existence_error(tool, Holding) if Holding is neither a tool nor `none`
 
 planning_state(Arm, Pose, Holding, State) :-
-    must_be(atom, Arm),
-    must_be(ground, Pose),
-    must_be(atom, Holding),
+    must_be_planning_state(Arm, Pose, Holding),
+    findall(Fact, held_state_fact(Holding, Fact), Facts),
+    sort([at(Arm, Pose), holding(Arm, Holding)|Facts], State).
+
+%!  must_be_planning_state(+Arm, +Pose, +Holding) is det.
+%
+%   Arm, Pose and Holding describe a planning state (planning_state/4).
+%
+%   @error existence_error(tool, Holding) if Holding is neither a tool nor `none`
+%   @error type_error(...) or instantiation_error(...) for a non-atom Arm or Holding or
+%   a non-ground Pose
+
+must_be_planning_state(Arm, Pose, Holding) :-
+    (   atom(Arm),
+        atom(Holding),
+        ground(Pose)
+    ->  true
+    ;   must_be(atom, Arm),
+        must_be(ground, Pose),
+        must_be(atom, Holding)
+    ),
     (   ( Holding == none ; world:tool(Holding) )
     ->  true
     ;   existence_error(tool, Holding)
-    ),
-    findall(Fact, held_state_fact(Holding, Fact), Facts),
-    sort([at(Arm, Pose), holding(Arm, Holding)|Facts], State).
+    ).
+
+%!  planning_state_facts(+Holding, ?Pattern, -Facts:list) is det.
+%
+%   Facts are the facts of the planning state of an arm holding Holding
+%   (planning_state/4) that unify with Pattern, in the order of that state (the
+%   standard order of terms), leaving out the arm's own at/2 and holding/2 facts, which
+%   the caller knows.  MACROP lookup asks for the few facts a MACROP's preconditions
+%   mention instead of deriving the whole state.
+
+planning_state_facts(Holding, Pattern, Facts) :-
+    findall(Pattern, held_state_fact(Holding, Pattern), Facts0),
+    sort(Facts0, Facts).
 
 held_state_fact(Holding, location(Tool, in_rack(Slot))) :-
     world:location(Tool, in_rack(Slot)),

@@ -67,6 +67,21 @@ test(world_state_has_an_empty_hand_and_tools_in_the_rack,
     include([F]>>memberchk(F, [holding(t3, none), location(us_probe_1, in_rack(slot_1))]),
             S, Facts).
 
+test(planning_state_facts_are_the_states_facts_of_a_kind,
+     true(Facts == Expected)) :-
+    planning_state(t3, approach_point(home), us_probe_1, State),
+    include([F]>>(F = location(_, _)), State, Expected),
+    planning_state_facts(us_probe_1, location(_, _), Facts).
+
+test(planning_state_facts_leave_out_the_held_tool, true(Facts == [])) :-
+    planning_state_facts(us_probe_1, location(us_probe_1, _), Facts).
+
+test(planning_state_facts_leave_out_the_arms_own_facts, true(Facts == [])) :-
+    planning_state_facts(none, at(_, _), Facts).
+
+test(planning_state_of_an_unknown_tool, error(existence_error(tool, spanner))) :-
+    must_be_planning_state(t3, approach_point(home), spanner).
+
 test(criticality_of_measured_above_pose, true(M > P)) :-
     criticality(measured(_, _, _), M),
     criticality(at(_, _), P).

@@ -49,7 +49,14 @@ hits(N))` clause each, a `store_counts(Lookups, Hits, Misses)` clause and a
 read the file or consult it.  A store is opened by its file name, which the caller
 chooses: learned MACROPs live apart from the hand-written ones of kb/macrops.pl, which
 lookup/5 also consults.  An open store lives in memory, with a lookup index; it is
-written back to its file (atomically) only by save_store/1.
+written back to its file (atomically) only by save_store/1.  The index holds, besides
+each MACROP's fields, its applicability test compiled into a clause
+(state_candidate/9) when the MACROP is added or loaded: for the planning state of
+kb/operators.pl, whose arm is at one pose holding one tool, the MACROP's at/2 and
+holding/2 preconditions and its purpose go into the clause head (so the clauses are
+indexed on them), its other preconditions are matched against only the facts of
+their kind, its constraints are calls to the static facts.  A lookup bumps one
+counter, a flag.
 
 *The facade's entry point.*  measurement_plan/8 is the Operation Planner for one
 measurement in a single call with a compact reply: the MACROP's number and the values
@@ -70,16 +77,26 @@ constraints that the bindings must satisfy.
 :- use_module('../kb/macrops', []).
 
 :- use_module(library(aggregate)).
-:- use_module('../kb/operators', [measurement_goal/4, planning_state/4]).
+:- use_module('../kb/operators',
+              [ measurement_goal/4,
+                planning_state/4,
+                must_be_planning_state/3,
+                planning_state_facts/3
+              ]).
 
-% The open stores, in memory; save_store/1 writes one back to its file.
+% The open stores, in memory; save_store/1 writes one back to its file.  A lookup
+% bumps one flag: the hits of the MACROP found (hit_key/3) or the misses of the store;
+% the store's lookups and hits are the counts read from its file plus those bumps.
 :- dynamic stored/4.            % stored(File, Id, NameAndFormat, Fields)
-:- dynamic hits/3.              % hits(File, Id, Hits); Id kb(Name) for hand-written ones
-:- dynamic counts/4.            % counts(File, Lookups, Hits, Misses)
+:- dynamic count_base/5.        % count_base(File, MissKey, Lookups, Hits, Misses): open
+:- dynamic counted/3.           % counted(File, Id, Hits0): Id's hits, Hits0 from the file
 :- dynamic generation/2.        % generation(File, G): changes when Ids may be reused
 % The lookup index of a store, in lookup order (fewest steps first, learned first):
 :- dynamic candidate/6.         % candidate(File, Id, Purpose, Pre, Constraints, Vars)
 :- dynamic candidate_plan/5.    % candidate_plan(File, Id, Vars, Steps, Adders)
+% ... and each MACROP's applicability compiled into a clause, for measurement_plan/8:
+:- dynamic state_candidate/9.   % state_candidate(File, Goal, Arm, Pose, Holding,
+                                %                 GoalConstraints, Id, HitKey, Vars)
 
 
                  /*******************************
@@ -293,7 +310,7 @@ match_all([P|Ps], State) :-
 open_store(File) :-
     must_be(atom, File),
     close_store(File),
-    assertz(counts(File, 0, 0, 0)),
+    open_counts(File),
     new_generation(File),
     (   exists_file(File)
     ->  read_file_to_terms(File, Terms, []),
@@ -309,16 +326,48 @@ load_term(File, macrop(Id, Name, Fields, hits(Hits))) :- !,
     assertz(stored(File, Id, Name, Fields)),
     set_hits(File, Id, Hits).
 load_term(File, store_counts(Lookups, Hits, Misses)) :- !,
-    retractall(counts(File, _, _, _)),
-    assertz(counts(File, Lookups, Hits, Misses)).
+    must_be(nonneg, Lookups),
+    must_be(nonneg, Hits),
+    must_be(nonneg, Misses),
+    retract(count_base(File, MissKey, _, _, _)),
+    assertz(count_base(File, MissKey, Lookups, Hits, Misses)).
 load_term(File, written_hits(Name, Hits)) :- !,
     set_hits(File, kb(Name), Hits).
 load_term(File, Term) :-
     domain_error(macrop_store_term(File), Term).
 
 set_hits(File, Id, Hits) :-
-    retractall(hits(File, Id, _)),
-    assertz(hits(File, Id, Hits)).
+    hit_key(File, Id, Key),
+    flag(Key, _, Hits),
+    retractall(counted(File, Id, _)),
+    assertz(counted(File, Id, Hits)).
+
+%   hit_key(+File, +Id, -Key)
+%
+%   Key names the flag that counts the hits of MACROP Id of store File.  A flag that is
+%   not zero has a counted/3 clause, so that close_store/1 can reset it.
+
+hit_key(File, Id, Key) :-
+    format(atom(Key), '$macrop_hits ~w ~q', [File, Id]).
+
+%   open_counts(+File)
+%
+%   Mark store File open with its lookup, hit and miss counts at zero.
+
+open_counts(File) :-
+    format(atom(MissKey), '$macrop_misses ~w', [File]),
+    flag(MissKey, _, 0),
+    assertz(count_base(File, MissKey, 0, 0, 0)).
+
+%   close_counts(+File)
+%
+%   Forget the counts of store File: the hits of its MACROPs and its misses.
+
+close_counts(File) :-
+    forall(retract(counted(File, Id, _)),
+           ( hit_key(File, Id, Key), flag(Key, _, 0) )),
+    forall(retract(count_base(File, MissKey, _, _, _)),
+           flag(MissKey, _, 0)).
 
 new_generation(File) :-
     flag(macrop_store_generation, G, G + 1),
@@ -332,11 +381,11 @@ new_generation(File) :-
 close_store(File) :-
     must_be(atom, File),
     retractall(stored(File, _, _, _)),
-    retractall(hits(File, _, _)),
-    retractall(counts(File, _, _, _)),
+    close_counts(File),
     retractall(generation(File, _)),
     retractall(candidate(File, _, _, _, _, _)),
-    retractall(candidate_plan(File, _, _, _, _)).
+    retractall(candidate_plan(File, _, _, _, _)),
+    retractall(state_candidate(File, _, _, _, _, _, _, _, _)).
 
 %!  clear_store(+File) is det.
 %
@@ -348,9 +397,8 @@ close_store(File) :-
 clear_store(File) :-
     must_be_open(File),
     retractall(stored(File, _, _, _)),
-    retractall(hits(File, _, _)),
-    retractall(counts(File, _, _, _)),
-    assertz(counts(File, 0, 0, 0)),
+    close_counts(File),
+    open_counts(File),
     new_generation(File),
     reindex(File).
 
@@ -362,10 +410,11 @@ clear_store(File) :-
 %   @error existence_error(macrop_store, File) if File is not open
 
 save_store(File) :-
-    must_be_open(File),
-    counts(File, Lookups, Hits, Misses),
+    store_counts(File, Lookups, Hits, Misses),
     store_macrops(File, Macrops),
-    findall(written_hits(Name, H), hits(File, kb(Name), H), Written),
+    findall(written_hits(Name, H),
+            ( counted(File, kb(Name), _), stored_hits(File, kb(Name), H) ),
+            Written),
     atom_concat(File, '.tmp', Tmp),
     setup_call_cleanup(open(Tmp, write, Out),
                        write_store(Out, Lookups, Hits, Misses, Macrops, Written),
@@ -382,7 +431,7 @@ write_store(Out, Lookups, Hits, Misses, Macrops, Written) :-
 
 must_be_open(File) :-
     must_be(atom, File),
-    (   counts(File, _, _, _)
+    (   count_base(File, _, _, _, _)
     ->  true
     ;   existence_error(macrop_store, File)
     ).
@@ -398,10 +447,8 @@ store_macrops(File, Macrops) :-
             Macrops).
 
 stored_hits(File, Id, Hits) :-
-    (   hits(File, Id, Hits0)
-    ->  Hits = Hits0
-    ;   Hits = 0
-    ).
+    hit_key(File, Id, Key),
+    flag(Key, Hits, Hits).
 
 %!  store_counts(+File, -Lookups:integer, -Hits:integer, -Misses:integer) is det.
 %
@@ -410,7 +457,14 @@ stored_hits(File, Id, Hits) :-
 
 store_counts(File, Lookups, Hits, Misses) :-
     must_be_open(File),
-    counts(File, Lookups, Hits, Misses).
+    count_base(File, MissKey, Lookups0, Hits0, Misses0),
+    aggregate_all(sum(H - H0),
+                  ( counted(File, Id, H0), stored_hits(File, Id, H) ),
+                  NewHits),
+    flag(MissKey, NewMisses, NewMisses),
+    Lookups is Lookups0 + NewHits + NewMisses,
+    Hits is Hits0 + NewHits,
+    Misses is Misses0 + NewMisses.
 
 %!  add_macrop(+File, +Macrop, -Id:integer) is det.
 %
@@ -439,6 +493,7 @@ add_macrop(File, macrop(Name, Fields), Id) :-
 reindex(File) :-
     retractall(candidate(File, _, _, _, _, _)),
     retractall(candidate_plan(File, _, _, _, _)),
+    retractall(state_candidate(File, _, _, _, _, _, _, _, _)),
     findall(Len-(Id-macrop(Name, Fields)),
             ( stored(File, Id, Name, Fields),
               plan_length(Fields, Len)
@@ -465,7 +520,100 @@ index_macrop(File, Id, macrop(_, Fields)) :-
     append(Unary, Nary, Constraints),
     term_variables(Steps-Adders, Vars),
     assertz(candidate(File, Id, Purpose, Pre, Constraints, Vars)),
-    assertz(candidate_plan(File, Id, Vars, Steps, Adders)).
+    assertz(candidate_plan(File, Id, Vars, Steps, Adders)),
+    (   state_candidate_clause(File, Id, Purpose, Pre, Constraints, Vars, Clause)
+    ->  assertz(Clause)
+    ;   true
+    ).
+
+%   state_candidate_clause(+File, +Id, +Purpose, +Pre, +Constraints, +Vars, -Clause)
+%   is semidet.
+%
+%   Clause is the state_candidate/9 clause of MACROP Id: the test of lookup_bindings/8
+%   against the planning state of operators:planning_state/4, with what can be done
+%   once done when the MACROP is indexed.  That state holds exactly one at/2 and one
+%   holding/2 fact, the arm's, so the preconditions at(A, P) and holding(A, T) are
+%   unified with the clause's Arm, Pose and Holding in its head (and the clauses are
+%   indexed on them); a purpose of one goal is unified with Goal in the head too.  The
+%   other preconditions are matched against only the facts of their kind
+%   (operators:planning_state_facts/3), in the state's order.  Each constraint becomes
+%   the goal that planner:constraints_hold/3 would run for it in the domain of
+%   kb/operators.pl, whose static facts are operators:domain_fact/1.  Fails if the
+%   MACROP cannot apply to any such state.
+
+state_candidate_clause(File, Id, Purpose0, Pre0, Constraints0, Vars0,
+                       (Head :- Body)) :-
+    copy_term(t(Purpose0, Pre0, Constraints0, Vars0),
+              t(Purpose, Pre, Constraints, Vars)),
+    Head = state_candidate(File, Goal, Arm, Pose, Holding, GoalConstraints, Id, Key, Vars),
+    hit_key(File, Id, Key),
+    (   Purpose = [Goal]
+    ->  PurposeGoals = []
+    ;   Purpose \== [],
+        PurposeGoals = [lists:member(Goal, Purpose)]
+    ),
+    foldl(precondition_goal(Arm, Pose, Holding), Pre, PreGoals, []),
+    maplist(constraint_goal, Constraints, ConstraintGoals),
+    append([PurposeGoals, PreGoals, ConstraintGoals,
+            [ macrop:final_constraints(GoalConstraints),
+              ground(Vars)
+            ]],
+           Goals),
+    list_conj(Goals, Body).
+
+precondition_goal(Arm, Pose, _, at(A, P), Goals, Goals) :- !,
+    A = Arm,
+    P = Pose.
+precondition_goal(Arm, _, Holding, holding(A, T), Goals, Goals) :- !,
+    A = Arm,
+    T = Holding.
+precondition_goal(_, _, Holding, Fact,
+                  [ operators:planning_state_facts(Holding, Fact, Facts),
+                    lists:member(Fact, Facts)
+                  | Goals ], Goals).
+
+%   constraint_goal(+Constraint, -Goal)
+%
+%   Goal is what final_constraint/1 does for Constraint, as far as it can be decided
+%   before Constraint's variables are bound.
+
+constraint_goal(Constraint, Goal) :-
+    (   var(Constraint)
+    ->  Goal = macrop:final_constraint(Constraint)
+    ;   planner:comparison(Constraint)
+    ->  (   planner:identity_test(Constraint)
+        ->  Goal = Constraint
+        ;   Goal = ( ground(Constraint) -> Constraint ; instantiation_error(Constraint) )
+        )
+    ;   Goal = operators:domain_fact(Constraint)
+    ).
+
+final_constraints([]).
+final_constraints([Constraint|Constraints]) :-
+    final_constraint(Constraint),
+    final_constraints(Constraints).
+
+%   final_constraint(+Constraint) is nondet.
+%
+%   Constraint holds in the static facts of kb/operators.pl as planner:constraints_hold/3
+%   checks it: a comparison must be ground (an identity test need not), any other
+%   constraint is a static fact.
+
+final_constraint(Constraint) :-
+    (   planner:comparison(Constraint)
+    ->  (   ground(Constraint)
+        ->  call(Constraint)
+        ;   planner:identity_test(Constraint)
+        ->  call(Constraint)
+        ;   instantiation_error(Constraint)
+        )
+    ;   operators:domain_fact(Constraint)
+    ).
+
+list_conj([], true).
+list_conj([G], G) :- !.
+list_conj([G|Gs], (G, C)) :-
+    list_conj(Gs, C).
 
 plan_length(Fields, Len) :-
     memberchk(plan(Steps), Fields),
@@ -509,17 +657,20 @@ lookup_bindings(File, Goals, State, Domain, Facts, GoalConstraints, Id, Vars) :-
         fail
     ).
 
-count(File, Event) :-
-    retract(counts(File, L0, H0, M0)),
-    L is L0 + 1,
-    (   Event = hit(Id)
-    ->  H is H0 + 1, M = M0,
-        stored_hits(File, Id, N0),
-        N is N0 + 1,
-        set_hits(File, Id, N)
-    ;   H = H0, M is M0 + 1
-    ),
-    assertz(counts(File, L, H, M)).
+count(File, hit(Id)) :-
+    hit_key(File, Id, Key),
+    count_hit(File, Id, Key).
+count(File, miss) :-
+    count_base(File, MissKey, _, _, _),
+    flag(MissKey, M, M + 1).
+
+count_hit(File, Id, Key) :-
+    flag(Key, N, N + 1),
+    (   N == 0,
+        \+ counted(File, Id, _)
+    ->  assertz(counted(File, Id, 0))
+    ;   true
+    ).
 
 %!  operation_plan(+File, +Goals:list, +State:list, +Options:list, -Result) is det.
 %
@@ -556,7 +707,8 @@ operation_plan(File, Goals, State, Options, Result) :-
 %
 %   The Operation Planner for measurement Id of Kind (operators:measurement_goal/4)
 %   from the state of Arm at Pose holding Holding (operators:planning_state/4), with
-%   the MACROPs of the open store File.  Mode is `lookup_first` (MACROP lookup; when
+%   the MACROPs of the open store File.  The lookup finds what lookup/5 finds in that
+%   state, through the compiled clauses of the index, without deriving the state.  Mode is `lookup_first` (MACROP lookup; when
 %   none applies, plan from scratch, generalize and store) or `from_scratch` (no
 %   lookup: plan, generalize and store).  Reply is
 %
@@ -576,18 +728,36 @@ operation_plan(File, Goals, State, Options, Result) :-
 
 measurement_plan(File, Id, Kind, Arm, PoseSpec, Holding, Mode, Reply) :-
     must_be_open(File),
-    must_be(oneof([lookup_first, from_scratch]), Mode),
+    (   ( Mode == lookup_first ; Mode == from_scratch )
+    ->  true
+    ;   must_be(oneof([lookup_first, from_scratch]), Mode)
+    ),
     pose_term(PoseSpec, Pose),
     measurement_goal(Id, Kind, Goal, Constraints),
-    planning_state(Arm, Pose, Holding, State),
-    operators_domain(Domain),
+    must_be_planning_state(Arm, Pose, Holding),
     generation(File, Gen),
     (   Mode == lookup_first,
-        lookup_bindings(File, [Goal], State, Domain, [], Constraints, MacropId, Vars)
+        state_lookup(File, Goal, Arm, Pose, Holding, Constraints, MacropId, Vars)
     ->  Reply = [macrop, Gen, MacropId, Vars]
-    ;   Options = [domain(Domain), constraints(Constraints)],
+    ;   planning_state(Arm, Pose, Holding, State),
+        operators_domain(Domain),
+        Options = [domain(Domain), constraints(Constraints)],
         plan_result([Goal], State, Options, Result),
         planned_reply(Result, File, Goal, State, Options, Gen, Reply)
+    ).
+
+%   state_lookup(+File, +Goal, +Arm, +Pose, +Holding, +GoalConstraints, -Id, -Vars)
+%   is semidet.
+%
+%   lookup_bindings/8 for the goal Goal from the planning state of Arm at Pose holding
+%   Holding (operators:planning_state/4) in the domain of kb/operators.pl, through the
+%   compiled clauses of the index; counts the lookup as a hit or a miss.
+
+state_lookup(File, Goal, Arm, Pose, Holding, GoalConstraints, Id, Vars) :-
+    (   state_candidate(File, Goal, Arm, Pose, Holding, GoalConstraints, Id, Key, Vars)
+    ->  count_hit(File, Id, Key)
+    ;   count(File, miss),
+        fail
     ).
 
 planned_reply(plan([]), _, _, _, _, Gen, [scratch, Gen, none, []]) :- !.
@@ -607,18 +777,33 @@ same_action(step(N, Action, _), step(N, Action, _)).
 %   A pose given flat, `[PoseKind, Place]` or `[PoseKind, PlaceName, PlaceArg]` (fewer
 %   JSON objects to cross the bridge), or as the pose term itself.
 
-pose_term([Kind, Place], Pose) :- !,
-    must_be(oneof([approach_point, in_contact_point, viewing_pose]), Kind),
-    must_be(atom, Place),
+pose_term([Kind, Place], Pose) :-
+    pose_kind(Kind),
+    atom(Place),
+    !,
     Pose =.. [Kind, Place].
-pose_term([Kind, Name, Arg], Pose) :- !,
-    must_be(oneof([approach_point, in_contact_point, viewing_pose]), Kind),
-    must_be(atom, Name),
-    must_be(atomic, Arg),
+pose_term([Kind, Name, Arg], Pose) :-
+    pose_kind(Kind),
+    atom(Name),
+    atomic(Arg),
+    !,
     Place =.. [Name, Arg],
     Pose =.. [Kind, Place].
+pose_term([Kind|Place], _) :- !,
+    must_be(oneof([approach_point, in_contact_point, viewing_pose]), Kind),
+    (   Place = [Name, Arg]
+    ->  must_be(atom, Name),
+        must_be(atomic, Arg)
+    ;   Place = [Name]
+    ->  must_be(atom, Name)
+    ;   domain_error(pose, [Kind|Place])
+    ).
 pose_term(Pose, Pose) :-
     must_be(ground, Pose).
+
+pose_kind(approach_point).
+pose_kind(in_contact_point).
+pose_kind(viewing_pose).
 
 %   operators_domain(-Domain)
 %

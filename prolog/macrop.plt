@@ -1,5 +1,6 @@
 :- use_module(macrop).
 :- use_module(planner).
+:- use_module('../kb/operators', [measurement_goal/4, planning_state/4]).
 
 /*  Tests of plan generalization, MACROP lookup and the MACROP store.  */
 
@@ -175,3 +176,127 @@ test(unopened_store_is_an_error, error(existence_error(macrop_store, '/nonexiste
     lookup('/nonexistent/x.pl', [g], [], [], _).
 
 :- end_tests(store).
+
+:- begin_tests(measurement_lookup).
+
+%   The compiled lookup of measurement_plan/8 finds what lookup/5 finds in the whole
+%   planning state, and counts what it finds.
+
+grid_state(Kind, Pose, Holding) :-
+    member(Kind, [web_thickness, stiffener_height]),
+    member(Pose, [[approach_point, home], [approach_point, meas, a],
+                  [in_contact_point, meas, a], [viewing_pose, meas, a],
+                  [approach_point, rack, slot_2]]),
+    member(Holding, [none, us_probe_1, us_probe_2, slra_1]).
+
+%   learned_store(-File): a store that has learned the MACROPs of the grid's states.
+
+learned_store(File) :-
+    store_file(File),
+    open_store(File),
+    forall(grid_state(Kind, Pose, Holding),
+           measurement_plan(File, b, Kind, t3, Pose, Holding, lookup_first, _)).
+
+%   lookup_agrees(+File, +Kind, +Pose, +Holding) is semidet.
+%
+%   measurement_plan/8 and lookup/5 on the planning state find the same MACROP and plan.
+
+lookup_agrees(File, Kind, PoseSpec, Holding) :-
+    macrop:pose_term(PoseSpec, Pose),
+    measurement_goal(c, Kind, Goal, Constraints),
+    planning_state(t3, Pose, Holding, State),
+    lookup(File, [Goal], State, [constraints(Constraints)], Found),
+    measurement_plan(File, c, Kind, t3, PoseSpec, Holding, lookup_first, Reply),
+    (   Found = found(Id, Plan)
+    ->  Reply = [macrop, _, Id, Vars],
+        macrop:candidate_plan(File, Id, Vars, Plan, _)
+    ;   Reply \= [macrop|_]
+    ).
+
+test(agrees_with_lookup_in_the_planning_state, true(Disagree == [])) :-
+    learned_store(File),
+    findall(K-P-H, ( grid_state(K, P, H), \+ lookup_agrees(File, K, P, H) ), Disagree),
+    close_store(File).
+
+test(agrees_with_a_broken_tool_in_the_rack, [ true(Disagree == []),
+                                              cleanup(world:reset_world) ]) :-
+    learned_store(File),
+    world:set_tool_condition(us_probe_1, broken),
+    findall(K-P-H, ( grid_state(K, P, H), \+ lookup_agrees(File, K, P, H) ), Disagree),
+    close_store(File).
+
+test(rack_macrop_takes_a_tool_from_the_rack,
+     true(Reply-Tool == [macrop, 1, [t3, home, slot_1, us_probe_1, c]]-us_probe_1)) :-
+    store_file(File),
+    open_store(File),
+    measurement_plan(File, b, web_thickness, t3, [approach_point, home], none,
+                     lookup_first, [scratch, _, 1, _]),
+    measurement_plan(File, c, web_thickness, t3, [approach_point, home], none,
+                     lookup_first, [Source, _, Id, Vars]),
+    close_store(File),
+    Reply = [Source, Id, Vars],
+    nth1(4, Vars, Tool).
+
+test(lookups_are_counted_and_saved, true(X == [c(3, 2, 1), c(3, 2, 1), 2])) :-
+    store_file(File),
+    open_store(File),
+    Contact = [in_contact_point, meas, a],
+    measurement_plan(File, b, web_thickness, t3, Contact, us_probe_1, lookup_first, _),
+    measurement_plan(File, c, web_thickness, t3, Contact, us_probe_1, lookup_first, _),
+    measurement_plan(File, d, stiffener_height, t3, [approach_point, home], none,
+                     lookup_first, _),
+    store_counts(File, L1, H1, M1),
+    save_store(File),
+    close_store(File),
+    open_store(File),
+    store_counts(File, L2, H2, M2),
+    macrop_rows(File, Rows),
+    close_store(File),
+    delete_file(File),
+    memberchk([kb(measured), _, _, KbHits, _], Rows),
+    X = [c(L1, H1, M1), c(L2, H2, M2), KbHits].
+
+test(counts_add_to_the_saved_ones, true(C == c(4, 3, 1))) :-
+    store_file(File),
+    open_store(File),
+    Contact = [in_contact_point, meas, a],
+    measurement_plan(File, b, web_thickness, t3, Contact, us_probe_1, lookup_first, _),
+    measurement_plan(File, d, stiffener_height, t3, [approach_point, home], none,
+                     lookup_first, _),
+    measurement_plan(File, c, web_thickness, t3, Contact, us_probe_1, lookup_first, _),
+    save_store(File),
+    close_store(File),
+    open_store(File),
+    measurement_plan(File, e, web_thickness, t3, Contact, us_probe_1, lookup_first, _),
+    store_counts(File, L, H, M),
+    close_store(File),
+    delete_file(File),
+    C = c(L, H, M).
+
+test(clear_store_zeroes_the_counts, true(C-Rows == c(0, 0, 0)-[0])) :-
+    store_file(File),
+    open_store(File),
+    measurement_plan(File, b, web_thickness, t3, [in_contact_point, meas, a],
+                     us_probe_1, lookup_first, _),
+    clear_store(File),
+    store_counts(File, L, H, M),
+    macrop_rows(File, Rows0),
+    close_store(File),
+    findall(Hits, member([_, _, _, Hits, _], Rows0), Rows),
+    C = c(L, H, M).
+
+test(unknown_tool_in_hand, error(existence_error(tool, spanner))) :-
+    store_file(File),
+    open_store(File),
+    call_cleanup(measurement_plan(File, b, web_thickness, t3, [approach_point, home],
+                                  spanner, lookup_first, _),
+                 close_store(File)).
+
+test(malformed_pose, error(type_error(atomic, f(7)))) :-
+    store_file(File),
+    open_store(File),
+    call_cleanup(measurement_plan(File, b, web_thickness, t3, [approach_point, meas, f(7)],
+                                  none, lookup_first, _),
+                 close_store(File)).
+
+:- end_tests(measurement_lookup).
