@@ -22,6 +22,9 @@ COMMANDS: dict[str, str] = {
     "macrop": "ita.cli.plan:macrop",
     "pddl": "ita.cli.pddl:pddl",
     "path": "ita.cli.path:path",
+    "runs": "ita.cli.runs:runs",
+    "results": "ita.cli.results:results",
+    "report": "ita.cli.report:report",
 }
 
 

@@ -1,0 +1,72 @@
+"""`ita runs`: list the runs in the results archive.  Also the archive options shared by
+`ita results` and `ita report`."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import click
+
+from ita.cli.common import reports_errors
+
+runs_dir_option = click.option(
+    "--runs-dir",
+    type=click.Path(path_type=Path, file_okay=False),
+    default=None,
+    help="Directory of the runs archive (default: $ITA_RUNS, else ITA_HOME/runs).",
+)
+
+
+def open_archive(runs_dir: Path | None):
+    """The archive in `runs_dir` for reading; NoArchive (exit 2) when there is none."""
+    from ita.archive import Archive, archive_path
+
+    return Archive.open(archive_path(runs_dir), create=False)
+
+
+def format_duration(seconds: float | None) -> str:
+    """h:mm:ss, or '-' for None."""
+    if seconds is None:
+        return "-"
+    s = round(seconds)
+    return f"{s // 3600}:{s % 3600 // 60:02d}:{s % 60:02d}"
+
+
+@click.command("runs")
+@runs_dir_option
+@click.option("--json", "as_json", is_flag=True, help="Print JSON instead of a table.")
+@reports_errors
+def runs(runs_dir: Path | None, as_json: bool) -> None:
+    """List the runs: id, part, status, results done of total, simulated cycle time, start.
+
+    A run whose process died (killed, crashed) shows as "dead" and can be continued.
+    """
+    from ita.archive import NoArchive
+
+    try:
+        archive = open_archive(runs_dir)
+    except NoArchive as exc:
+        if as_json:
+            click.echo("[]")
+        else:
+            click.echo(f"no runs ({exc})", err=True)
+        return
+    with archive:
+        infos = archive.runs()
+    if as_json:
+        click.echo(json.dumps([{
+            "id": r.id, "part": r.part, "part_dir": r.part_dir, "seed": r.seed, "status": r.status.value,
+            "state": r.state_label, "done": r.done, "total": r.total, "sim_time": r.sim_time,
+            "created": r.created, "ended": r.ended, "settings": r.settings, "totals": r.totals,
+        } for r in infos], indent=2))
+        return
+    if not infos:
+        click.echo("no runs", err=True)
+        return
+    rows = [(r.id, r.part, r.state_label, f"{r.done}/{r.total if r.total is not None else '?'}",
+             format_duration(r.sim_time), r.created.replace("T", " ").replace("+00:00", "Z")) for r in infos]
+    header = ("RUN", "PART", "STATUS", "DONE", "SIM TIME", "STARTED (UTC)")
+    widths = [max(len(str(x)) for x in col) for col in zip(header, *rows)]
+    for row in (header, *rows):
+        click.echo("  ".join(str(c).ljust(w) for c, w in zip(row, widths)).rstrip())
