@@ -1,0 +1,188 @@
+"""Benchmark SLRA measurement over the bulkhead's specs against the as-built truth.
+
+    python bench/vision.py [--kinds hole_diameter,edge_distance] [--limit N] [--repeats 3]
+                           [--seed 0] [--out FILE] [--render DIR]
+
+For every SLRA spec (or the first N of each kind): the sensor is put at the spec's viewing
+pose (roll 0, nominal standoff) plus a random pose error of the arm's repeatability
+(per axis sigma = repeatability / 3, rotation sigma 0.05 mrad), scans the window Vision
+asks for (`scan_for`), and Vision measures it from the REPORTED (commanded) pose.  Each spec
+is measured `repeats` times.
+
+Per kind (and per hole role): n, mean and sd of the error against the truth; %GRR = 6 s_r /
+tolerance band with s_r the pooled within-spec sd of the repeats (repeatability only); the
+decision under ISO 14253-1 with U = 2u as guard band (conforms / does not conform /
+uncertain) against the truth's conformance: false accepts (FA) and false rejects (FR);
+how often |error| > U; exceptions by reason.  Timing: wall-clock per frame to simulate and
+to measure, and the simulated frame time.  This is scoring: it may read the truth.
+Figures, not assertions.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import platform
+import time
+from collections import Counter, defaultdict
+from pathlib import Path
+
+import numpy as np
+
+from ita.kinematics.tool_poses import measurement_poses
+from ita.part.model import Hole
+from ita.part.store import load_part
+from ita.part.truth import load_truth
+from ita.sim.slra import SlraParams, SlraScene, pose_error, simulate_frame
+from ita.specs.io import read_specs
+from ita.specs.model import MeasurementKind as K
+from ita.vision.measure import SLRA_KINDS, VisionContext, measure, scan_for
+from ita.workcell import load_workcell
+
+DEFAULT_OUT = Path(__file__).resolve().parent / "results" / "vision.json"
+ROTATION_SIGMA = 0.05e-3
+
+
+def decide(value: float, big_u: float, low: float, high: float) -> str:
+    """ISO 14253-1 decision with guard band U: 'conforms', 'nonconforms' or 'uncertain'."""
+    if low + big_u <= value <= high - big_u:
+        return "conforms"
+    if value < low - big_u or value > high + big_u:
+        return "nonconforms"
+    return "uncertain"
+
+
+def run(kinds, limit, repeats, seed, render_dir=None):
+    part = load_part(None)
+    wc = load_workcell()
+    specs = read_specs(part.specs_path)
+    truth = load_truth(part.directory)
+    t0 = time.perf_counter()
+    scene = SlraScene.from_truth(part.directory, wc)
+    scene_s = time.perf_counter() - t0
+    ctx = VisionContext.from_part(part, wc, specs=specs)
+    tool = wc.tool("slra_1")
+    params = SlraParams()
+    rng = np.random.default_rng(seed)
+    chosen, per_kind = [], Counter()
+    for s in specs:
+        if s.kind in kinds and (limit is None or per_kind[s.kind] < limit):
+            chosen.append(s)
+            per_kind[s.kind] += 1
+    rows, sim_t, meas_t, frame_t = [], [], [], []
+    clock = 0.0
+    for i, spec in enumerate(chosen):
+        geometry = scan_for(spec, ctx)
+        pose = measurement_poses(wc.part, [spec.point], [spec.normal], tool, rolls=[0.0])[0, 0]
+        for rep in range(repeats):
+            true_pose = pose_error(pose, rng, wc.arm.repeatability_m / 3, ROTATION_SIGMA)
+            a = time.perf_counter()
+            frame = simulate_frame(scene, true_pose, geometry, params, rng, reported_pose=pose, timestamp=clock)
+            b = time.perf_counter()
+            reply = measure(frame, spec, ctx)
+            c = time.perf_counter()
+            sim_t.append(b - a)
+            meas_t.append(c - b)
+            frame_t.append(frame.frame_time)
+            clock += frame.frame_time
+            f = ctx.features.get(spec.feature)
+            role = f.role.value if isinstance(f, Hole) else ""
+            row = {"spec": spec.id, "kind": spec.kind.value, "role": role, "repeat": rep,
+                   "truth": truth.values[spec.id], "low": spec.low_limit, "high": spec.high_limit,
+                   "band": spec.tolerance_band, "fov_deg": geometry.fov_deg[0]}
+            if reply.ok:
+                row.update(value=reply.value, u=reply.uncertainty, error=reply.value - truth.values[spec.id])
+                if render_dir is not None and rep == 0:
+                    from ita.vision.render import render_measurement
+                    render_measurement(frame, spec, ctx, reply, Path(render_dir) / f"{spec.id}.png")
+            else:
+                row.update(reason=reply.reason.value, detail=reply.detail)
+            rows.append(row)
+        if (i + 1) % 50 == 0:
+            print(f"  {i + 1}/{len(chosen)} specs", flush=True)
+    return rows, {"scene_build_s": scene_s, "sim_s": sim_t, "measure_s": meas_t, "frame_time_s": frame_t}
+
+
+def summarize(rows):
+    groups = defaultdict(list)
+    for r in rows:
+        groups[r["kind"]].append(r)
+        if r["role"]:
+            groups[f"{r['kind']}/{r['role']}"].append(r)
+    table = {}
+    for name, rs in sorted(groups.items()):
+        ok = [r for r in rs if "value" in r]
+        err = np.array([r["error"] for r in ok])
+        by_spec = defaultdict(list)
+        for r in ok:
+            by_spec[r["spec"]].append(r)
+        ratios = [np.var([r["value"] for r in v], ddof=1) / v[0]["band"] ** 2 for v in by_spec.values() if len(v) > 1]
+        grr = 600 * math.sqrt(float(np.mean(ratios))) if ratios else float("nan")
+        dec = Counter()
+        outside = 0
+        for r in ok:
+            d = decide(r["value"], 2 * r["u"], r["low"], r["high"])
+            true_ok = r["low"] <= r["truth"] <= r["high"]
+            dec[d] += 1
+            dec["FA"] += d == "conforms" and not true_ok
+            dec["FR"] += d == "nonconforms" and true_ok
+            outside += abs(r["error"]) > 2 * r["u"]
+        table[name] = {
+            "n": len(ok), "specs": len({r["spec"] for r in rs}),
+            "mean_error": float(err.mean()) if len(err) else float("nan"),
+            "sd_error": float(err.std(ddof=1)) if len(err) > 1 else float("nan"),
+            "mean_u": float(np.mean([r["u"] for r in ok])) if ok else float("nan"),
+            "grr_percent": grr, "conforms": dec["conforms"], "nonconforms": dec["nonconforms"],
+            "uncertain": dec["uncertain"], "FA": dec["FA"], "FR": dec["FR"],
+            "error_beyond_U": outside,
+            "exceptions": dict(Counter(r["reason"] for r in rs if "reason" in r)),
+        }
+    return table
+
+
+def print_table(table, timing):
+    head = f"{'kind':28s} {'n':>5s} {'mean err':>9s} {'sd err':>8s} {'mean u':>8s} {'%GRR':>6s} " \
+           f"{'conf':>5s} {'nonc':>5s} {'unc':>5s} {'FA':>3s} {'FR':>3s} {'>U':>4s}  exceptions"
+    print(head)
+    print("-" * len(head))
+    for name, t in table.items():
+        print(f"{name:28s} {t['n']:5d} {t['mean_error']:9.4f} {t['sd_error']:8.4f} {t['mean_u']:8.4f} "
+              f"{t['grr_percent']:6.1f} {t['conforms']:5d} {t['nonconforms']:5d} {t['uncertain']:5d} "
+              f"{t['FA']:3d} {t['FR']:3d} {t['error_beyond_U']:4d}  {t['exceptions'] or ''}")
+    print()
+    for key in ("sim_s", "measure_s"):
+        v = np.array(timing[key])
+        print(f"{key:10s} wall per frame: mean {v.mean() * 1e3:6.1f} ms, median {np.median(v) * 1e3:6.1f} ms, "
+              f"p95 {np.percentile(v, 95) * 1e3:6.1f} ms")
+    tot = np.array(timing["sim_s"]) + np.array(timing["measure_s"])
+    print(f"simulate + measure (256 x 256): mean {tot.mean() * 1e3:.1f} ms, p95 {np.percentile(tot, 95) * 1e3:.1f} ms; "
+          f"simulated frame time {np.mean(timing['frame_time_s']):.3f} s; scene build {timing['scene_build_s']:.2f} s")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--kinds", default=",".join(k.value for k in SLRA_KINDS))
+    ap.add_argument("--limit", type=int, default=None, help="at most this many specs per kind")
+    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--out", type=Path, default=DEFAULT_OUT)
+    ap.add_argument("--render", type=Path, default=None, help="write a PNG per spec (first repeat) here")
+    args = ap.parse_args()
+    kinds = [K.parse(k) for k in args.kinds.split(",") if k.strip()]
+    rows, timing = run(kinds, args.limit, args.repeats, args.seed, args.render)
+    table = summarize(rows)
+    print_table(table, timing)
+    args.out.parent.mkdir(parents=True, exist_ok=True)
+    summary_t = {k: {"mean": float(np.mean(v)), "p95": float(np.percentile(v, 95))}
+                 for k, v in timing.items() if isinstance(v, list) and v}
+    args.out.write_text(json.dumps({
+        "machine": platform.platform(), "python": platform.python_version(),
+        "args": {"kinds": args.kinds, "limit": args.limit, "repeats": args.repeats, "seed": args.seed},
+        "table": table, "timing": {**summary_t, "scene_build_s": timing["scene_build_s"]},
+        "rows": rows}, indent=1))
+    print(f"wrote {args.out}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,1 @@
+"""Sensor-facing value types and device interfaces (no simulator, no as-built truth)."""

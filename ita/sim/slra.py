@@ -1,0 +1,422 @@
+"""The SLRA's physics: an amplitude-modulated, raster-scanned laser range image.
+
+    scene = SlraScene.from_truth(part_dir, workcell)          # once: as-built part + cell boxes
+    frame = simulate_frame(scene, true_pose, ScanGeometry(), SlraParams(), rng,
+                           reported_pose=commanded_pose, timestamp=t)
+
+What is modelled, per pixel of the raster (see ita.sensors.slra_frame for the scan):
+
+* the beam's first hit on the AS-BUILT part or a workcell box (embree ray casting, in the
+  part frame, millimetres); holes are the as-built cylinders, not the mesh's polygons
+  (whose chords would read a few hundredths small), and a bore wall seen within ~6 deg of
+  grazing returns nothing, so the beam's share goes on to what lies beyond;
+* return amplitude A = rho cos(theta) (R_ref / R)^2 (diffuse machined 7075);
+* mixed pixels: the beam footprint is a Gaussian of sigma_b(R) = waist + R * divergence;
+  where it straddles a depth step (found between neighbouring pixels, then located by
+  bisecting the scan angle) the return is the phasor sum of the two surfaces' returns,
+  weighted by the share of the footprint on each (half-plane model of the edge; the other
+  surface is sampled at the pixel's mirror image across the edge);
+* range from phase: phi = 4 pi f R / c plus phase noise sigma_phi = sigma_phi_ref
+  (A_ref / A)^gamma, wrapped to [0, 2 pi): ranges beyond the ambiguity interval c / 2f wrap
+  around; sigma_R = c sigma_phi / (4 pi f), so noise grows with distance, incidence and
+  darker surfaces;
+* dropouts: returns below the detection threshold, and specular loss that rises to all
+  pixels as incidence approaches grazing, plus a small random rate;
+* an intensity image (the measured amplitude) and a frame time from the pixel rate and the
+  line flyback.
+
+The scene is built once (one embree-backed intersector over the part and every box) and
+reused for every frame; everything per frame is vectorised.  Randomness comes only from
+the Generator passed in.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import NamedTuple
+
+import numpy as np
+import trimesh
+from numpy.typing import NDArray
+from scipy import ndimage
+from scipy.spatial import cKDTree
+from scipy.special import ndtr
+
+from ita.part.model import Hole
+from ita.sensors.slra_frame import SPEED_OF_LIGHT, RangeFrame, ScanGeometry
+from ita.workcell.model import Box, PartPlacement, Workcell
+
+FloatArray = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class SlraParams:
+    """Physics of one SLRA (defaults: a 50 MHz AM sensor looking at machined 7075).
+
+    reference_range_m: where amplitude 1 is defined (the nominal standoff);
+    reflectance: diffuse reflectance rho of the part (bead-blasted/machined Al ~0.5);
+    box_reflectance: of the painted workcell boxes; sigma_phase_ref: phase noise (rad) at
+    amplitude = reflectance (square-on at reference range); noise_exponent gamma: sigma_phi
+    ~ A^-gamma (0.5: shot-noise limited); min_amplitude: detection threshold;
+    grazing_start_deg/grazing_full_deg: specular loss begins / is total; dropout_rate: random
+    dropouts elsewhere; beam_waist_m/beam_divergence_rad: footprint sigma_b(R) = waist +
+    R * divergence; jump_m: depth step between neighbouring pixels taken as an edge (beyond
+    the neighbour's plane); bisection_steps: how finely an edge is located;
+    intensity_noise: relative; pixel_rate_hz/line_flyback_s: scan timing.
+    """
+
+    reference_range_m: float = 0.45
+    reflectance: float = 0.55
+    box_reflectance: float = 0.3
+    sigma_phase_ref: float = 5e-4
+    noise_exponent: float = 0.5
+    min_amplitude: float = 0.01
+    grazing_start_deg: float = 72.0
+    grazing_full_deg: float = 86.0
+    dropout_rate: float = 5e-4
+    beam_waist_m: float = 0.1e-3
+    beam_divergence_rad: float = 0.4e-3
+    jump_m: float = 1.0e-3
+    bisection_steps: int = 5
+    intensity_noise: float = 0.01
+    pixel_rate_hz: float = 200e3
+    line_flyback_s: float = 0.5e-3
+
+    def range_sigma(self, amplitude: FloatArray, modulation_hz: float) -> FloatArray:
+        """Range noise (m) of returns of `amplitude` (any shape)."""
+        return SPEED_OF_LIGHT / (4 * math.pi * modulation_hz) * self.phase_sigma(amplitude)
+
+    def phase_sigma(self, amplitude: FloatArray) -> FloatArray:
+        """Phase noise (rad) of returns of `amplitude`."""
+        a = np.maximum(np.asarray(amplitude, dtype=float), 1e-9)
+        return self.sigma_phase_ref * (self.reflectance / a) ** self.noise_exponent
+
+    def frame_time(self, geometry: ScanGeometry) -> float:
+        """Time (s) to scan one frame of `geometry`."""
+        h, w = geometry.shape
+        return h * (w / self.pixel_rate_hz + self.line_flyback_s)
+
+
+MISS, PART, BOX = -1, 0, 1
+GRAZING_WALL_COS = 0.1
+HOLE_EXIT_MARGIN_MM = 1.0
+
+
+class Hits(NamedTuple):
+    """First hits of n rays: distance (n,) mm (inf: none), surface normal (n, 3) and what
+    was hit (n,): MISS, PART or BOX.  The arrays may be updated in place by their maker."""
+
+    dist: FloatArray
+    normals: FloatArray
+    kind: NDArray[np.int64]
+
+
+def _box_mesh_in_part(box: Box, placement: PartPlacement) -> trimesh.Trimesh:
+    m = trimesh.creation.box(extents=np.asarray(box.size, dtype=float))
+    m.apply_transform(box.pose.matrix())
+    return trimesh.Trimesh(placement.to_part(np.asarray(m.vertices)), m.faces, process=False)
+
+
+class SlraScene:
+    """What the beam can hit, built once: the part mesh and boxes, in the part frame (mm).
+
+    mesh_mm: the (as-built) part; boxes: world boxes (workcell, obstacles); holes: the
+    part's holes along +Z whose rims are taken as exact circles (a mesh's holes are
+    polygons, whose chords would read a few hundredths of a millimetre small).
+    """
+
+    def __init__(self, mesh_mm: trimesh.Trimesh, placement: PartPlacement,
+                 boxes: Sequence[Box] = (), holes: Sequence[Hole] = ()):
+        parts = [trimesh.Trimesh(np.asarray(mesh_mm.vertices), np.asarray(mesh_mm.faces), process=False)]
+        parts += [_box_mesh_in_part(b, placement) for b in boxes]
+        self.placement = placement
+        self.n_part_faces = len(mesh_mm.faces)
+        self.mesh = trimesh.util.concatenate(parts)
+        self.normals = np.asarray(self.mesh.face_normals, dtype=float)
+        self.anchor = np.asarray(self.mesh.triangles[:, 0], dtype=float)
+        self.intersector = trimesh.ray.ray_pyembree.RayMeshIntersector(self.mesh)
+        up = [h for h in holes if h.axis[2] > 0.999]
+        self._hole_xy = np.array([h.center[:2] for h in up]).reshape(-1, 2)
+        self._hole = np.array([(h.center[2], h.diameter / 2, h.depth) for h in up]).reshape(-1, 3)
+        self._hole_tree = cKDTree(self._hole_xy) if up else None
+        self._max_radius = float(self._hole[:, 1].max()) if up else 0.0
+        self._near_hole = _hole_raster(self._hole_xy, self._hole[:, 1]) if up else None
+        self._directions: dict[ScanGeometry, FloatArray] = {}
+
+    @classmethod
+    def from_truth(cls, part_dir: Path, workcell: Workcell, extra_boxes: Sequence[Box] = ()) -> SlraScene:
+        """The as-built part in `part_dir` with every static box of `workcell`."""
+        from ita.part.truth import load_truth
+
+        truth = load_truth(part_dir)
+        holes = [f for f in truth.features if isinstance(f, Hole)]
+        return cls(truth.mesh, workcell.part, tuple(workcell.static_boxes()) + tuple(extra_boxes), holes)
+
+    def directions(self, geometry: ScanGeometry) -> FloatArray:
+        """Sensor-frame pixel directions (H*W, 3) of `geometry` (cached)."""
+        if geometry not in self._directions:
+            self._directions[geometry] = geometry.directions().reshape(-1, 3)
+        return self._directions[geometry]
+
+    def cast(self, origin: FloatArray, dirs: FloatArray) -> Hits:
+        """First hits of rays from part point `origin` (3,) mm along unit `dirs` (n, 3)."""
+        n = len(dirs)
+        face = self.intersector.intersects_first(np.broadcast_to(origin, (n, 3)), dirs)
+        hits = self._hits(np.broadcast_to(origin, (n, 3)), dirs, face)
+        if self._hole_tree is not None:
+            self._into_holes(origin, dirs, hits)
+        return hits
+
+    def _hits(self, origins: FloatArray, dirs: FloatArray, face: NDArray[np.int64]) -> Hits:
+        n = len(dirs)
+        dist, normals, kind = np.full(n, np.inf), np.zeros((n, 3)), np.full(n, MISS)
+        hit = face >= 0
+        nf = self.normals[face[hit]]
+        dist[hit] = np.einsum("ij,ij->i", nf, self.anchor[face[hit]] - origins[hit]) / np.einsum("ij,ij->i", nf, dirs[hit])
+        normals[hit] = nf
+        kind[hit] = np.where(face[hit] < self.n_part_faces, PART, BOX)
+        return Hits(dist, normals, kind)
+
+    def _into_holes(self, origin: FloatArray, dirs: FloatArray, hits: Hits) -> None:
+        """Rays whose hit lies on or in a hole's true cylinder (entry face inside the
+        circle, or the mesh's polygonal wall) go into the exact cylinder: they meet its wall
+        where they reach the radius within the drilled depth, else go on below it."""
+        idx = np.flatnonzero(hits.kind == PART)
+        p = origin + hits.dist[idx, None] * dirs[idx]
+        lo, cell, grid = self._near_hole
+        ij = np.floor((p[:, :2] - lo) / cell).astype(np.int64)
+        inside = np.all((ij >= 0) & (ij < grid.shape), axis=1)
+        near = np.zeros(len(idx), dtype=bool)
+        near[inside] = grid[ij[inside, 0], ij[inside, 1]]
+        idx, p = idx[near], p[near]
+        if not len(idx):
+            return
+        gap, k = self._hole_tree.query(p[:, :2], distance_upper_bound=self._max_radius + 0.1)
+        ok = np.isfinite(gap)
+        k = np.where(ok, k, 0)
+        cz, r, depth = self._hole[k, 0], self._hole[k, 1], self._hole[k, 2]
+        ok &= (gap < r + 0.05) & (p[:, 2] < cz + 1e-3) & (p[:, 2] > cz - depth - 1e-3) & (dirs[idx, 2] < -1e-9)
+        idx, k, cz, r, depth = idx[ok], k[ok], cz[ok], r[ok], depth[ok]
+        if not len(idx):
+            return
+        d = dirs[idx]
+        s0 = (cz - origin[2]) / d[:, 2]                                   # to the entry plane
+        c = origin[:2] + s0[:, None] * d[:, :2] - self._hole_xy[k]
+        inside = (c ** 2).sum(1) < r ** 2
+        idx, k, cz, r, depth, d, s0, c = (v[inside] for v in (idx, k, cz, r, depth, d, s0, c))
+        a = (d[:, :2] ** 2).sum(1)
+        b = (c * d[:, :2]).sum(1)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            s1 = (-b + np.sqrt(b * b - a * ((c ** 2).sum(1) - r ** 2))) / a  # out to the wall
+        radial = c + np.where(np.isfinite(s1), s1, 0.0)[:, None] * d[:, :2]
+        cos_wall = np.abs((radial * d[:, :2]).sum(1)) / r
+        # a wall seen within ~6 deg of grazing returns nothing: its share goes beyond it
+        wall = np.isfinite(s1) & (-s1 * d[:, 2] < depth) & (cos_wall > GRAZING_WALL_COS)
+        w_idx = idx[wall]
+        hits.dist[w_idx] = s0[wall] + s1[wall]
+        hits.normals[w_idx] = np.column_stack([-radial[wall] / r[wall, None], np.zeros(len(w_idx))])
+        below = ~wall
+        if below.any():
+            b_idx = idx[below]
+            # restart below the drilled material with room for its thickness deviation
+            # (a hole's depth is nominal); nothing lies within that of a cap's or web's back
+            step = s0[below] + (depth[below] + HOLE_EXIT_MARGIN_MM) / -d[below, 2]
+            start = origin + step[:, None] * d[below]
+            more = self._hits(start, d[below], self.intersector.intersects_first(start, d[below]))
+            hits.dist[b_idx] = step + more.dist
+            hits.normals[b_idx] = more.normals
+            hits.kind[b_idx] = more.kind
+
+
+def _hole_raster(xy: FloatArray, radius: FloatArray, cell: float = 1.0) -> tuple[FloatArray, float, NDArray[np.bool_]]:
+    """A coarse boolean raster over the holes' XY box marking cells that may lie within
+    0.2 mm of a hole's circle (a cheap first test before the exact one)."""
+    lo = (xy - radius[:, None]).min(axis=0) - 2 * cell
+    hi = (xy + radius[:, None]).max(axis=0) + 2 * cell
+    shape = np.ceil((hi - lo) / cell).astype(int)
+    grid = np.zeros(shape, dtype=bool)
+    for (x, y), r in zip(xy, radius):
+        i0, j0 = np.floor((np.array([x, y]) - r - 1 - lo) / cell).astype(int)
+        i1, j1 = np.ceil((np.array([x, y]) + r + 1 - lo) / cell).astype(int)
+        ci = lo[0] + (np.arange(i0, i1) + 0.5) * cell
+        cj = lo[1] + (np.arange(j0, j1) + 0.5) * cell
+        d = np.hypot(ci[:, None] - x, cj[None, :] - y)
+        grid[i0:i1, j0:j1] |= d < r + 0.2 + cell
+    return lo, cell, grid
+
+
+def pose_error(pose: FloatArray, rng: np.random.Generator, translation_sigma_m: float,
+               rotation_sigma_rad: float = 0.0) -> FloatArray:
+    """`pose` (4, 4) moved by a random arm error: normal translation and small rotation."""
+    out = np.array(pose, dtype=float)
+    w = rng.normal(0.0, rotation_sigma_rad, 3)
+    k = np.array([[0, -w[2], w[1]], [w[2], 0, -w[0]], [-w[1], w[0], 0]])
+    out[:3, :3] = (np.eye(3) + k + k @ k / 2) @ out[:3, :3]
+    u, _, vt = np.linalg.svd(out[:3, :3])
+    out[:3, :3] = u @ vt
+    out[:3, 3] += rng.normal(0.0, translation_sigma_m, 3)
+    return out
+
+
+def _pairs(shape: tuple[int, int]) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """Flat indices (m,) of the horizontally and vertically neighbouring pixel pairs."""
+    h, w = shape
+    idx = np.arange(h * w).reshape(h, w)
+    return (np.concatenate([idx[:, :-1].ravel(), idx[:-1, :].ravel()]),
+            np.concatenate([idx[:, 1:].ravel(), idx[1:, :].ravel()]))
+
+
+def _plane_range(normal: FloatArray, point: FloatArray, origin: FloatArray, dirs: FloatArray) -> FloatArray:
+    """Range (n,) along dirs (n, 3) from origin to the planes (point, normal) (n, 3)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.einsum("ij,ij->i", normal, point - origin) / np.einsum("ij,ij->i", normal, dirs)
+
+
+def simulate_frame(scene: SlraScene, pose: FloatArray, geometry: ScanGeometry, params: SlraParams,
+                   rng: np.random.Generator, *, reported_pose: FloatArray | None = None,
+                   timestamp: float = 0.0, sensor: str = "slra") -> RangeFrame:
+    """One range frame taken from the TRUE sensor pose `pose` (4, 4, world, m).
+
+    reported_pose: the pose the robot reports (stamped on the frame; default `pose`).
+    """
+    pl = scene.placement
+    h, w = geometry.shape
+    rot = pl.rotation_matrix()
+    origin = pl.to_part(np.asarray(pose, dtype=float)[None, :3, 3])[0]
+    to_part = rot.T @ np.asarray(pose, dtype=float)[:3, :3]            # sensor -> part directions
+
+    def cast_sensor(d_sensor: FloatArray) -> tuple[Hits, FloatArray]:
+        d = d_sensor[:, 0:1] * to_part[:, 0] + d_sensor[:, 1:2] * to_part[:, 1] + d_sensor[:, 2:3] * to_part[:, 2]
+        return scene.cast(origin, d), d  # (no BLAS matmul: it stalls against embree's threads)
+
+    hits, dirs = cast_sensor(scene.directions(geometry))
+    amp, p_drop = _returns(params, hits, dirs, pl.scale)
+    frac, other_r, other_amp, other_drop = _mix(geometry, params, cast_sensor, origin, dirs, hits, pl.scale)
+
+    k = 4 * math.pi * geometry.modulation_hz / SPEED_OF_LIGHT * pl.scale   # rad per mm
+    own_r = np.where(hits.kind != MISS, hits.dist, 0.0)
+    z = (1 - frac) * amp * np.exp(1j * k * own_r) + frac * other_amp * np.exp(1j * k * other_r)
+    a = np.abs(z)
+    drop = (a < params.min_amplitude) | (rng.random(h * w) < (1 - frac) * p_drop + frac * other_drop)
+    phase = np.angle(z) + rng.normal(0.0, 1.0, h * w) * params.phase_sigma(a)
+    rng_m = np.mod(phase, 2 * math.pi) / (2 * math.pi) * geometry.ambiguity_m
+    rng_m[drop] = np.nan
+    inten = a * (1 + params.intensity_noise * rng.normal(0.0, 1.0, h * w))
+    inten[a < params.min_amplitude] = 0.0
+    return RangeFrame(rng_m.reshape(h, w), np.maximum(inten, 0.0).reshape(h, w),
+                      np.asarray(pose if reported_pose is None else reported_pose, dtype=float),
+                      geometry, timestamp, params.frame_time(geometry), sensor)
+
+
+def _returns(params: SlraParams, hits: Hits, dirs: FloatArray, scale: float) -> tuple[FloatArray, FloatArray]:
+    """Amplitude (n,) of the returns of rays with `hits` along dirs (n, 3), and their
+    dropout probability (n,) (specular loss toward grazing incidence); scale: m per mm."""
+    hit = hits.kind != MISS
+    cos_inc = np.abs(np.einsum("ij,ij->i", hits.normals, dirs))
+    refl = np.where(hits.kind == BOX, params.box_reflectance, params.reflectance)
+    r_ref_mm = params.reference_range_m / scale
+    with np.errstate(divide="ignore", invalid="ignore"):
+        amp = np.where(hit, refl * cos_inc * (r_ref_mm / hits.dist) ** 2, 0.0)
+    theta = np.degrees(np.arccos(np.clip(cos_inc, 0.0, 1.0)))
+    spec = np.clip((theta - params.grazing_start_deg) / (params.grazing_full_deg - params.grazing_start_deg), 0, 1)
+    p_drop = np.where(hit, params.dropout_rate + (1 - params.dropout_rate) * spec ** 2, params.dropout_rate)
+    return amp, p_drop
+
+
+def _mix(geometry: ScanGeometry, params: SlraParams, cast_sensor, origin: FloatArray, dirs: FloatArray,
+         hits: Hits, scale: float) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+    """Mixed pixels: for every pixel (flat), the share of its footprint beyond a depth step,
+    and that other surface's range (mm), amplitude and dropout probability.
+
+    Steps are found between neighbouring pixels (a neighbour off the pixel's plane by more
+    than `jump_m`, or a hit beside a miss), located by bisecting the scan angle between
+    them, and a pixel near one sees the other surface by sampling it at the pixel's mirror
+    image across the edge."""
+    h, w = geometry.shape
+    n = h * w
+    frac, other_r, other_amp, other_drop = np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n)
+    thr = params.jump_m / scale
+    hit, dist, normals = hits.kind != MISS, hits.dist, hits.normals
+    pts = origin + np.where(hit, dist, 0.0)[:, None] * dirs
+    p, q = _pairs(geometry.shape)
+    with np.errstate(invalid="ignore"):
+        cand = (hit[p] != hit[q]) | (np.abs(dist[p] - dist[q]) > 0.2 * thr)
+    p, q = p[cand], q[cand]
+    both = hit[p] & hit[q]
+    rq_from_p = _plane_range(normals[p], pts[p], origin, dirs[q])
+    rp_from_q = _plane_range(normals[q], pts[q], origin, dirs[p])
+    with np.errstate(invalid="ignore"):
+        step = (both & (np.abs(dist[q] - rq_from_p) > thr) & (np.abs(dist[p] - rp_from_q) > thr)) | (hit[p] != hit[q])
+    p, q = p[step], q[step]
+    if not len(p):
+        return frac, other_r, other_amp, other_drop
+    rc_p = np.column_stack(np.divmod(p, w)).astype(float)
+    rc_q = np.column_stack(np.divmod(q, w)).astype(float)
+    lo, hi = np.zeros(len(p)), np.ones(len(p))
+    hp, hq = hit[p], hit[q]
+    for _ in range(params.bisection_steps):
+        t = (lo + hi) / 2
+        rc = rc_p + t[:, None] * (rc_q - rc_p)
+        mid, dd = cast_sensor(geometry.directions_at(rc[:, 0], rc[:, 1]))
+        dm, hm = mid.dist, mid.kind != MISS
+        with np.errstate(invalid="ignore"):
+            ep = np.where(hp & hm, np.abs(dm - _plane_range(normals[p], pts[p], origin, dd)), np.inf)
+            eq = np.where(hq & hm, np.abs(dm - _plane_range(normals[q], pts[q], origin, dd)), np.inf)
+        p_like = np.where(hp & hq, hm & (ep <= eq), np.where(hp, hm & (ep < 5 * thr), ~(hm & (eq < 5 * thr))))
+        lo, hi = np.where(p_like, t, lo), np.where(p_like, hi, t)
+    t = (lo + hi) / 2
+    ang = np.column_stack(geometry.angles(rc_p[:, 0] + t * (rc_q[:, 0] - rc_p[:, 0]),
+                                          rc_p[:, 1] + t * (rc_q[:, 1] - rc_p[:, 1])))
+    # footprint sigma, as an angle, at the nearer surface of each step
+    r_step = np.minimum(np.where(hp, dist[p], np.inf), np.where(hq, dist[q], np.inf)) * scale
+    sig = (params.beam_waist_m + r_step * params.beam_divergence_rad) / r_step
+    da, de = geometry.pitch_rad
+    reach = int(min(40, math.ceil(3.5 * sig.max() / min(da, de)) + 1))
+    seed = np.zeros(n, dtype=bool)
+    seed[p] = seed[q] = True
+    x = np.flatnonzero(ndimage.maximum_filter(seed.reshape(h, w), size=2 * reach + 1).ravel())
+    xang = np.column_stack(geometry.angles(*np.divmod(x, w)))
+    d, toward, j = _edge_distance(ang, xang, min(da, de))
+    f = ndtr(-d / sig[j])
+    keep = f > 1e-4
+    x, xang, d, toward, f = x[keep], xang[keep], d[keep], toward[keep], f[keep]
+    mirror = xang + (2 * d + 0.5 * min(da, de))[:, None] * toward
+    far, dd = cast_sensor(geometry.directions_at(mirror[:, 1] / de + h / 2 - 0.5, mirror[:, 0] / da + w / 2 - 0.5))
+    am, pm = _returns(params, far, dd, scale)
+    dm, hm = far.dist, far.kind != MISS
+    with np.errstate(invalid="ignore"):
+        same = (hm == hit[x]) & (~hm | (np.abs(dm - dist[x]) < thr))
+    f = np.where(same, 0.0, f)
+    frac[x], other_r[x], other_amp[x], other_drop[x] = f, np.where(hm, dm, 0.0), am, pm
+    return frac, other_r, other_amp, other_drop
+
+
+def _edge_distance(edges: FloatArray, x: FloatArray, pitch: float
+                   ) -> tuple[FloatArray, FloatArray, NDArray[np.int64]]:
+    """Distance (n,) of points x (n, 2) to the edge through the points `edges` (m, 2), the
+    unit direction (n, 2) from each point toward the edge, and the index (n,) of the
+    nearest edge point.  The distance is to a line fitted to the 4 nearest edge points (to
+    the nearest one alone where those do not spread along a line)."""
+    k = min(4, len(edges))
+    dd, ii = cKDTree(edges).query(x, k=k)
+    dd, ii = dd.reshape(len(x), k), ii.reshape(len(x), k)
+    e1 = edges[ii[:, 0]] - x
+    to_e1 = e1 / np.maximum(np.linalg.norm(e1, axis=1, keepdims=True), 1e-15)
+    if k < 2:
+        return dd[:, 0], to_e1, ii[:, 0]
+    pts = edges[ii]                                         # (n, k, 2)
+    mean = pts.mean(axis=1)
+    c = pts - mean[:, None, :]
+    sxx, syy, sxy = (c[..., 0] ** 2).sum(1), (c[..., 1] ** 2).sum(1), (c[..., 0] * c[..., 1]).sum(1)
+    ang = 0.5 * np.arctan2(2 * sxy, sxx - syy)              # principal direction
+    u = np.column_stack([np.cos(ang), np.sin(ang)])
+    along = np.abs(np.einsum("nkj,nj->nk", c, u)).max(axis=1)
+    across = np.abs(np.einsum("nkj,nj->nk", c, u[:, ::-1] * [-1, 1])).max(axis=1)
+    line = (along > 0.3 * pitch) & (across < 0.25 * along)
+    nrm = u[:, ::-1] * [-1, 1]
+    off = np.einsum("nj,nj->n", mean - x, nrm)
+    toward = np.where(line[:, None], nrm * np.where(off < 0, -1.0, 1.0)[:, None], to_e1)
+    return np.where(line, np.abs(off), dd[:, 0]), toward, ii[:, 0]

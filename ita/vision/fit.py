@@ -1,0 +1,240 @@
+"""Least-squares fits with covariances: planes, lines and circles.
+
+Pure numpy.  Each fit returns a frozen value with its parameters, their covariance (from
+the residual scatter: sigma^2 (J^T J)^-1) and the RMS residual, or None when there are too
+few points to fit.  Robust variants drop points beyond `clip` times a MAD-based sigma and
+refit, a few rounds.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+FloatArray = NDArray[np.float64]
+
+
+def _robust_sigma(r: FloatArray) -> float:
+    return float(1.4826 * np.median(np.abs(r - np.median(r)))) if len(r) else 0.0
+
+
+@dataclass(frozen=True)
+class PlaneFit:
+    """z = a x + b y + c over n points; cov: (3, 3) of (a, b, c); rms: residual (z units)."""
+
+    coef: tuple[float, float, float]
+    cov: FloatArray
+    rms: float
+    n: int
+    center: tuple[float, float]
+
+    def z(self, x: float, y: float) -> float:
+        """Height of the plane at (x, y)."""
+        a, b, c = self.coef
+        return a * x + b * y + c
+
+    def z_sigma(self, x: float, y: float) -> float:
+        """Standard uncertainty of z(x, y) from the fit."""
+        g = np.array([x, y, 1.0])
+        return float(np.sqrt(max(g @ self.cov @ g, 0.0)))
+
+    @property
+    def normal(self) -> FloatArray:
+        """(3,) unit normal pointing to +z."""
+        a, b, _ = self.coef
+        n = np.array([-a, -b, 1.0])
+        return n / np.linalg.norm(n)
+
+
+def fit_plane(p: FloatArray, clip: float = 3.5, rounds: int = 3) -> PlaneFit | None:
+    """Robust fit of z = a x + b y + c to points (n, 3)."""
+    p = np.asarray(p, dtype=float)
+    keep = np.all(np.isfinite(p), axis=1)
+    fit = None
+    for _ in range(rounds):
+        q = p[keep]
+        if len(q) < 6:
+            return fit
+        cx, cy = q[:, 0].mean(), q[:, 1].mean()
+        a = np.column_stack([q[:, 0] - cx, q[:, 1] - cy, np.ones(len(q))])
+        sol, *_ = np.linalg.lstsq(a, q[:, 2], rcond=None)
+        r = q[:, 2] - a @ sol
+        s2 = float(r @ r) / max(len(q) - 3, 1)
+        cov_c = s2 * np.linalg.inv(a.T @ a)
+        # back to z = a x + b y + c: c = c' - a cx - b cy
+        t = np.array([[1, 0, 0], [0, 1, 0], [-cx, -cy, 1]])
+        coef = (float(sol[0]), float(sol[1]), float(sol[2] - sol[0] * cx - sol[1] * cy))
+        fit = PlaneFit(coef, t @ cov_c @ t.T, float(np.sqrt(np.mean(r ** 2))), len(q), (float(cx), float(cy)))
+        full = p[:, 2] - (coef[0] * p[:, 0] + coef[1] * p[:, 1] + coef[2])
+        sig = max(_robust_sigma(r), 1e-9)
+        new = np.all(np.isfinite(p), axis=1) & (np.abs(full) < clip * sig)
+        if np.array_equal(new, keep):
+            break
+        keep = new
+    return fit
+
+
+@dataclass(frozen=True)
+class LineFit:
+    """A 2-D line through `point` along unit `direction`; offset_sigma: standard
+    uncertainty of its position across itself at `point`; angle_sigma (rad)."""
+
+    point: tuple[float, float]
+    direction: tuple[float, float]
+    offset_sigma: float
+    angle_sigma: float
+    rms: float
+    n: int
+    span: float
+
+    def distance(self, xy: FloatArray) -> FloatArray:
+        """Signed distance (n,) of points (n, 2) from the line (positive to the left)."""
+        d = np.asarray(self.direction)
+        nrm = np.array([-d[1], d[0]])
+        return (np.atleast_2d(xy) - np.asarray(self.point)) @ nrm
+
+    def offset_sigma_at(self, xy: FloatArray) -> float:
+        """Standard uncertainty across the line at the foot of point (2,)."""
+        s = float((np.asarray(xy) - np.asarray(self.point)) @ np.asarray(self.direction))
+        return float(np.hypot(self.offset_sigma, s * self.angle_sigma))
+
+
+def fit_line(xy: FloatArray, clip: float = 3.5, rounds: int = 3) -> LineFit | None:
+    """Robust total-least-squares line through points (n, 2)."""
+    xy = np.asarray(xy, dtype=float)
+    keep = np.all(np.isfinite(xy), axis=1)
+    fit = None
+    for _ in range(rounds):
+        q = xy[keep]
+        if len(q) < 4:
+            return fit
+        m = q.mean(axis=0)
+        _, _, vt = np.linalg.svd(q - m, full_matrices=False)
+        d = vt[0]
+        nrm = np.array([-d[1], d[0]])
+        r = (q - m) @ nrm
+        s = (q - m) @ d
+        s2 = float(r @ r) / max(len(q) - 2, 1)
+        fit = LineFit((float(m[0]), float(m[1])), (float(d[0]), float(d[1])), float(np.sqrt(s2 / len(q))),
+                      float(np.sqrt(s2 / max(float(s @ s), 1e-12))), float(np.sqrt(np.mean(r ** 2))),
+                      len(q), float(s.max() - s.min()))
+        full = (xy - m) @ nrm
+        sig = max(_robust_sigma(r), 1e-9)
+        new = np.all(np.isfinite(xy), axis=1) & (np.abs(full) < clip * sig)
+        if np.array_equal(new, keep):
+            break
+        keep = new
+    return fit
+
+
+@dataclass(frozen=True)
+class CircleFit:
+    """A 2-D circle; cov: (3, 3) of (cx, cy, r); coverage: angle (rad) the points span."""
+
+    center: tuple[float, float]
+    radius: float
+    cov: FloatArray
+    rms: float
+    n: int
+    coverage: float
+
+    @property
+    def radius_sigma(self) -> float:
+        return float(np.sqrt(max(self.cov[2, 2], 0.0)))
+
+    @property
+    def center_sigma(self) -> tuple[float, float]:
+        return float(np.sqrt(max(self.cov[0, 0], 0.0))), float(np.sqrt(max(self.cov[1, 1], 0.0)))
+
+
+def circle_algebraic(xy: FloatArray) -> tuple[FloatArray, float]:
+    """Kasa fit: centre (2,) and radius from x^2 + y^2 + D x + E y + F = 0."""
+    m = xy.mean(axis=0)
+    q = xy - m
+    a = np.column_stack([q, np.ones(len(q))])
+    sol, *_ = np.linalg.lstsq(a, -(q ** 2).sum(1), rcond=None)
+    c = -sol[:2] / 2
+    return c + m, float(np.sqrt(max(c @ c - sol[2], 0.0)))
+
+
+def _coverage(xy: FloatArray, c: FloatArray) -> float:
+    ang = np.sort(np.arctan2(xy[:, 1] - c[1], xy[:, 0] - c[0]))
+    gaps = np.diff(np.concatenate([ang, ang[:1] + 2 * np.pi]))
+    return float(2 * np.pi - gaps.max()) if len(ang) > 1 else 0.0
+
+
+def fit_circle(xy: FloatArray, clip: float = 3.5, rounds: int = 3, iterations: int = 10) -> CircleFit | None:
+    """Robust geometric circle fit to points (n, 2): algebraic start, Gauss-Newton on the
+    radial residuals |p - c| - r, covariance sigma^2 (J^T J)^-1."""
+    xy = np.asarray(xy, dtype=float)
+    keep = np.all(np.isfinite(xy), axis=1)
+    fit = None
+    for _ in range(rounds):
+        q = xy[keep]
+        if len(q) < 5:
+            return fit
+        c, r = circle_algebraic(q)
+        for _ in range(iterations):
+            v = q - c
+            dist = np.linalg.norm(v, axis=1)
+            jac = np.column_stack([-v / dist[:, None], -np.ones(len(q))])
+            res = dist - r
+            step, *_ = np.linalg.lstsq(jac, -res, rcond=None)
+            c, r = c + step[:2], r + step[2]
+            if np.abs(step).max() < 1e-10:
+                break
+        v = q - c
+        dist = np.linalg.norm(v, axis=1)
+        res = dist - r
+        jac = np.column_stack([-v / dist[:, None], -np.ones(len(q))])
+        s2 = float(res @ res) / max(len(q) - 3, 1)
+        try:
+            cov = s2 * np.linalg.inv(jac.T @ jac)
+        except np.linalg.LinAlgError:
+            return fit
+        fit = CircleFit((float(c[0]), float(c[1])), float(r), cov, float(np.sqrt(np.mean(res ** 2))),
+                        len(q), _coverage(q, c))
+        full = np.linalg.norm(xy - c, axis=1) - r
+        sig = max(_robust_sigma(res), 1e-9)
+        new = np.all(np.isfinite(xy), axis=1) & (np.abs(full) < clip * sig)
+        if np.array_equal(new, keep):
+            break
+        keep = new
+    return fit
+
+
+@dataclass(frozen=True)
+class ParallelPlanes:
+    """Planes z = a x + b y + c_i sharing one tilt (faces machined parallel); cov: of
+    (a, b, c_0, c_1, ...); rms: residual over all points."""
+
+    slope: tuple[float, float]
+    offsets: tuple[float, ...]
+    cov: FloatArray
+    rms: float
+
+    def gap_sigma(self, i: int, j: int) -> float:
+        """Standard uncertainty of offsets[i] - offsets[j]."""
+        g = np.zeros(len(self.cov))
+        g[2 + i], g[2 + j] = 1.0, -1.0
+        return float(np.sqrt(max(g @ self.cov @ g, 0.0)))
+
+
+def fit_parallel_planes(groups: list[FloatArray]) -> ParallelPlanes:
+    """Least-squares planes of one shared tilt through point groups [(n_i, 3)]; the shared
+    tilt comes from all the points, so the gaps between the planes do not depend on
+    extrapolating any one of them."""
+    pts = np.vstack(groups)
+    cx, cy = pts[:, 0].mean(), pts[:, 1].mean()
+    cols = [pts[:, 0] - cx, pts[:, 1] - cy]
+    for i, g in enumerate(groups):
+        cols.append(np.concatenate([np.full(len(h), float(i == j)) for j, h in enumerate(groups)]))
+    a = np.column_stack(cols)
+    sol, *_ = np.linalg.lstsq(a, pts[:, 2], rcond=None)
+    r = pts[:, 2] - a @ sol
+    s2 = float(r @ r) / max(len(pts) - a.shape[1], 1)
+    cov = s2 * np.linalg.inv(a.T @ a)
+    return ParallelPlanes((float(sol[0]), float(sol[1])), tuple(float(c) for c in sol[2:]), cov,
+                          float(np.sqrt(np.mean(r ** 2))))

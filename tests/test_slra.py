@@ -1,0 +1,126 @@
+"""The SLRA simulator: phase wrap-around, noise, mixed pixels, dropouts, determinism, timing."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+import trimesh
+
+from ita.sensors.slra_frame import RangeFrame, ScanGeometry
+from ita.sim.slra import SlraParams, SlraScene, pose_error, simulate_frame
+from ita.workcell.model import PartPlacement
+
+# part frame = world frame scaled to mm
+PLACEMENT = PartPlacement(0.001, ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)), (0.0, 0.0, 0.0),
+                          (-500.0, -500.0, -100.0), (500.0, 500.0, 100.0))
+SMALL = ScanGeometry((64, 64), (10.0, 10.0))
+
+
+def looking_down(x_mm: float = 0.0, y_mm: float = 0.0, height_m: float = 0.45) -> np.ndarray:
+    """Sensor pose (4, 4) at `height_m` above the part origin, looking along -z."""
+    pose = np.eye(4)
+    pose[:3, :3] = np.column_stack([(1.0, 0.0, 0.0), (0.0, -1.0, 0.0), (0.0, 0.0, -1.0)])
+    pose[:3, 3] = (x_mm / 1000, y_mm / 1000, height_m)
+    return pose
+
+
+def plate(top: float = 0.0, size: float = 2000.0, tilt_deg: float = 0.0) -> trimesh.Trimesh:
+    m = trimesh.creation.box(extents=(size, size, 10.0))
+    m.apply_translation((0, 0, top - 5.0))
+    if tilt_deg:
+        m.apply_transform(trimesh.transformations.rotation_matrix(np.radians(tilt_deg), (0, 1, 0), (0, 0, top)))
+    return m
+
+
+def residual(frame: RangeFrame, top_m: float = 0.0) -> np.ndarray:
+    """Measured minus true range (m) of the pixels on a flat plate at z = top_m."""
+    d = frame.geometry.directions()                        # looking straight down: z_world = -z_sensor
+    return frame.range_m - (frame.pose[2, 3] - top_m) / d[..., 2]
+
+
+def test_range_wraps_beyond_the_ambiguity_interval():
+    scene = SlraScene(plate(), PLACEMENT)
+    params = SlraParams(min_amplitude=1e-5)
+    far = 3.5                                              # beyond c / 2f = 2.998 m at 50 MHz
+    frame = simulate_frame(scene, looking_down(height_m=far), SMALL, params, np.random.default_rng(0))
+    assert SMALL.ambiguity_m == pytest.approx(2.998, abs=1e-3)
+    centre = np.nanmedian(frame.range_m[28:36, 28:36])
+    assert centre == pytest.approx(far - SMALL.ambiguity_m, abs=0.01)
+    slow = ScanGeometry((64, 64), (10.0, 10.0), modulation_hz=5e6)   # 30 m interval
+    frame = simulate_frame(scene, looking_down(height_m=far), slow, params, np.random.default_rng(0))
+    assert np.nanmedian(frame.range_m[28:36, 28:36]) == pytest.approx(far, abs=0.1)
+
+
+def test_noise_grows_with_distance_and_incidence():
+    rng = np.random.default_rng(1)
+    scene = SlraScene(plate(), PLACEMENT)
+    near = np.nanstd(residual(simulate_frame(scene, looking_down(height_m=0.45), SMALL, SlraParams(), rng)))
+    far = np.nanstd(residual(simulate_frame(scene, looking_down(height_m=0.9), SMALL, SlraParams(), rng)))
+    assert 1.6 < far / near < 2.5                          # sigma ~ A^-1/2 ~ R
+    assert 0.1e-3 < near < 0.5e-3
+    tilted = SlraScene(plate(tilt_deg=60.0), PLACEMENT)
+    f = simulate_frame(tilted, looking_down(), SMALL, SlraParams(), rng)
+    d = f.geometry.directions()
+    n = np.array([np.sin(np.radians(60.0)), 0.0, np.cos(np.radians(60.0))])
+    dirs = np.einsum("ij,hwj->hwi", f.pose[:3, :3], d)
+    true = -(f.pose[:3, 3] @ n) / (dirs @ n)
+    assert np.nanstd(f.range_m - true) > 1.25 * near      # cos 60 halves the return
+
+
+def test_mixed_pixels_lie_between_the_two_sides_of_a_step():
+    base = plate()
+    block = trimesh.creation.box(extents=(100.0, 200.0, 20.0))
+    block.apply_translation((50.0, 0.0, 10.0))            # top at z = 20 for x > 0
+    scene = SlraScene(trimesh.util.concatenate([base, block]), PLACEMENT)
+    geo = ScanGeometry((64, 64), (3.0, 3.0))               # 0.37 mm pixels, footprint sigma 0.28 mm
+    frame = simulate_frame(scene, looking_down(), geo, SlraParams(), np.random.default_rng(2))
+    r = frame.range_m
+    low, high = np.nanmedian(r[:, :20]), np.nanmedian(r[:, -20:])
+    assert low - high == pytest.approx(0.020, abs=1e-3)
+    between = (r < low - 0.002) & (r > high + 0.002)
+    cols = np.nonzero(between)[1]
+    assert between.sum() >= 64                              # at least a pixel per row
+    assert np.all(np.abs(cols - 31.5) < 4)                  # all beside the step
+    # the step mixes without bias: half-way range sits on the edge (x = 0)
+    sharp = simulate_frame(scene, looking_down(), geo, SlraParams(beam_waist_m=1e-6, beam_divergence_rad=1e-7),
+                           np.random.default_rng(2))
+    assert not ((sharp.range_m < low - 0.002) & (sharp.range_m > high + 0.002)).any()
+
+
+def test_dropouts_at_grazing_incidence():
+    rng = np.random.default_rng(3)
+    flat = simulate_frame(SlraScene(plate(), PLACEMENT), looking_down(), SMALL, SlraParams(), rng)
+    steep = simulate_frame(SlraScene(plate(tilt_deg=84.0), PLACEMENT), looking_down(), SMALL, SlraParams(), rng)
+    assert np.isnan(flat.range_m).mean() < 0.01
+    assert np.isnan(steep.range_m).mean() > 0.5
+
+
+def test_same_seed_same_frame_other_seed_other_frame():
+    scene = SlraScene(plate(), PLACEMENT)
+    a = simulate_frame(scene, looking_down(), SMALL, SlraParams(), np.random.default_rng(7))
+    b = simulate_frame(scene, looking_down(), SMALL, SlraParams(), np.random.default_rng(7))
+    c = simulate_frame(scene, looking_down(), SMALL, SlraParams(), np.random.default_rng(8))
+    np.testing.assert_array_equal(a.range_m, b.range_m)
+    np.testing.assert_array_equal(a.intensity, b.intensity)
+    assert not np.array_equal(np.nan_to_num(a.range_m), np.nan_to_num(c.range_m))
+
+
+def test_frame_time_stamp_and_reported_pose():
+    scene = SlraScene(plate(), PLACEMENT)
+    params = SlraParams(pixel_rate_hz=100e3, line_flyback_s=1e-3)
+    true_pose = pose_error(looking_down(), np.random.default_rng(0), 1e-4, 1e-4)
+    geo = ScanGeometry((256, 256), (20.0, 20.0))
+    frame = simulate_frame(scene, true_pose, geo, params, np.random.default_rng(0),
+                           reported_pose=looking_down(), timestamp=12.5)
+    assert frame.frame_time == pytest.approx(256 * (256 / 100e3 + 1e-3))
+    assert frame.timestamp == 12.5
+    np.testing.assert_array_equal(frame.pose, looking_down())      # what the robot reports
+    assert frame.range_m.shape == frame.intensity.shape == (256, 256)
+    assert not frame.range_m.flags.writeable
+
+
+def test_nothing_hit_is_a_dropout_with_no_intensity():
+    scene = SlraScene(plate(size=20.0), PLACEMENT)                  # a small plate, void around
+    frame = simulate_frame(scene, looking_down(), SMALL, SlraParams(), np.random.default_rng(0))
+    assert np.isnan(frame.range_m[0, 0]) and frame.intensity[0, 0] == 0.0
+    assert np.isfinite(frame.range_m[32, 32])

@@ -1,0 +1,170 @@
+"""Vision: known synthetic parts measured within their uncertainty, every failure reason,
+planar regions, pictures, and the wall between measuring code and the as-built truth."""
+
+from __future__ import annotations
+
+import ast
+from dataclasses import replace
+from pathlib import Path
+
+import manifold3d as m3d
+import numpy as np
+import pytest
+import trimesh
+
+from ita.part.model import Hole, HoleRole, Pocket, Stiffener
+from ita.sensors.slra_frame import RangeFrame
+from ita.sim.slra import SlraParams, SlraScene, simulate_frame
+from ita.specs.model import MeasurementKind as K
+from ita.specs.model import MeasurementSpec
+from ita.vision.measure import Reason, VisionContext, measure, scan_for
+from ita.vision.regions import planar_regions
+from ita.workcell.model import Box, Pose
+from tests.test_slra import PLACEMENT, looking_down
+
+REPO = Path(__file__).resolve().parents[1]
+NOMINAL_HOLE = Hole("H1", HoleRole.FASTENER, (0.0, 0.0, 3.0), (0.0, 0.0, 1.0), 6.35, 3.0, "P1")
+TRUE_HOLE = replace(NOMINAL_HOLE, diameter=6.41)          # as built: 0.06 mm oversize
+POCKET = Pocket("P1", ((-150.0, -150.0), (150.0, -150.0), (150.0, 150.0), (-150.0, 150.0)), 2.5)
+RIB = Stiffener("S1", (-60.0, 0.0), (60.0, 0.0), 3.0, 32.0)
+HD = MeasurementSpec("HD-H1", K.HOLE_DIAMETER, "H1", (0.0, 0.0, 3.0), (0.0, 0.0, 1.0), 6.35, -0.076, 0.076)
+SW = MeasurementSpec("SW-S1", K.STIFFENER_WIDTH, "S1", (0.0, 0.0, 32.0), (0.0, 0.0, 1.0), 3.0, -0.127, 0.127,
+                     direction=(0.0, 1.0, 0.0))
+SH = MeasurementSpec("SH-S1", K.STIFFENER_HEIGHT, "S1", (0.0, 0.0, 32.0), (0.0, 0.0, 1.0), 32.0, -0.25, 0.25)
+
+
+def _box(lo, hi) -> m3d.Manifold:
+    return m3d.Manifold.cube(tuple(np.subtract(hi, lo)), False).translate(tuple(lo))
+
+
+def _mesh(solid: m3d.Manifold) -> trimesh.Trimesh:
+    m = solid.to_mesh()
+    return trimesh.Trimesh(np.asarray(m.vert_properties)[:, :3], np.asarray(m.tri_verts), process=False)
+
+
+@pytest.fixture(scope="module")
+def plate_scene() -> SlraScene:
+    """A 3 mm plate (top z = 3) with the as-built hole, a floor 40 mm below it."""
+    cyl = m3d.Manifold.cylinder(10.0, TRUE_HOLE.diameter / 2, circular_segments=48).translate((0, 0, -2))
+    solid = _box((-100, -100, 0), (100, 100, 3)) - cyl + _box((-200, -200, -45), (200, 200, -40))
+    return SlraScene(_mesh(solid), PLACEMENT, holes=[TRUE_HOLE])
+
+
+@pytest.fixture(scope="module")
+def rib_scene() -> SlraScene:
+    """A web (top z = 2.5) and a rib 3.1 wide with its top at 32.1 (both as built)."""
+    solid = _box((-150, -150, 0), (150, 150, 2.5)) + _box((-60, -1.55, 0), (60, 1.55, 32.1))
+    return SlraScene(_mesh(solid), PLACEMENT)
+
+
+def _ctx(*features) -> VisionContext:
+    return VisionContext({f.id: f for f in features}, PLACEMENT, position_zones={"H1": 0.5})
+
+
+def _frame(scene, spec, ctx, seed=0, x_mm=0.0, params=None):
+    params = SlraParams() if params is None else params
+    pose = looking_down(x_mm, 0.0, 0.45 + spec.point[2] / 1000)
+    return simulate_frame(scene, pose, scan_for(spec, ctx), params, np.random.default_rng(seed))
+
+
+def test_hole_diameter_of_a_known_plate_within_its_uncertainty(plate_scene):
+    ctx = _ctx(NOMINAL_HOLE, POCKET)
+    for seed in range(3):
+        reply = measure(_frame(plate_scene, HD, ctx, seed), HD, ctx)
+        assert reply.ok, reply
+        assert abs(reply.value - TRUE_HOLE.diameter) < reply.expanded
+        assert reply.uncertainty < 0.01                    # good enough for a +/-0.076 hole
+
+
+def test_rib_width_and_height_within_their_uncertainty(rib_scene):
+    ctx = _ctx(RIB, POCKET)
+    width = measure(_frame(rib_scene, SW, ctx), SW, ctx)
+    height = measure(_frame(rib_scene, SH, ctx), SH, ctx)
+    assert width.ok and height.ok, (width, height)
+    assert abs(width.value - 3.1) < width.expanded and width.uncertainty < 0.02
+    assert abs(height.value - 32.1) < height.expanded
+    assert height.diagnostics["u_web"] == pytest.approx(0.127 / np.sqrt(3) / np.sqrt(2))
+
+
+def test_occluded_when_a_box_stands_in_front(plate_scene):
+    ctx = _ctx(NOMINAL_HOLE, POCKET)
+    blocker = Box("blocker", Pose((0.0, 0.0, 0.2)), (0.1, 0.1, 0.01))
+    scene = SlraScene(plate_scene.mesh.copy(), PLACEMENT, boxes=[blocker])
+    reply = measure(_frame(scene, HD, ctx), HD, ctx)
+    assert not reply.ok and reply.reason is Reason.OCCLUDED
+
+
+def test_out_of_view_when_the_feature_is_not_in_the_window(plate_scene):
+    ctx = _ctx(NOMINAL_HOLE, POCKET)
+    reply = measure(_frame(plate_scene, HD, ctx, x_mm=30.0), HD, ctx)
+    assert not reply.ok and reply.reason is Reason.OUT_OF_VIEW
+
+
+def test_too_few_pixels_when_the_returns_drop_out(plate_scene):
+    ctx = _ctx(NOMINAL_HOLE, POCKET)
+    reply = measure(_frame(plate_scene, HD, ctx, params=SlraParams(dropout_rate=0.995)), HD, ctx)
+    assert not reply.ok and reply.reason is Reason.TOO_FEW_PIXELS
+
+
+def test_fit_residual_on_a_garbage_frame(plate_scene):
+    ctx = _ctx(NOMINAL_HOLE, POCKET)
+    good = _frame(plate_scene, HD, ctx)
+    noise = np.random.default_rng(5).uniform(-2e-3, 2e-3, good.range_m.shape)
+    garbage = RangeFrame(good.range_m + noise, good.intensity, good.pose, good.geometry)
+    reply = measure(garbage, HD, ctx)
+    assert not reply.ok and reply.reason is Reason.FIT_RESIDUAL
+
+
+def test_kinds_the_slra_does_not_measure_are_refused(plate_scene):
+    ctx = _ctx(NOMINAL_HOLE, POCKET)
+    web = MeasurementSpec("WT-P1-1", K.WEB_THICKNESS, "P1", (50.0, 50.0, 2.5), (0, 0, 1), 2.5, -0.127, 0.127)
+    reply = measure(_frame(plate_scene, HD, ctx), web, ctx)
+    assert not reply.ok and reply.reason is Reason.NOT_MEASURABLE
+
+
+def test_planar_regions_find_the_rib_top_and_the_web(rib_scene):
+    ctx = _ctx(RIB, POCKET)
+    frame = _frame(rib_scene, SH, ctx)
+    labels, regions = planar_regions(frame)
+    assert labels.shape == frame.range_m.shape
+    big = [r for r in regions if r.pixels > 2000]
+    assert len(big) >= 3                                   # web left, web right, rib top
+    web = big[:2]
+    for r in web:
+        assert abs(r.normal[2]) > 0.999 and r.rms < 0.5e-3
+    assert web[0].offset == pytest.approx(web[1].offset, abs=1e-3)
+    top = [r for r in big[2:] if abs(web[0].centroid[2] - r.centroid[2] - 0.0296) < 1.5e-3]
+    assert top, [r.centroid for r in big]
+    assert labels.max() == len(regions) and (labels == top[0].label).sum() == top[0].pixels
+
+
+def test_render_writes_a_picture(plate_scene, tmp_path):
+    from ita.vision.render import render_measurement
+
+    ctx = _ctx(NOMINAL_HOLE, POCKET)
+    frame = _frame(plate_scene, HD, ctx)
+    out = render_measurement(frame, HD, ctx, measure(frame, HD, ctx), tmp_path / "hd.png")
+    assert out.stat().st_size > 10_000
+
+
+def _imports(path: Path) -> set[str]:
+    tree = ast.parse(path.read_text(encoding="utf-8"))
+    names = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            names |= {a.name for a in node.names}
+        elif isinstance(node, ast.ImportFrom):
+            names.add(node.module or "")
+            names |= {f"{node.module}.{a.name}" for a in node.names}
+        elif isinstance(node, ast.Constant) and isinstance(node.value, str) and node.value.startswith("ita."):
+            names.add(node.value)
+    return names
+
+
+@pytest.mark.parametrize("package", ["ita/vision", "ita/sensors"])
+def test_measuring_code_never_reads_the_truth_or_the_simulator(package):
+    files = sorted((REPO / package).glob("*.py"))
+    assert files
+    for f in files:
+        bad = {n for n in _imports(f) if n.startswith(("ita.sim", "ita.part.truth", "ita.scoring"))}
+        assert not bad, f"{f.name} imports {bad}"
