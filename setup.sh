@@ -60,6 +60,7 @@ setup() {
         say "installing the ita package and its test extras into $venv"
         "$venv/bin/python" -m pip install -q --upgrade pip
         "$venv/bin/python" -m pip install -q -e ".[test]"
+        "$venv/bin/python" -m ita.warmup >&2
         echo "$want" > "$stamp"
     fi
 }
