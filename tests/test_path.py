@@ -20,6 +20,7 @@ from ita.path.lift import (
     Lifter,
     path_free,
     segments_free,
+    sweep_bounds,
 )
 from ita.path.planner import HOME, PathPlanner, PlannerSettings, Reason, planners_for
 from ita.path.problems import (
@@ -151,6 +152,7 @@ def test_path_around_an_obstacle_uses_a_subgoal(wall_scene):
     r = planner.plan(start, goal)
     assert r.ok and r.stats["subgoals"] >= 1 and len(r.waypoints) >= 3
     assert path_free(ctx.config_free, r.waypoints, ctx.lever, 0.005).all()
+    assert ctx.motion_free(r.waypoints[:-1], r.waypoints[1:]).all()
     assert trajectory_free(r.trajectory, lambda a, b: segments_free(ctx.config_free, a, b, ctx.lever, 0.005))
 
 
@@ -172,6 +174,57 @@ def test_compiled_checker_agrees_with_the_arm_checker(planner_for):
     expected = ctx.model.within_limits(q) & ~ctx.checker.collides(link_segments(ctx.model, q))
     assert 0.1 < expected.mean() < 0.9
     np.testing.assert_array_equal(ConfigChecker(ctx.model, ctx.checker)(q), expected)
+
+
+def test_sweep_bounds_bound_every_tube_points_travel(planner_for):
+    planner, tool = planner_for("us_probe_1")
+    model = planner.context(tool).model
+    bounds = sweep_bounds(model)
+    rng = np.random.default_rng(2)
+    q = rng.uniform(model.lower, model.upper, (500, 6))
+    dq = rng.normal(size=(500, 6)) * 0.01
+    s = np.linspace(0.0, 1.0, 5)[:, None]
+    ends = link_segments(model, (q[:, None] + s[None] * dq[:, None]).reshape(-1, 6)).reshape(500, 5, -1, 2, 3)
+    travel = np.linalg.norm(np.diff(ends, axis=1), axis=-1).sum(axis=1).max(axis=-1)    # (500, t) path length
+    allowed = np.abs(dq) @ bounds
+    assert (travel <= allowed * (1 + 1e-9) + 1e-12).all()
+    assert (travel > 0.5 * allowed).any()          # and not loose by far everywhere
+
+
+def test_motion_check_refuses_what_sparse_samples_miss(cell):
+    """A 1 cm cube put where the wrist's tip passes between two positions of a 0.5 m
+    sampled check: the samples miss it, the motion check does not."""
+    model = arm_model(cell.arm)
+    a = np.array(HOME)
+    b = a + [1.0, 0.0, 0.0, 0.0, 0.0, 0.0]
+    tree = RegionTree()
+    tree.add("pedestal", Regions.boxes([[0.0, 0.0, 0.3]], np.eye(3), [[0.9, 0.9, 0.6]]))
+    planner = PathPlanner(model, tree, ArmChecker(tree, model.tube_radii, model.tube_links, mount=["pedestal"]))
+    ctx = planner.context(None)
+    bounds = ctx.motion_free.bounds
+    assert ctx.motion_free(a, b)[0]
+    steps = 8 * int(np.ceil((np.abs(b - a) @ bounds).max() / (8 * 0.5)))      # the sampled check's positions
+    tip = link_segments(model, a + ((steps // 2 + 0.5) / steps) * (b - a))[0, -1]   # the last tube, mid-way
+    axis = (tip[1] - tip[0]) / np.linalg.norm(tip[1] - tip[0])
+    tree.add("cube", Regions.boxes([tip[1] + axis * (model.tube_radii[-1] + 0.003)], np.eye(3), [[0.01] * 3]))
+    planner.invalidate()
+    ctx = planner.context(None)
+    assert ctx.config_free(np.vstack([a, b])).all()
+    assert segments_free(ctx.config_free, a, b, bounds, 0.5)[0]                 # the samples miss the cube
+    assert not segments_free(ctx.config_free, a, b, bounds, 0.001)[0]           # it is in the way
+    assert not ctx.motion_free(a, b)[0]
+
+
+def test_motions_the_check_accepts_are_free_everywhere(planner_for):
+    planner, tool = planner_for("us_probe_1")
+    ctx = planner.context(tool)
+    rng = np.random.default_rng(5)
+    q = rng.uniform(ctx.model.lower, ctx.model.upper, (1500, 6))
+    a = q[ctx.config_free(q)][:150]
+    b = a + rng.normal(size=a.shape) * 0.3
+    accepted = ctx.motion_free(a, b)
+    assert accepted.sum() > 30
+    assert segments_free(ctx.config_free, a[accepted], b[accepted], ctx.motion_free.bounds, 0.001).all()
 
 
 def test_visibility_route_goes_around_a_box():
@@ -199,10 +252,39 @@ def test_trajectory_stays_within_every_joint_limit(planner_for, wall_scene):
         traj = time_parameterize(model, w, period=0.005)
         ratios = limit_violations(model, traj)
         assert ratios["velocity"] <= 1 + TOL and ratios["acceleration"] <= 1 + TOL
+        assert ratios["tool_speed"] <= 1 + TOL
         np.testing.assert_allclose(traj.q[[0, -1]], w[[0, -1]], atol=1e-9)
     r = wall_scene[0].plan(wall_scene[1], wall_scene[2])
     ratios = limit_violations(model, r.trajectory)
     assert ratios["velocity"] <= 1 + TOL and ratios["acceleration"] <= 1 + TOL
+
+
+def test_tool_point_speed_limit_is_kept(wall_scene, planner_for):
+    """A long sweep of the waist with the arm stretched: the joints alone would carry the
+    tool point far faster than the workcell's limit; the timed knots stay within it."""
+    planner, tool = planner_for("us_probe_1")
+    model, tcp = planner.model, tool.tcp.matrix()
+    w = np.array([[-1.2, 0.4, -0.3, 0.0, 0.5, 0.0], [0.0, 0.5, -0.1, 0.3, 0.4, 0.2], [1.2, 0.4, -0.3, 0.0, 0.5, 0.0]])
+    free = time_parameterize(model, w, tcp=tcp, tool_speed=np.inf)
+    assert limit_violations(model, free, tcp)["tool_speed"] > 1.5
+    for stops in (None, [False, True, False]):
+        traj = time_parameterize(model, w, stops, tcp=tcp)
+        ratios = limit_violations(model, traj, tcp)
+        assert 0.95 < ratios["tool_speed"] <= 1 + TOL
+        assert ratios["velocity"] <= 1 + TOL and ratios["acceleration"] <= 1 + TOL
+    r = planner.plan(np.array(HOME), w[-1], tool)
+    assert r.ok and limit_violations(model, r.trajectory, tcp)["tool_speed"] <= 1 + TOL
+
+
+def test_the_planner_makes_the_controllers_trajectory(planner_for):
+    from ita.robot.trajectory import TimedTrajectory
+
+    planner, tool = planner_for(None)
+    w = np.array([HOME, np.array(HOME) + 0.3, np.array(HOME) + [0.6, 0.3, 0.3, 0.3, 0.0, 0.3]])
+    traj = planner.time(w, None, stops=[True, True, True])
+    assert isinstance(traj, TimedTrajectory)
+    assert len(traj.vias) == len(traj.stops) == 3 and traj.stops.all()
+    np.testing.assert_allclose(traj.sample(traj.vias), w, atol=1e-9)
 
 
 def test_blends_are_quicker_than_stops_and_stops_are_at_rest(wall_scene):
@@ -227,7 +309,7 @@ def test_smoothing_never_introduces_a_collision(wall_scene):
     def free(a, b):
         return segments_free(ctx.config_free, a, b, ctx.lever, 0.02)
 
-    lifter = Lifter(planner.model, np.eye(4), ctx.config_free, ctx.lever, 0.02, np.array(HOME), rng)
+    lifter = Lifter(planner.model, np.eye(4), ctx.config_free, ctx.motion_free, np.array(HOME), rng)
     for trial in range(3):
         raw = lifter.repair(np.vstack([start, goal]), Effort(60, 5.0))
         assert raw is not None
@@ -244,8 +326,9 @@ def test_smoothing_never_introduces_a_collision(wall_scene):
         short = shortcut(planner.model, jagged, free)
         assert free(short[:-1], short[1:]).all()
         np.testing.assert_allclose(short[[0, -1]], jagged[[0, -1]])
-        traj = time_parameterize(planner.model, short, config_free=ctx.config_free, lever=ctx.lever)
+        traj = time_parameterize(planner.model, short, segments_free=ctx.motion_free)
         assert trajectory_free(traj, free)
+        assert trajectory_free(traj, lambda a, b: segments_free(ctx.config_free, a, b, ctx.motion_free.bounds, 0.001))
 
 
 def test_queue_blends_through_intermediate_goals(planner_for):

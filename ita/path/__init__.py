@@ -12,8 +12,9 @@ every joint's limits (`smooth`).
     result.ok, result.reason, result.trajectory.times, result.trajectory.q
 
 Modules: `visibility`, `lift`, `smooth`, `planner` (the facade), `problems` (problem sets),
-`render` (pictures).  The planner takes an ArmModel, a RegionTree and an ArmChecker and
-hands plain callables (`config_free`, `segments_free`) to the levels below; no simulator.
+`render` (pictures), `trajectory` (the timed trajectory the controller runs).  The planner
+takes an ArmModel, a RegionTree and an ArmChecker and hands plain callables
+(`config_free`, `motion_free`) to the levels below; no simulator.
 """
 
 from ita.path.planner import (
@@ -27,7 +28,8 @@ from ita.path.planner import (
     planners_for,
     workcell_planner,
 )
-from ita.path.smooth import Trajectory, limit_violations, time_parameterize
+from ita.path.smooth import limit_violations, time_parameterize
+from ita.path.trajectory import TimedTrajectory
 
 __all__ = [
     "HOME",
@@ -35,7 +37,7 @@ __all__ = [
     "PathResult",
     "PlannerSettings",
     "Reason",
-    "Trajectory",
+    "TimedTrajectory",
     "arm_with_tool",
     "checker_for",
     "limit_violations",

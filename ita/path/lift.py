@@ -15,11 +15,20 @@ Subgoals, in the order they are proposed for a colliding segment a -> b:
 A candidate that frees both halves is taken (the quickest); else one that frees one half,
 and the other half is replanned (depth-first, bounded).
 
-Incremental positions: a segment is checked at steps of at most `resolution` metres of
-sweep, the sweep of a joint step dq being ||dq * lever||, lever (6,) the farthest any
-part of the arm (tool included) lies from each joint's axis (`lever_arms`).
+Incremental positions, made sound (`MotionChecker`): along a joint segment a -> b no point
+of tube k's axis moves faster than D_k = sum_j |b_j - a_j| R[j, k] metres per unit of the
+segment's parameter, R[j, k] bounding tube k's distance from joint j's axis in any
+configuration (`sweep_bounds`).  The segment is cut into cells; each cell's centre is
+checked with every tube grown by the most its axis can move within half the cell
+(h * D_k), so a free cell proves its whole stretch free.  Cells are at most `resolution`
+metres of the fastest tube's sweep long; a cell whose grown check fails (but whose centre
+is free) is halved, down to `depth` halvings, before the segment is given up.  So a
+segment the checker accepts is free at every position, not only at the checked ones.
+`segments_free` is the plain sampled test (exact tubes at spaced positions), kept for
+re-checks at a stated resolution.
 
-Everything here takes plain callables: `config_free(q (n, 6)) -> bool (n,)`.
+Everything here takes plain callables: `config_free(q (n, 6)) -> bool (n,)`,
+`motion_free(a (n, 6), b (n, 6)) -> bool (n,)`.
 """
 
 from __future__ import annotations
@@ -46,6 +55,7 @@ from ita.kinematics import (
 
 FloatArray = NDArray[np.float64]
 ConfigFree = Callable[[FloatArray], NDArray[np.bool_]]
+SegmentsFree = Callable[[FloatArray, FloatArray], NDArray[np.bool_]]
 RETREAT_DISTANCES = (0.15, 0.3, 0.5)   # m
 DETOUR_STEPS = (0.5, -0.5)             # rad on j1, j2, j3
 CHUNK = 8                              # subgoals evaluated per batch, quickest first
@@ -146,6 +156,180 @@ def _configs_free(q, lower, upper, base, origins, axes, flange_offset, tube_link
     return inside & (hit == 0)
 
 
+def sweep_bounds(model: ArmModel) -> FloatArray:
+    """(dof, t) m/rad: R[j, k] bounds the distance of any point of tube k's axis from joint
+    j's axis in every configuration, so no such point moves faster than R[j, k] per radian
+    of joint j (0 for joints that do not move the tube's link).
+
+    Exact for a tube on the joint's own child link (its largest distance from the axis);
+    otherwise the next joint's (fixed) distance from the axis plus the chain's length from
+    that joint's origin to the tube's farthest end."""
+    dof = model.dof
+    steps = [np.linalg.norm(model.origins[m][:3, 3]) for m in range(dof)]
+    steps.append(np.linalg.norm(model.flange_offset[:3, 3]))       # frame dof -> flange
+    out = np.zeros((dof, len(model.tube_links)))
+    for k, link in enumerate(model.tube_links):
+        ends = model.tube_ends[k]
+        reach = float(np.linalg.norm(ends, axis=1).max())
+        for j in range(min(int(link), dof)):
+            axis = model.axes[j]
+            if link == j + 1:
+                perp = ends - np.outer(ends @ axis, axis)
+                out[j, k] = float(np.linalg.norm(perp, axis=1).max())
+            else:              # frame j+2's origin is rigid on link j+1; then the chain
+                nxt = model.origins[j + 1][:3, 3] if j + 1 < dof else model.flange_offset[:3, 3]
+                offset = float(np.linalg.norm(nxt - (nxt @ axis) * axis))
+                out[j, k] = offset + float(sum(steps[m] for m in range(j + 2, int(link)))) + reach
+    return out
+
+
+@njit(cache=True)
+def _motions_free(a, b, bounds, margin, depth, budget, lower, upper, base, origins, axes, flange_offset, tube_links,
+                  tube_ends, radii, world, ignore, pairs, kind, pos, rot, half, rad, bound, solid, obj, active,
+                  child_ptr, child_idx, roots):
+    """Bool (n,): segments a -> b (n, dof) proven free by grown cells (see `MotionChecker`)."""
+    n, dof = a.shape
+    t = tube_links.shape[0]
+    out = np.zeros(n, dtype=np.bool_)
+    segs = np.empty((1, t, 2, 3))
+    frames = np.empty((dof + 2, 4, 4))
+    joint = np.empty((4, 4))
+    q = np.empty(dof)
+    speed = np.empty(t)
+    grown = np.empty(t)
+    centre = np.empty(2 * depth + 4)
+    width = np.empty(2 * depth + 4)
+    level = np.empty(2 * depth + 4, dtype=np.int64)
+    for i in range(n):
+        ok = True
+        for j in range(dof):
+            if (a[i, j] < lower[j] - 1e-9 or a[i, j] > upper[j] + 1e-9
+                    or b[i, j] < lower[j] - 1e-9 or b[i, j] > upper[j] + 1e-9):
+                ok = False
+        if not ok:
+            continue
+        fastest = 0.0
+        for k in range(t):
+            speed[k] = 0.0
+            for j in range(dof):
+                speed[k] += abs(b[i, j] - a[i, j]) * bounds[j, k]
+            fastest = max(fastest, speed[k])
+        cells = max(1, int(np.ceil(fastest / (2.0 * margin))))
+        spare = budget                      # halved cells this segment may still check
+        stride = 8
+        while stride >= 1 and ok:
+            for c in range(0, cells, stride):
+                if stride < 8 and c % (2 * stride) == 0:
+                    continue
+                top = 0
+                centre[0], width[0], level[0] = (c + 0.5) / cells, 0.5 / cells, 0
+                while top >= 0:
+                    s, h, lev = centre[top], width[top], level[top]
+                    top -= 1
+                    for j in range(dof):
+                        q[j] = a[i, j] + s * (b[i, j] - a[i, j])
+                    _link_segments(q, base, origins, axes, flange_offset, tube_links, tube_ends, frames, joint,
+                                   segs[0])
+                    for k in range(t):
+                        grown[k] = radii[k] + h * speed[k]
+                    hit, _ = check_arm(segs, grown, world, ignore, pairs, kind, pos, rot, half, rad, bound, solid,
+                                       obj, active, child_ptr, child_idx, roots)
+                    if hit[0] == 0:
+                        continue
+                    if lev >= depth or spare < 2:
+                        ok = False
+                        break
+                    spare -= 2
+                    exact, _ = check_arm(segs, radii, world, ignore, pairs, kind, pos, rot, half, rad, bound,
+                                         solid, obj, active, child_ptr, child_idx, roots)
+                    if exact[0] != 0:
+                        ok = False
+                        break
+                    for side in (-0.5, 0.5):
+                        top += 1
+                        centre[top], width[top], level[top] = s + side * h, h / 2.0, lev + 1
+                if not ok:
+                    break
+            stride //= 2
+        out[i] = ok
+    return out
+
+
+@njit(cache=True)
+def _configs_clear(q, margin, moving, lower, upper, base, origins, axes, flange_offset, tube_links, tube_ends, radii, world,
+                   ignore, pairs, kind, pos, rot, half, rad, bound, solid, obj, active, child_ptr, child_idx, roots):
+    """Bool (n,): configurations q (n, dof) within the limits and free with every moving
+    tube (moving (t,) 1.0, else 0.0) grown by margin."""
+    n, dof = q.shape
+    t = tube_links.shape[0]
+    out = np.zeros(n, dtype=np.bool_)
+    segs = np.empty((1, t, 2, 3))
+    frames = np.empty((dof + 2, 4, 4))
+    joint = np.empty((4, 4))
+    grown = radii + margin * moving
+    for i in range(n):
+        inside = True
+        for j in range(dof):
+            if q[i, j] < lower[j] - 1e-9 or q[i, j] > upper[j] + 1e-9:
+                inside = False
+        if not inside:
+            continue
+        _link_segments(q[i], base, origins, axes, flange_offset, tube_links, tube_ends, frames, joint, segs[0])
+        hit, _ = check_arm(segs, grown, world, ignore, pairs, kind, pos, rot, half, rad, bound, solid, obj, active,
+                           child_ptr, child_idx, roots)
+        out[i] = hit[0] == 0
+    return out
+
+
+class MotionChecker:
+    """`motion_free(a (n, 6), b (n, 6)) -> bool (n,)`: joint segments free at every position
+    (see the module doc), compiled end to end over a ConfigChecker's arm and tree.
+
+    resolution: m, the longest a cell may be along the fastest tube's sweep (cells are
+    checked with tubes grown by up to resolution / 2); depth: halvings of a cell whose
+    grown check fails before the segment is refused (the closest approach accepted is
+    then resolution / 2 ** (depth + 1)); budget: halved cells checked per segment before
+    it is refused (a motion grazing an obstacle over a long stretch would need many)."""
+
+    def __init__(self, config_free: ConfigChecker, resolution: float = 0.02, depth: int = 10,
+                 budget: int = 256) -> None:
+        if resolution <= 0.0 or depth < 0:
+            raise ValueError(f"resolution must be > 0 and depth >= 0, got {resolution}, {depth}")
+        self.config_free = config_free
+        self.bounds = np.ascontiguousarray(sweep_bounds(config_free.model).astype(float))
+        self.resolution, self.depth, self.budget = float(resolution), int(depth), int(budget)
+        self.checks = 0
+
+    @property
+    def floor(self) -> float:
+        """m: the smallest growth a cell is checked with; a motion passing closer to an
+        obstacle than this is refused."""
+        return self.resolution / 2.0 ** (self.depth + 1)
+
+    def clear(self, q: ArrayLike) -> NDArray[np.bool_]:
+        """Bool (n,): configurations q (n, 6) free with every tube a joint moves grown by
+        `floor`: those a motion can be proven to start from or end at (a configuration
+        closer than that to an obstacle cannot be)."""
+        q = np.ascontiguousarray(np.atleast_2d(np.asarray(q, dtype=float)))
+        cf = self.config_free
+        c = cf.checker
+        moving = (self.bounds.sum(axis=0) > 0.0).astype(float)
+        return _configs_clear(q, self.floor, moving, *cf._limits, *cf._fk, c.radii, c.world, cf.ignore(), c.pairs,
+                              *c.tree.arrays())
+
+    def __call__(self, a: ArrayLike, b: ArrayLike) -> NDArray[np.bool_]:
+        """Bool (n,): whether each segment a -> b ((n, 6) or (6,)) is free everywhere."""
+        a = np.ascontiguousarray(np.atleast_2d(np.asarray(a, dtype=float)))
+        b = np.ascontiguousarray(np.atleast_2d(np.asarray(b, dtype=float)))
+        a, b = np.broadcast_arrays(a, b)
+        cf = self.config_free
+        c = cf.checker
+        self.checks += len(a)
+        return _motions_free(np.ascontiguousarray(a), np.ascontiguousarray(b), self.bounds,
+                             self.resolution / 2.0, self.depth, self.budget, *cf._limits, *cf._fk, c.radii, c.world,
+                             cf.ignore(), c.pairs, *c.tree.arrays())
+
+
 def lever_arms(model: ArmModel, tool_length: float = 0.0) -> FloatArray:
     """(6,) m: the farthest any link point (plus a tool reaching tool_length past the
     flange) can be from each joint's axis: the chain's length beyond the joint."""
@@ -158,15 +342,23 @@ def lever_arms(model: ArmModel, tool_length: float = 0.0) -> FloatArray:
 
 def segments_free(config_free: ConfigFree, a: ArrayLike, b: ArrayLike, lever: FloatArray,
                   resolution: float) -> NDArray[np.bool_]:
-    """Bool (n,): whether each joint segment a -> b ((n, 6)) is free at every incremental
-    position (the start configurations are taken as checked).
+    """Bool (n,): whether each joint segment a -> b ((n, 6)) is free at its incremental
+    positions (the start configurations are taken as checked): sampled, exact tubes, so
+    a pass says nothing about the stretches between samples (`MotionChecker` does).
 
+    lever: (6,) the sweep of a step dq is ||dq * lever||; or sweep bounds (6, t) (see
+    `sweep_bounds`): the sweep is the most any tube's axis can move, so `resolution` is a
+    true bound on any point's travel between samples.
     Coarse to fine: every segment's n steps (a multiple of 8, n >= ceil(sweep /
     resolution)) are checked at strides 8, 4, 2, 1, each level only for the segments still
     free and only at the positions not checked yet, so a collision is usually found early
     and a free segment costs exactly its n checks."""
     a, b = np.atleast_2d(np.asarray(a, dtype=float)), np.atleast_2d(np.asarray(b, dtype=float))
-    sweep = np.linalg.norm((b - a) * lever, axis=1)
+    lever = np.asarray(lever, dtype=float)
+    if lever.ndim == 2:
+        sweep = (np.abs(b - a) @ lever).max(axis=1)
+    else:
+        sweep = np.linalg.norm((b - a) * lever, axis=1)
     steps = 8 * np.maximum(1, np.ceil(sweep / (8.0 * resolution)).astype(np.int64))
     alive = np.ones(len(a), dtype=bool)
     for stride in (8, 4, 2, 1):
@@ -245,14 +437,14 @@ class Effort:
 class Lifter:
     """Subgoal proposal and evaluation for one arm, tool and validity test.
 
-    tcp: (4, 4) the tool's TCP in the flange frame; home: (6,) a safe retract
-    configuration tried as a detour; rng: random subgoals' generator."""
+    tcp: (4, 4) the tool's TCP in the flange frame; config_free / motion_free: the
+    configuration and segment tests (a `MotionChecker` for sound paths); home: (6,) a
+    safe retract configuration tried as a detour; rng: random subgoals' generator."""
 
     model: ArmModel
     tcp: FloatArray
     config_free: ConfigFree
-    lever: FloatArray
-    resolution: float = 0.02
+    motion_free: SegmentsFree
     home: FloatArray | None = None
     rng: np.random.Generator = field(default_factory=lambda: np.random.default_rng(0))
     random_per_round: int = 24
@@ -260,8 +452,8 @@ class Lifter:
     subgoals_tried: int = 0
 
     def free_segments(self, a: ArrayLike, b: ArrayLike) -> NDArray[np.bool_]:
-        """Bool (n,): segments a -> b free (see `segments_free`)."""
-        return segments_free(self.config_free, a, b, self.lever, self.resolution)
+        """Bool (n,): segments a -> b free (`motion_free`)."""
+        return self.motion_free(np.atleast_2d(a), np.atleast_2d(b))
 
     def propose(self, a: FloatArray, b: FloatArray, round_index: int) -> FloatArray:
         """Candidate subgoals (n, 6) for the segment a -> b, within the limits."""
@@ -342,7 +534,7 @@ class Lifter:
         """The joint path (k, 6) with every colliding segment replanned through subgoals,
         or None if the effort is spent first."""
         w = np.asarray(waypoints, dtype=float)
-        free = path_free(self.config_free, w, self.lever, self.resolution)
+        free = self.free_segments(w[:-1], w[1:])
         out = [w[0]]
         for i in range(len(w) - 1):
             if free[i]:

@@ -38,18 +38,18 @@ from ita.kinematics import (
     arm_model,
     ik_tool,
     link_segments,
-    move_time,
     tcp_poses,
 )
 from ita.path.lift import (
     ConfigChecker,
     Effort,
     Lifter,
+    MotionChecker,
     lever_arms,
     lift_route,
-    path_time,
 )
-from ita.path.smooth import Trajectory, shortcut, time_parameterize
+from ita.path.smooth import estimate_durations, shortcut, time_parameterize
+from ita.path.trajectory import TimedTrajectory
 from ita.path.visibility import VisibilityGraph, build_graph
 from ita.workcell.model import ToolSpec, Workcell
 
@@ -71,12 +71,16 @@ class Reason(str, Enum):
 class PlannerSettings:
     """Figures of the planner.
 
-    clearance: m beyond the tool's radius for visibility nodes; resolution: m of sweep
-    between incremental link checks; max_rounds / max_seconds: the effort bound (subgoal
-    rounds, seconds per query); goal_candidates: IK solutions of the goal tried, quickest
-    first; detour_rounds / detour_gain: when the quickest goal solution is blocked but a
-    slower one is free, subgoal rounds spent on the quicker one if its direct time is
-    under detour_gain of the free path's; shortcut_rounds: corner-pulling passes;
+    clearance: m beyond the tool's radius for visibility nodes; resolution: m of the
+    fastest tube's sweep per checked cell of a joint segment, depth: halvings of a cell
+    that does not pass (see `lift.MotionChecker`: every accepted motion is free at every
+    position; one passing closer than resolution / 2 ** (depth + 1) to an obstacle is
+    refused); max_rounds / max_seconds: the effort bound (subgoal rounds, seconds per
+    query); goal_candidates: IK solutions of the goal tried, quickest (by estimated
+    duration) first; detour_rounds / detour_gain: when the quickest goal solution is
+    blocked but a slower one is free, subgoal rounds spent on the quicker one if its
+    direct time is under detour_gain of the free path's; shortcut_rounds: corner-pulling
+    passes;
     refine_rounds: random local descent rounds on each remaining corner;
     knot_period: s between trajectory knots; blend: corners blended (else rest at every
     via); seed: random subgoals (each query starts from it: a query's answer does not
@@ -84,6 +88,7 @@ class PlannerSettings:
 
     clearance: float = 0.05
     resolution: float = 0.02
+    depth: int = 10
     max_rounds: int = 60
     max_seconds: float = 2.0
     goal_candidates: int = 6
@@ -112,7 +117,7 @@ class PathResult:
     waypoints: FloatArray
     route: FloatArray
     tool_path: FloatArray
-    trajectory: Trajectory | None
+    trajectory: TimedTrajectory | None
     seconds: float
     stats: dict[str, Any] = field(default_factory=dict)
 
@@ -158,6 +163,7 @@ class _ToolContext:
     radius: float
     lever: FloatArray
     config_free: ConfigChecker
+    motion_free: MotionChecker
     graph: VisibilityGraph | None = None
 
 
@@ -187,8 +193,10 @@ class PathPlanner:
             tcp = np.eye(4) if tool is None else tool.tcp.matrix()
             radius = float(self.model.tube_radii[-1]) if tool is None else tool_tube(tool)[1]
             reach = 0.0 if tool is None else float(np.linalg.norm(tool.tcp.position))
+            config_free = ConfigChecker(model, checker)
+            motion_free = MotionChecker(config_free, self.settings.resolution, self.settings.depth)
             self._contexts[key] = _ToolContext(model, checker, tcp, radius, lever_arms(self.model, reach + radius),
-                                               ConfigChecker(model, checker))
+                                               config_free, motion_free)
         return self._contexts[key]
 
     def graph(self, tool: ToolSpec | None) -> VisibilityGraph:
@@ -212,7 +220,9 @@ class PathPlanner:
     # ---- queries ---------------------------------------------------------------------
     def goal_configs(self, q_start: FloatArray, goal: ArrayLike, tool: ToolSpec | None
                      ) -> tuple[FloatArray, Reason | None, str]:
-        """Free goal configurations (m, 6), quickest from q_start first, or a reason."""
+        """Free goal configurations (m, 6), quickest from q_start (estimated blended
+        duration) first, those the motion check cannot reach (`MotionChecker.clear`) last;
+        or a reason."""
         ctx = self.context(tool)
         g = np.asarray(goal, dtype=float)
         if g.shape == (self.model.dof,):
@@ -232,7 +242,10 @@ class PathPlanner:
         if not free.any():
             return np.zeros((0, 6)), Reason.GOAL_IN_COLLISION, f"every joint solution of the goal hits something: {self._culprits(q, ctx)}"
         q = q[free]
-        q = q[np.argsort(move_time(self.model, q_start, q), kind="stable")]
+        direct = estimate_durations(self.model, np.stack([np.broadcast_to(q_start, q.shape), q], axis=1), ctx.tcp)
+        # solutions closer to an obstacle than the motion check can prove a motion to last
+        touching = ~ctx.motion_free.clear(q)
+        q = q[np.lexsort((direct, touching))]
         _, first = np.unique(np.round(q, 9), axis=0, return_index=True)
         return q[np.sort(first)], None, ""
 
@@ -256,7 +269,7 @@ class PathPlanner:
         route = graph.route(ends[0, :3, 3], ends[1, :3, 3], -ends[0, :3, 2], -ends[1, :3, 2])
         if route is None:
             route = ends[:, :3, 3]
-        lifter = Lifter(self.model, ctx.tcp, ctx.config_free, ctx.lever, s.resolution,
+        lifter = Lifter(self.model, ctx.tcp, ctx.config_free, ctx.motion_free,
                         np.asarray(s.home, dtype=float), np.random.default_rng(s.seed))
         effort = Effort(s.max_rounds, s.max_seconds)
         stats: dict[str, Any] = {"route_corners": len(route) - 2, "goal_candidates": len(goals), "subgoals": 0}
@@ -264,7 +277,7 @@ class PathPlanner:
         options = [np.vstack([start, q]) for q in goals]
         if len(route) > 2:
             options.append(lift_route(self.model, ctx.tcp, route, start, goals[0]))
-        times = [path_time(self.model, w) for w in options]
+        times = [self._estimate(w, ctx) for w in options]
         path, order = None, np.argsort(times, kind="stable")
         for rank, k in enumerate(order):                # the quickest free option wins
             if lifter.free_segments(options[k][:-1], options[k][1:]).all():
@@ -273,10 +286,10 @@ class PathPlanner:
         if path is not None and rank > 0:
             # a quicker goal solution may still be worth a subgoal or two
             for k in order[:min(rank, 2)]:
-                if times[k] >= s.detour_gain * path_time(self.model, path):
+                if times[k] >= s.detour_gain * self._estimate(path, ctx):
                     break
                 detour = lifter.repair(options[k], Effort(s.detour_rounds, s.max_seconds))
-                if detour is not None and path_time(self.model, detour) < path_time(self.model, path):
+                if detour is not None and self._estimate(detour, ctx) < self._estimate(path, ctx):
                     path = detour
                     stats["subgoals"] = len(detour) - len(options[k])
         if path is None:
@@ -293,24 +306,27 @@ class PathPlanner:
             return self._fail(Reason.NO_PATH_WITHIN_EFFORT,
                               f"no collision-free path within {effort.rounds} subgoal rounds "
                               f"({time.perf_counter() - effort.started:.2f} s)", t0, route, stats)
-        path = shortcut(self.model, path, lifter.free_segments, s.shortcut_rounds, lifter.rng, s.refine_rounds)
+        path = shortcut(self.model, path, lifter.free_segments, s.shortcut_rounds, lifter.rng, s.refine_rounds,
+                        tcp=ctx.tcp)
         traj = self.time(path, tool)
         tool_path = tcp_poses(self.model, traj.q, ctx.tcp)[:, :3, 3]
         stats["waypoints"] = len(path)
         return PathResult(True, None, f"{len(path)} waypoints, {traj.duration:.2f} s", path, route, tool_path, traj,
                           time.perf_counter() - t0, stats)
 
-    def time(self, waypoints: ArrayLike, tool: ToolSpec | None = None, stops: ArrayLike | None = None) -> Trajectory:
-        """The blended trajectory of a joint path (blends only where free; see `smooth`)."""
+    def time(self, waypoints: ArrayLike, tool: ToolSpec | None = None, stops: ArrayLike | None = None
+             ) -> TimedTrajectory:
+        """The blended trajectory of a joint path (blends only where free, the tool point
+        within the TCP speed limit; see `smooth`)."""
         ctx = self.context(tool)
         w = np.asarray(waypoints, dtype=float)
         if not self.settings.blend:
             stops = np.ones(len(w), dtype=bool)
-        return time_parameterize(self.model, w, stops, ctx.config_free, ctx.lever, self.settings.resolution,
-                                 self.settings.knot_period)
+        return time_parameterize(self.model, w, stops, ctx.motion_free, ctx.tcp, period=self.settings.knot_period)
 
     def plan_queue(self, q_start: ArrayLike, goals: Sequence[ArrayLike], tool: ToolSpec | None = None,
-                   stops: Sequence[bool] | None = None, lookahead: int = 4) -> tuple[list[PathResult], Trajectory | None]:
+                   stops: Sequence[bool] | None = None, lookahead: int = 4
+                   ) -> tuple[list[PathResult], TimedTrajectory | None]:
         """Plan consecutive moves (the Executive's lookahead queue) and time them together:
         up to `lookahead` moves are blended through their intermediate goals, except goals
         flagged in `stops` (a measurement) and where a blend would collide; the arm rests
@@ -332,6 +348,10 @@ class PathPlanner:
         return results, self.time(np.vstack(path), tool, np.array(rest))
 
     # ---- helpers ---------------------------------------------------------------------
+    def _estimate(self, waypoints: FloatArray, ctx: _ToolContext) -> float:
+        """Estimated blended duration (s) of a joint path (`smooth.estimate_durations`)."""
+        return float(estimate_durations(self.model, waypoints, ctx.tcp)[0])
+
     def _culprit(self, q: FloatArray, ctx: _ToolContext) -> str:
         if not self.model.within_limits(q):
             return "a joint limit"

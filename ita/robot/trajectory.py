@@ -2,7 +2,10 @@
 
 A `TimedTrajectory` is knots (times (m,) s from 0, strictly increasing; q (m, 6) rad);
 between knots the controller interpolates linearly, so a builder puts knots densely
-enough that the straight pieces follow the intended profile.
+enough that the straight pieces follow the intended profile.  It is the one trajectory
+type of the system, defined in `ita.path.trajectory` (so that planning imports no
+simulator) and re-exported here: the path planner's `time_parameterize` makes them,
+the controller runs them.
 
 `from_waypoints` is a simple builder for tests and benchmarks (the path planner makes
 the real ones): rest-to-rest segments through joint waypoints, every joint following
@@ -10,68 +13,23 @@ one trapezoidal speed profile scaled to its own distance (synchronised: all join
 and stop together).  The profile's peak speed and acceleration are the largest that keep
 every joint within its velocity and acceleration limits, so a segment takes at least as
 long as `ita.kinematics.move_time` says (exactly as long when one joint limits both).
-The TCP speed limit is not applied.
+The TCP speed limit is not applied (`time_parameterize` applies it).
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from itertools import pairwise
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ita.kinematics import ArmModel
+from ita.path.trajectory import TimedTrajectory
+
+__all__ = ["KNOT_PERIOD", "TimedTrajectory", "from_waypoints", "profile_position", "profile_time"]
 
 FloatArray = NDArray[np.float64]
 KNOT_PERIOD = 0.02  # s between the knots the builder writes
-
-
-@dataclass(frozen=True, eq=False)
-class TimedTrajectory:
-    """Joint configurations q (m, 6) rad to pass at times (m,) s (times[0] = 0)."""
-
-    times: FloatArray
-    q: FloatArray
-
-    def __post_init__(self) -> None:
-        t = np.array(self.times, dtype=float).reshape(-1)
-        q = np.array(self.q, dtype=float)
-        if q.ndim != 2 or q.shape[0] != t.size or t.size < 1:
-            raise ValueError(f"times (m,) and q (m, dof) must agree, got {t.shape} and {q.shape}")
-        if not np.all(np.isfinite(t)) or not np.all(np.isfinite(q)):
-            raise ValueError("times and q must be finite")
-        if t[0] != 0.0 or np.any(np.diff(t) <= 0.0):
-            raise ValueError("times must start at 0 and increase strictly")
-        t.setflags(write=False)
-        q.setflags(write=False)
-        object.__setattr__(self, "times", t)
-        object.__setattr__(self, "q", q)
-
-    @property
-    def duration(self) -> float:
-        """Total time (s)."""
-        return float(self.times[-1])
-
-    @property
-    def start(self) -> FloatArray:
-        """First configuration (dof,)."""
-        return self.q[0].copy()
-
-    @property
-    def end(self) -> FloatArray:
-        """Last configuration (dof,)."""
-        return self.q[-1].copy()
-
-    def sample(self, t: ArrayLike) -> FloatArray:
-        """Configurations (k, dof) at times t (k,) (clamped to [0, duration]), linearly
-        interpolated between knots."""
-        tt = np.clip(np.atleast_1d(np.asarray(t, dtype=float)), 0.0, self.duration)
-        return np.stack([np.interp(tt, self.times, self.q[:, j]) for j in range(self.q.shape[1])], axis=-1)
-
-    def velocities(self) -> FloatArray:
-        """Joint speeds (m - 1, dof) rad/s of the straight pieces between knots."""
-        return np.diff(self.q, axis=0) / np.diff(self.times)[:, None]
 
 
 def profile_time(distance: ArrayLike, velocity: ArrayLike, acceleration: ArrayLike) -> tuple[float, float, float]:
