@@ -76,10 +76,22 @@ def far_share_from_intensity(i: FloatArray, i_near: FloatArray) -> FloatArray:
         return np.clip(1.0 - i / i_near, 0.0, 1.0)
 
 
-def crossings(s: FloatArray, mask: NDArray[np.bool_] | None = None, level: float = 0.5) -> FloatArray:
+def crossings(s: FloatArray, mask: NDArray[np.bool_] | None = None, level: float = 0.5,
+              probit: bool = True) -> FloatArray:
     """Fractional (row, col) (n, 2) where `s` (h, w) crosses `level` between 4-neighbours
-    (both finite, both in `mask`), by linear interpolation along rows and columns."""
+    (both finite, both in `mask`), by interpolation along rows and columns.
+
+    probit: interpolate the normal quantiles of s rather than s: a step blurred by a
+    Gaussian footprint has s = Phi(x / sigma), whose quantile is linear in x, so the
+    crossing does not lean toward the nearer pixel (linear interpolation of s does, by up
+    to ~0.06 pixel with a footprint of half a pixel, depending on where the edge falls
+    between pixel centres: a bias that a raster-aligned edge does not average out)."""
     s = np.asarray(s, dtype=float)
+    if probit:
+        from scipy.special import ndtri
+
+        s = ndtri(np.clip(s, 0.02, 0.98))
+        level = float(ndtri(level))
     ok = np.isfinite(s) if mask is None else (np.isfinite(s) & mask)
     out = []
     for axis in (1, 0):
