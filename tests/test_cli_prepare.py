@@ -18,6 +18,16 @@ def test_prepare_builds_and_checks_everything(builtin_part) -> None:
     assert report["reach"] == {"reachable": 1076}
     assert report["knowledge_bases"]["problems"] == []
     assert {"world.pl", "operators.pl", "planner.pl"} <= set(report["knowledge_bases"]["files"])
+    # the inspection is prepared: sequence plan, MKB, MACROPs; what cannot be done, and why
+    prep = report["inspection"]
+    assert Path(prep["plan"]["path"]).is_file() and Path(prep["mkb"]["path"]).is_file()
+    assert sum(prep["plan"]["groups"].values()) == 1076
+    assert 0 < prep["mkb"]["frames"] < prep["mkb"]["slra_specs"]
+    assert prep["macrops"]["planned"] + prep["cannot_be_done"]["count"] == 1076
+    assert all(c["reason"] for c in prep["cannot_be_done"]["specs"])
+    again = json.loads(CliRunner().invoke(main, ["prepare", "--json", "--quiet"]).stdout)["inspection"]
+    assert not again["plan"]["rebuilt"] and not again["mkb"]["rebuilt"]            # stored, current: reused
+    assert again["macrops"]["hits"] == again["macrops"]["lookups"]                 # the store is warm
 
 
 def test_prepare_rejects_a_part_with_bad_specs(builtin_part, tmp_path: Path) -> None:

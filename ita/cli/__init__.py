@@ -25,6 +25,10 @@ COMMANDS: dict[str, str] = {
     "runs": "ita.cli.runs:runs",
     "results": "ita.cli.results:results",
     "report": "ita.cli.report:report",
+    "inspect": "ita.cli.inspect:inspect",
+    "continue": "ita.cli.inspect:continue_",
+    "monitor": "ita.cli.inspect:monitor",
+    "measure": "ita.cli.measure:measure",
 }
 
 

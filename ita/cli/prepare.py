@@ -15,13 +15,16 @@ from ita.cli.common import part_option, reports_errors
 @part_option
 @click.option("--json", "as_json", is_flag=True, help="Print the report as JSON.")
 @click.option("-q", "--quiet", is_flag=True, help="No progress lines.")
+@click.option("--force", is_flag=True, help="Remake the sequence plan and the MKB even when current.")
 @reports_errors
-def prepare(part_dir: Path | None, as_json: bool, quiet: bool) -> None:
+def prepare(part_dir: Path | None, as_json: bool, quiet: bool, force: bool) -> None:
     """Prepare a part for inspection, offline.
 
     Builds the part (the built-in bulkhead is generated on first use), validates its
     measurement specs against it, tests the arm's reach for every spec, loads and checks
-    the knowledge bases, and prints a summary. Exit code 0 when everything is clean,
+    the knowledge bases; then makes the sequence plan and the measurement knowledge base
+    (MKB: poses, approach points, SLRA views) and warms the MACROP store, so that
+    `ita inspect` starts at once; reports what cannot be done and why. Exit code 0 when everything is clean,
     1 when the knowledge bases have problems, 2 when the part or its specs are bad.
     """
     from ita.offline.prepare import prepare as run
@@ -32,7 +35,7 @@ def prepare(part_dir: Path | None, as_json: bool, quiet: bool) -> None:
         if not quiet:
             click.echo(f"[{time.perf_counter() - t0:6.1f} s] {message} ...", err=True)
 
-    report = run(part_dir, progress)
+    report = run(part_dir, progress, force=force)
     if as_json:
         click.echo(json.dumps(report.to_dict(), indent=1))
     else:
@@ -48,6 +51,8 @@ def prepare(part_dir: Path | None, as_json: bool, quiet: bool) -> None:
                    + ("clean" if not report.kb_problems else f"{len(report.kb_problems)} problems"))
         for problem in report.kb_problems:
             click.echo(f"  {problem}")
+        if report.inspection is not None:
+            click.echo(report.inspection.text())
         click.echo("time        " + ", ".join(f"{k} {s:.2f} s" for k, s in report.seconds)
                    + f"; total {time.perf_counter() - t0:.1f} s")
     raise SystemExit(0 if report.ok else 1)

@@ -1,17 +1,22 @@
 """Offline preparation of a part for inspection (the seed's preprocessing).
 
 Builds (or loads) the part and its specs, validates the specs against the part, tests
-the arm's reach for every spec, loads and checks the knowledge bases, and reports what
-it found.  Later stages (measurement knowledge base, sequence plan, MACROPs) are added
-here as they are built.
+the arm's reach for every spec, loads and checks the knowledge bases; then prepares the
+inspection itself (:func:`prepare_inspection`): the sequence plan
+(ita_home()/plans/<part>.json), the Measurement Knowledge Base (ita_home()/mkb/<part>.json)
+and the MACROP store warmed by planning every measurement in sequence order
+(ita_home()/macrops/<part>.pl), so that `ita inspect` starts at once.  It reports what
+cannot be done and why (the Sequence Planner's cannot-be-done group, measurements the
+Geometric Reasoner could not place, measurements without a plan).
 """
 
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 from ita.part.summary import PartSummary
 
@@ -27,6 +32,7 @@ class PrepareReport:
     kb_predicates: int
     kb_problems: tuple[str, ...]
     seconds: tuple[tuple[str, float], ...] = field(default=())
+    inspection: InspectionPrep | None = None
 
     @property
     def ok(self) -> bool:
@@ -41,11 +47,147 @@ class PrepareReport:
             "knowledge_bases": {"files": list(self.kb_files), "predicates": self.kb_predicates,
                                 "problems": list(self.kb_problems)},
             "seconds": dict(self.seconds),
+            "inspection": None if self.inspection is None else self.inspection.to_dict(),
             "ok": self.ok,
         }
 
 
-def prepare(part_dir: Path | None, progress: Callable[[str], None] = lambda _msg: None) -> PrepareReport:
+@dataclass(frozen=True)
+class InspectionPrep:
+    """What the inspection's preparation built or found current.
+
+    plan/mkb: the stored sequence plan and MKB (``rebuilt``: made now, else reused);
+    cannot: (spec id, reason) of every measurement that cannot be done; frames: SLRA
+    frames the run will take (view groups) for `slra_specs` SLRA measurements; macrops:
+    {"planned", "lookups", "hits", "learned", "no_plan"} of the warming pass.
+    """
+
+    plan_path: str
+    plan_rebuilt: bool
+    mkb_path: str
+    mkb_rebuilt: bool
+    groups: tuple[tuple[str, int], ...]
+    slra_specs: int
+    frames: int
+    cannot: tuple[tuple[str, str], ...]
+    macrops: dict[str, int]
+    plan_total_s: float
+
+    def to_dict(self) -> dict[str, Any]:
+        reasons: dict[str, int] = {}
+        for _, r in self.cannot:
+            reasons[r] = reasons.get(r, 0) + 1
+        return {"plan": {"path": self.plan_path, "rebuilt": self.plan_rebuilt, "motion_s": round(self.plan_total_s, 1),
+                         "groups": dict(self.groups)},
+                "mkb": {"path": self.mkb_path, "rebuilt": self.mkb_rebuilt, "slra_specs": self.slra_specs,
+                        "frames": self.frames},
+                "cannot_be_done": {"count": len(self.cannot), "reasons": reasons,
+                                   "specs": [{"id": i, "reason": r} for i, r in self.cannot]},
+                "macrops": dict(self.macrops)}
+
+    def text(self) -> str:
+        made = {True: "made now", False: "stored and current"}
+        lines = [
+            (f"sequence    {' + '.join(f'{t} {n}' for t, n in self.groups)} measurements, "
+             f"{self.plan_total_s:.0f} s of arm motion (plan {made[self.plan_rebuilt]})"),
+            (f"mkb         {self.slra_specs} SLRA measurements in {self.frames} frames "
+             f"(MKB {made[self.mkb_rebuilt]})"),
+            (f"macrops     {self.macrops.get('planned', 0)} plans: {self.macrops.get('hits', 0)} MACROP hits, "
+             f"{self.macrops.get('learned', 0)} learned"),
+        ]
+        reasons: dict[str, int] = {}
+        for _, r in self.cannot:
+            reasons[r] = reasons.get(r, 0) + 1
+        lines.append(f"cannot      {len(self.cannot)} measurements cannot be done"
+                     + ("" if not reasons else ": " + "; ".join(f"{n} {r}" for r, n in sorted(reasons.items()))))
+        return "\n".join(lines)
+
+
+def prepare_inspection(ctx: Any, part: Any, *, progress: Callable[[str], None] = lambda _m: None,
+                       force: bool = False, warm: bool = True) -> tuple[Any, Any, InspectionPrep]:
+    """Make (or reuse, when current) the sequence plan and the MKB of the part of
+    planning context `ctx`, and warm the MACROP store.  Returns (plan, mkb, report).
+
+    The plan is reused when its specs digest is current; the MKB when its digest (specs
+    and workcell) is.  `force` remakes both.
+    """
+    from dataclasses import replace as _replace
+
+    from ita.errors import ItaError
+    from ita.geometry import build_mkb, load_mkb, mkb_digest, mkb_path, save_mkb
+    from ita.sequence.plan import build_plan
+    from ita.sequence.store import load_plan, plan_path, save_plan
+
+    plan = None
+    if not force:
+        try:
+            plan = load_plan(ctx.part_name)
+        except ItaError:
+            plan = None
+        if plan is not None and plan.specs_digest != ctx.specs_digest:
+            plan = None
+    plan_rebuilt = plan is None
+    if plan is None:
+        progress("making the sequence plan")
+        plan = build_plan(ctx)
+        save_plan(plan)
+    elif plan.handed_out:
+        plan = _replace(plan, handed_out=())
+    digest = mkb_digest(ctx.specs_digest, ctx.workcell)
+    mkb = None if force else load_mkb(ctx.part_name, digest)
+    mkb_rebuilt = mkb is None
+    if mkb is None:
+        progress("building the measurement knowledge base")
+        tools = {i: g.tool for g in plan.groups for i in g.order}
+        mkb = build_mkb(ctx.workcell, part, ctx.specs, tools, part_name=ctx.part_name, digest=digest)
+        save_mkb(mkb)
+    cannot = list(plan.cannot) + [(e.spec_id, e.status) for e in mkb.problems()]
+    macrops = {"planned": 0, "lookups": 0, "hits": 0, "learned": 0, "no_plan": 0}
+    if warm:
+        progress("warming the MACROP store")
+        macrops, no_plan = warm_macrops(ctx, plan, mkb)
+        cannot += [(i, "no_plan") for i in no_plan]
+    slra = [e for e in mkb.entries.values() if e.ok and e.group is not None]
+    report = InspectionPrep(
+        plan_path=str(plan_path(ctx.part_name)), plan_rebuilt=plan_rebuilt, mkb_path=str(mkb_path(ctx.part_name)),
+        mkb_rebuilt=mkb_rebuilt, groups=tuple((g.tool, len(g.order)) for g in plan.groups),
+        slra_specs=len(slra), frames=mkb.frames_needed(), cannot=tuple(cannot), macrops=macrops,
+        plan_total_s=plan.total_s)
+    return plan, mkb, report
+
+
+def warm_macrops(ctx: Any, plan: Any, mkb: Any) -> tuple[dict[str, int], list[str]]:
+    """Plan every placed measurement in sequence order (each from the state the one before
+    leaves), so the MACROP store holds what the run will look up.  Returns the counts and
+    the ids that have no plan."""
+    from ita.planning import NoPlanError, OperationPlanner, WorldState, store_path
+    from ita.sequence.next_step import the_arm
+
+    state = WorldState(arm=the_arm(ctx.kb))
+    planned = learned = 0
+    no_plan: list[str] = []
+    with OperationPlanner(ctx.kb, store_path(ctx.part_name)) as planner:
+        before = planner.counts()
+        for group in plan.groups:
+            for spec_id in group.order:
+                entry = mkb.entries.get(spec_id)
+                if entry is None or not entry.ok:
+                    continue
+                try:
+                    op = planner.plan_measurement(ctx.spec(spec_id), state)
+                except NoPlanError:
+                    no_plan.append(spec_id)
+                    continue
+                planned += 1
+                learned += not op.matched
+                state = op.final_state
+        after = planner.counts()
+    return {"planned": planned, "lookups": after.lookups - before.lookups, "hits": after.hits - before.hits,
+            "learned": learned, "no_plan": len(no_plan)}, no_plan
+
+
+def prepare(part_dir: Path | None, progress: Callable[[str], None] = lambda _msg: None,
+            *, inspection: bool = True, force: bool = False) -> PrepareReport:
     """Prepare the part in `part_dir` (None: the built-in bulkhead) for inspection.
 
     Raises InputError (with file, line, field) when the part or its specs are bad.
@@ -74,6 +216,15 @@ def prepare(part_dir: Path | None, progress: Callable[[str], None] = lambda _msg
     cell = step("workcell", "loading the workcell", lambda: workcell_for(part.directory))
     reach = step("reach", "testing the arm's reach for every spec", lambda: spec_reach(specs, cell, kb))
     summary = summarize(part, specs, unreachable=reach.n_unreachable)
+    prep = None
+    if inspection and not diagnostics:
+        from ita.sequence.plan import planning_context
+        from ita.sequence.store import apply_tool_marks, load_tool_marks
+
+        apply_tool_marks(kb, load_tool_marks())
+        ctx = planning_context(part_dir, kb=kb, part=part)
+        _, _, prep = step("inspection", "preparing the inspection (sequence plan, MKB, MACROPs)",
+                          lambda: prepare_inspection(ctx, part, progress=progress, force=force))
     return PrepareReport(
         part=summary,
         reach_counts=tuple((r.value, n) for r, n in reach.counts().items()),
@@ -82,4 +233,5 @@ def prepare(part_dir: Path | None, progress: Callable[[str], None] = lambda _msg
         kb_predicates=len(predicates),
         kb_problems=tuple(str(d) for d in diagnostics),
         seconds=tuple(seconds),
+        inspection=prep,
     )

@@ -1,0 +1,410 @@
+"""The Geometric Reasoner: builds the Measurement Knowledge Base and answers the
+Executive's questions about qualitative plan parameters.
+
+    mkb = build_mkb(cell, part, specs, tools, part_name="bulkhead", digest=d)
+    reasoner = GeometricReasoner(mkb, cell, specs)
+    reasoner.resolve(Term("in_contact_point", (Term("meas", ("WT-P01-1",)),)))  # Target(q, pose)
+
+Constraints and preferences (seed: "derived from geometric constraint and preference
+information"):
+
+- the tool's axis along the surface normal (the probe perpendicular to the surface, the
+  SLRA looking straight down its normal), from ita.kinematics.tool_poses;
+- one configuration per measurement, away from the joint limits and close to its
+  neighbours': exactly the Sequence Planner's choice (ita.sequence.cost
+  .measurement_configurations: common IK branch, centred reference, nearest solution),
+  so the tours the sequence plan costs are the ones the arm flies;
+- the probe: in contact with the tip pressed :data:`PRESS_M` into its spring travel; the
+  approach point :attr:`ToolSpec.approach_distance` back along the normal, which must be
+  collision-free for the Path Planner (else the measurement cannot be done:
+  ``approach_blocked``);
+- the SLRA: the viewing pose at the chosen stand-off, the scan window Vision asks for
+  (ita.vision.measure.scan_for) scaled to that stand-off; measurements of one feature
+  whose windows fit, all together, into one frame no more than :data:`GROUP_GROWTH` times
+  wider than the narrowest of them, share one frame (a view group), taken from the pose
+  of the member with the widest window (the anchor).  The growth bound keeps every
+  member's pixels, and so Vision's accuracy, nearly what a frame of its own would give
+  (a fastener hole's position needs its neighbours in view, a window three times its
+  diameter's: grouping those two made the diameter's uncertainty six times larger).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import math
+import time
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ita.geometry.mkb import MeasurementKB, MkbEntry, ViewGroup
+from ita.kinematics import (
+    arm_model,
+    choose_centred,
+    choose_nearest,
+    ik_flange,
+    ik_tool,
+    tcp_poses,
+)
+from ita.logic.terms import Term
+from ita.specs.model import MeasurementSpec, Tool
+
+if TYPE_CHECKING:
+    from ita.path import PathPlanner
+    from ita.workcell.model import ToolSpec, Workcell
+
+FloatArray = NDArray[np.float64]
+
+PRESS_M = 0.0015          # the probe tip pushed this far into its spring travel at contact
+GROUP_GROWTH = 1.25       # a view group's window at most this times its widest member's
+APPROACH_LADDER_M = (0.08, 0.10, 0.12, 0.15, 0.20)  # m, tried in turn for the probe
+RACK_APPROACH_M = 0.15    # above a rack slot along its axis (ita.robot.ToolChanger's default)
+HOME_Q = (0.0, -0.6, 0.9, 0.0, 0.9, 0.0)  # ita.path.HOME: folded back, clear of the cell
+
+__all__ = [
+    "GROUP_GROWTH",
+    "PRESS_M",
+    "GeometricReasoner",
+    "Target",
+    "build_mkb",
+    "mkb_digest",
+    "view_groups",
+]
+
+
+@dataclass(frozen=True, eq=False)
+class Target:
+    """A quantitative pose: the joint configuration q (6,) and, when known, the TCP pose
+    (4, 4, world, m) it puts the held tool at."""
+
+    q: FloatArray
+    pose: FloatArray | None = None
+
+
+def mkb_digest(specs_digest: str, cell: Workcell) -> str:
+    """Digest of what an MKB depends on: the specs (their file's digest) and the workcell."""
+    from ita.geometry.mkb import MKB_VERSION
+
+    text = f"{MKB_VERSION}|{PRESS_M}|{GROUP_GROWTH}|{specs_digest}|{cell!r}"
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+# -- building -----------------------------------------------------------------------------
+
+def _probe_entries(cell: Workcell, tool: ToolSpec, specs: Sequence[MeasurementSpec],
+                   planner: PathPlanner | None) -> list[MkbEntry]:
+    """Contact and approach configurations of the probe's measurements.
+
+    The approach point is the nearest of :data:`APPROACH_LADDER_M` (the tool's own
+    approach distance first) that the Path Planner finds collision-free with the probe
+    held (its enclosing tube is conservative); when none is, the other rolls of the probe
+    about the normal are tried, nearest to the chosen configuration first.
+    """
+    from ita.kinematics import measurement_poses, move_time
+    from ita.sequence.cost import ROLLS, measurement_configurations
+
+    model = arm_model(cell.arm)
+    tcp = tool.tcp.matrix()
+    if not len(specs):
+        return []
+    conf = measurement_configurations(cell, model, tool, specs)
+    q0 = np.nan_to_num(conf.q)
+    surface = tcp_poses(model, q0, tcp)                                   # tip on the point
+    ladder = [tool.approach_distance] + [d for d in APPROACH_LADDER_M if d > tool.approach_distance]
+    chosen = _probe_at(model, planner, tool, surface, q0, ladder)
+    out: list[MkbEntry] = []
+    for i, spec in enumerate(specs):
+        base = {"spec_id": spec.id, "tool": tool.name, "tool_class": tool.tool_class.value}
+        if not conf.found[i]:
+            out.append(MkbEntry(**base, status="no_pose", reason=f"no arm configuration ({conf.status[i]})"))
+            continue
+        found = chosen[i]
+        if found is None:  # other rolls, nearest to the chosen configuration first
+            poses = measurement_poses(cell.part, np.array([spec.point]), np.array([spec.normal]), tool,
+                                      ROLLS, standoff=0.0)[0]
+            ik = ik_tool(model, poses, tcp)
+            qs = ik.q[ik.valid]
+            if len(qs):
+                qs = qs[np.argsort(move_time(model, q0[i], qs), kind="stable")][:8]
+                alt = _probe_at(model, planner, tool, tcp_poses(model, qs, tcp), qs, ladder)
+                found = next((a for a in alt if a is not None), None)
+        if found is None:
+            out.append(MkbEntry(**base, status="approach_blocked",
+                                reason=f"no collision-free approach point up to {ladder[-1] * 1000:.0f} mm "
+                                       "off the surface"))
+            continue
+        q_c, pressed, q_a, approach = found
+        out.append(MkbEntry(**base, q=q_c, pose=pressed, q_approach=q_a, pose_approach=approach, press_m=PRESS_M))
+    return out
+
+
+def _probe_at(model: Any, planner: PathPlanner | None, tool: ToolSpec, surface: FloatArray, q0: FloatArray,
+              ladder: Sequence[float]) -> list[tuple[FloatArray, FloatArray, FloatArray, FloatArray] | None]:
+    """Per tip-on-surface pose (n, 4, 4) near q0 (n, 6): (q contact, pressed pose, q approach,
+    approach pose) at the first free distance of `ladder`, or None."""
+    tcp = tool.tcp.matrix()
+    n = len(surface)
+    pressed = surface.copy()
+    pressed[:, :3, 3] += PRESS_M * surface[:, :3, 2]                      # z points into the part
+    q_c, ok_c = choose_nearest(model, ik_tool(model, pressed[:, None], tcp).flatten_batch(), q0)
+    out: list[Any] = [None] * n
+    todo = ok_c.copy()
+    for d in ladder:
+        if not todo.any():
+            break
+        approach = surface.copy()
+        approach[:, :3, 3] -= d * surface[:, :3, 2]
+        q_a, ok_a = choose_nearest(model, ik_tool(model, approach[:, None], tcp).flatten_batch(), q0)
+        good = todo & ok_a
+        free = np.zeros(n, dtype=bool)
+        if good.any():
+            free[good] = planner.config_free(q_a[good], tool) if planner is not None else True
+        for i in np.flatnonzero(free):
+            out[i] = (q_c[i], pressed[i], q_a[i], approach[i])
+        todo &= ~free
+    return out
+
+
+def _window_mm(spec: MeasurementSpec, vctx: Any) -> float:
+    """The width (mm, at the nominal stand-off) of the window Vision asks for `spec`."""
+    from ita.vision.measure import scan_for
+
+    ang = scan_for(spec, vctx).fov_deg[0]
+    return 2.0 * vctx.standoff_m * 1000.0 * math.tan(math.radians(ang) / 2.0)
+
+
+def view_groups(specs: Sequence[MeasurementSpec], windows: Mapping[str, float], max_window_mm: float,
+                growth: float = GROUP_GROWTH) -> list[tuple[str, tuple[str, ...], float]]:
+    """Group SLRA specs into shared frames: (anchor id, member ids, window mm) each.
+
+    Within one feature, widest window first, a spec joins the first group whose window,
+    grown to hold the spec's own window centred on its point, stays within `growth`
+    times the window of the group's narrowest member (so no member is seen with pixels
+    much coarser than in a frame of its own) and within `max_window_mm`; else it starts
+    one.
+    """
+    by_feature: dict[str, list[MeasurementSpec]] = {}
+    for s in specs:
+        by_feature.setdefault(s.feature, []).append(s)
+    out: list[tuple[str, tuple[str, ...], float]] = []
+    for feature_specs in by_feature.values():
+        groups: list[dict[str, Any]] = []
+        for s in sorted(feature_specs, key=lambda s: -windows[s.id]):
+            p = np.asarray(s.point, dtype=float)
+            placed = False
+            for g in groups:
+                offset = float(np.linalg.norm(p[:2] - g["centre"][:2])) + abs(p[2] - g["centre"][2])
+                need = max(g["window"], 2.0 * offset + windows[s.id])
+                narrowest = min(g["narrowest"], windows[s.id])
+                if need <= growth * narrowest and need <= max_window_mm:
+                    g["narrowest"] = narrowest
+                    g["members"].append(s.id)
+                    g["window"] = need
+                    placed = True
+                    break
+            if not placed:
+                groups.append({"anchor": s.id, "centre": p, "members": [s.id], "window": windows[s.id],
+                               "narrowest": windows[s.id]})
+        out += [(g["anchor"], tuple(g["members"]), g["window"]) for g in groups]
+    return out
+
+
+def _free_views(cell, model, tool, specs, planner, q, found):
+    """The viewing configurations (n, 6) with each one the Path Planner finds in
+    collision replaced by the candidate (another roll or stand-off) nearest to it that
+    is free; `found` False where there is none."""
+    from ita.kinematics import move_time
+    from ita.sequence.cost import candidate_poses
+
+    q, found = q.copy(), found.copy()
+    blocked = np.flatnonzero(found)
+    if len(blocked):
+        blocked = blocked[~planner.config_free(q[blocked], tool)]
+    for i in blocked:
+        poses, _ = candidate_poses(cell, tool, [specs[i]])
+        ik = ik_tool(model, poses[0], tool.tcp.matrix())
+        qs = ik.q[ik.valid]
+        found[i] = False
+        if len(qs):
+            qs = qs[np.argsort(move_time(model, q[i], qs), kind="stable")]
+            ok = planner.config_free(qs, tool)
+            if ok.any():
+                q[i], found[i] = qs[int(np.argmax(ok))], True
+    return q, found
+
+
+def _slra_entries(cell: Workcell, tool: ToolSpec, specs: Sequence[MeasurementSpec], vctx: Any,
+                  planner: PathPlanner | None = None) -> tuple[list[MkbEntry], list[ViewGroup]]:
+    """Viewing poses, scan windows and view groups of the SLRA's measurements (each
+    viewing configuration collision-free for the Path Planner, see :func:`_free_views`)."""
+    from ita.sequence.cost import measurement_configurations
+
+    model = arm_model(cell.arm)
+    if not len(specs):
+        return [], []
+    conf = measurement_configurations(cell, model, tool, specs)
+    q_view = np.nan_to_num(conf.q)
+    found = conf.found.copy()
+    if planner is not None:
+        q_view, found = _free_views(cell, model, tool, specs, planner, q_view, found)
+    poses = tcp_poses(model, q_view, tool.tcp.matrix())
+    points = cell.part.to_world(np.array([s.point for s in specs], dtype=float).reshape(-1, 3))
+    standoff = np.linalg.norm(poses[:, :3, 3] - points, axis=1)
+    index = {s.id: i for i, s in enumerate(specs)}
+    placed = [s for i, s in enumerate(specs) if found[i]]
+    windows = {s.id: _window_mm(s, vctx) for s in placed}
+    max_window = 2.0 * vctx.standoff_m * 1000.0 * math.tan(math.radians(min(vctx.max_fov_deg)) / 2.0)
+    groups: list[ViewGroup] = []
+    group_of: dict[str, str] = {}
+    for anchor, members, window in view_groups(placed, windows, max_window):
+        d_mm = standoff[index[anchor]] * 1000.0
+        ang = math.degrees(2.0 * math.atan(window / 2.0 / d_mm))
+        fov = (min(ang, vctx.max_fov_deg[0]), min(ang, vctx.max_fov_deg[1]))
+        gid = f"view-{anchor}"
+        groups.append(ViewGroup(gid, anchor, members, fov, tuple(vctx.shape)))
+        group_of.update(dict.fromkeys(members, gid))
+    by_id = {g.id: g for g in groups}
+    out: list[MkbEntry] = []
+    for i, spec in enumerate(specs):
+        base = {"spec_id": spec.id, "tool": tool.name, "tool_class": tool.tool_class.value}
+        if not conf.found[i]:
+            out.append(MkbEntry(**base, status="no_pose", reason=f"no arm configuration ({conf.status[i]})"))
+            continue
+        if not found[i]:
+            out.append(MkbEntry(**base, status="view_blocked",
+                                reason="no collision-free viewing configuration at any roll or stand-off"))
+            continue
+        g = by_id[group_of[spec.id]]
+        a = index[g.anchor]                         # every member is measured from the anchor's view
+        out.append(MkbEntry(**base, q=q_view[a], pose=poses[a], q_approach=q_view[a], pose_approach=poses[a],
+                            standoff_m=float(standoff[a]), fov_deg=g.fov_deg, pixels=g.pixels, group=g.id))
+    return out, groups
+
+
+def rack_configurations(cell: Workcell) -> dict[str, FloatArray]:
+    """Slot name -> the configuration (6,) with the bare flange :data:`RACK_APPROACH_M`
+    above the slot along its axis (where the tool changer starts), furthest from the limits."""
+    model = arm_model(cell.arm)
+    out = {}
+    for slot in cell.rack.slots:
+        above = slot.pose.matrix().copy()
+        above[:3, 3] -= RACK_APPROACH_M * above[:3, 2]
+        q, ok = choose_centred(model, ik_flange(model, above))
+        if ok:
+            out[slot.name] = np.asarray(q, dtype=float).reshape(6)
+    return out
+
+
+def build_mkb(
+    cell: Workcell,
+    part: Any,
+    specs: Sequence[MeasurementSpec],
+    tools: Mapping[str, str],
+    *,
+    part_name: str,
+    digest: str,
+    planner_for: Any = None,
+) -> MeasurementKB:
+    """The MKB of `specs`; tools: spec id -> tool name (the Sequence Planner's partition).
+    Specs without a tool are left out.  planner_for: ``held tool -> (PathPlanner, ToolSpec)``
+    (ita.path.planners_for) to check approach points (default: made here)."""
+    from ita.vision.measure import VisionContext
+
+    t0 = time.perf_counter()
+    if planner_for is None:
+        from ita.path import planners_for as make
+
+        planner_for = make(cell, part)
+    entries: dict[str, MkbEntry] = {}
+    groups: dict[str, ViewGroup] = {}
+    by_tool: dict[str, list[MeasurementSpec]] = {}
+    for s in specs:
+        if s.id in tools:
+            by_tool.setdefault(tools[s.id], []).append(s)
+    vctx = None
+    for tool_name, tool_specs in sorted(by_tool.items()):
+        tool = cell.tool(tool_name)
+        if tool.tool_class is Tool.ULTRASONIC:
+            planner, _ = planner_for(tool_name)
+            found = _probe_entries(cell, tool, tool_specs, planner)
+        else:
+            if vctx is None:
+                vctx = VisionContext.from_part(part, cell, tool=tool_name, specs=list(specs))
+            planner, _ = planner_for(tool_name)
+            found, made = _slra_entries(cell, tool, tool_specs, vctx, planner)
+            groups.update({g.id: g for g in made})
+        entries.update({e.spec_id: e for e in found})
+    order = {s.id: i for i, s in enumerate(specs)}
+    entries = dict(sorted(entries.items(), key=lambda kv: order[kv[0]]))
+    return MeasurementKB(part_name, digest, entries, groups, rack_configurations(cell),
+                         time.perf_counter() - t0)
+
+
+# -- the resolver -------------------------------------------------------------------------
+
+class GeometricReasoner:
+    """Turns the plans' qualitative parameters into numbers (the Executive's PoseResolver).
+
+        approach_point(meas(Id)), in_contact_point(meas(Id)), viewing_pose(meas(Id)) -> Target
+        approach_point(rack(Slot)), approach_point(home)                       -> Target
+        goal_point(meas(Id))                     -> (3,) world point (m) of the spec
+        patches(meas(Id))                        -> the ViewGroup of the frame to take
+        min_value(meas(Id)), max_value(meas(Id)) -> the spec's tolerance limits (mm)
+
+    KeyError for a term it does not know or a measurement the MKB could not place.
+    """
+
+    def __init__(self, mkb: MeasurementKB, cell: Workcell, specs: Sequence[MeasurementSpec]) -> None:
+        self.mkb = mkb
+        self.cell = cell
+        self.specs = {s.id: s for s in specs}
+        self.home = np.asarray(HOME_Q, dtype=float)
+
+    def entry(self, spec_id: str) -> MkbEntry:
+        e = self.mkb.entries[spec_id]
+        if not e.ok:
+            raise KeyError(f"{spec_id}: {e.status} ({e.reason})")
+        return e
+
+    def resolve(self, term: Any) -> Any:
+        if not (isinstance(term, Term) and len(term.args) == 1):
+            raise KeyError(f"not a qualitative parameter: {term!r}")
+        kind, place = term.name, term.args[0]
+        if isinstance(place, Term) and place.name == "meas" and len(place.args) == 1:
+            spec_id = str(place.args[0])
+            if kind in ("min_value", "max_value"):
+                spec = self.specs[spec_id]
+                return spec.low_limit if kind == "min_value" else spec.high_limit
+            if kind == "goal_point":
+                spec = self.specs[spec_id]
+                return self.cell.part.to_world(np.asarray(spec.point, dtype=float)[None])[0]
+            e = self.entry(spec_id)
+            if kind == "approach_point":
+                return Target(e.q_approach, e.pose_approach)
+            if kind in ("in_contact_point", "viewing_pose"):
+                return Target(e.q, e.pose)
+            if kind == "patches":
+                group = self.mkb.groups.get(e.group or "")
+                if group is None:
+                    raise KeyError(f"{spec_id} has no SLRA view")
+                return group
+        elif kind == "approach_point":
+            if place == "home":
+                return Target(self.home)
+            if isinstance(place, Term) and place.name == "rack" and len(place.args) == 1:
+                return Target(np.asarray(self.mkb.rack[str(place.args[0])]))
+        raise KeyError(f"the Geometric Reasoner does not know {term!r}")
+
+    def target_q(self, term: Any) -> FloatArray:
+        """The configuration of a pose term (convenience for adapters)."""
+        target = self.resolve(term)
+        if not isinstance(target, Target):
+            raise KeyError(f"{term!r} is not a pose")
+        return np.asarray(target.q, dtype=float)
+
+    def spec_ok(self, spec_id: str) -> bool:
+        e = self.mkb.entries.get(spec_id)
+        return e is not None and e.ok

@@ -1,0 +1,184 @@
+"""The Geometric Reasoner and the Measurement Knowledge Base."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from ita.geometry import (
+    GeometricReasoner,
+    Target,
+    load_mkb,
+    save_mkb,
+    view_groups,
+)
+from ita.kinematics import arm_model, tcp_poses
+from ita.logic.terms import Term
+
+
+@pytest.fixture(scope="module")
+def prepared(builtin_part, knowledge_base):
+    """The built-in part's planning context, sequence plan and MKB (made once)."""
+    from ita.offline.prepare import prepare_inspection
+    from ita.sequence.plan import planning_context
+
+    ctx = planning_context(None, kb=knowledge_base, part=builtin_part)
+    plan, mkb, report = prepare_inspection(ctx, builtin_part, warm=False)
+    return ctx, plan, mkb, report
+
+
+def _meas(kind: str, spec_id: str) -> Term:
+    return Term(kind, (Term("meas", (spec_id,)),))
+
+
+def test_every_measurement_has_an_entry_or_a_reason(prepared) -> None:
+    _, plan, mkb, report = prepared
+    assert set(mkb.entries) == {i for g in plan.groups for i in g.order}
+    counts = mkb.counts()
+    assert counts["ok"] >= 0.9 * len(mkb.entries)
+    for e in mkb.problems():
+        assert e.reason and e.q is None
+    assert len(report.cannot) == len(plan.cannot) + len(mkb.problems())
+
+
+def test_configurations_reproduce_the_tool_poses(prepared) -> None:
+    ctx, _, mkb, _ = prepared
+    model = arm_model(ctx.workcell.arm)
+    for e in [e for e in mkb.entries.values() if e.ok][::7]:
+        tcp = ctx.workcell.tool(e.tool).tcp.matrix()
+        got = tcp_poses(model, np.vstack([e.q, e.q_approach]), tcp)
+        np.testing.assert_allclose(got[0], e.pose, atol=1e-6)
+        np.testing.assert_allclose(got[1], e.pose_approach, atol=1e-6)
+        assert model.within_limits(e.q) and model.within_limits(e.q_approach)
+
+
+def test_probe_is_perpendicular_pressed_and_approach_points_are_free(prepared, builtin_part) -> None:
+    from ita.path import planners_for
+
+    ctx, _, mkb, _ = prepared
+    cell = ctx.workcell
+    probe = [e for e in mkb.entries.values() if e.ok and e.tool_class == "us_tool"]
+    assert len(probe) > 250
+    planner, tool = planners_for(cell, builtin_part)(probe[0].tool)
+    q_approach = np.array([e.q_approach for e in probe])
+    assert planner.config_free(q_approach, tool).all()
+    for e in probe[::9]:
+        spec = ctx.spec(e.spec_id)
+        point = cell.part.to_world(np.array([spec.point]))[0]
+        normal = cell.part.normals_to_world(np.array([spec.normal]))[0]
+        normal /= np.linalg.norm(normal)
+        assert np.dot(e.pose[:3, 2], -normal) > 0.9999                       # along the normal, into the part
+        depth = np.dot(e.pose[:3, 3] - point, -normal)
+        assert depth == pytest.approx(e.press_m, abs=1e-6)                    # tip pressed in
+        off = np.dot(e.pose_approach[:3, 3] - point, normal)
+        assert off >= cell.tool(e.tool).approach_distance - 1e-9              # off the surface, in free space
+
+
+def test_slra_view_groups_share_one_frame(prepared, builtin_part) -> None:
+    ctx, _, mkb, report = prepared
+    slra = [e for e in mkb.entries.values() if e.ok and e.group is not None]
+    assert mkb.frames_needed() < len(slra)
+    assert report.frames == mkb.frames_needed()
+    for g in mkb.groups.values():
+        assert g.anchor in g.members
+        assert len({ctx.spec(m).feature for m in g.members}) == 1
+        for m in g.members:
+            e = mkb.entry(m)
+            assert e.group == g.id
+            np.testing.assert_allclose(e.pose, mkb.entry(g.anchor).pose)
+    # a flange's height and width at one point share a frame; no member is seen with a
+    # window much wider than its own (a fastener's diameter does not share the wide frame
+    # its position needs: its pixels would be three times coarser)
+    from ita.geometry import GROUP_GROWTH
+    from ita.vision.measure import VisionContext, scan_for
+
+    kinds = {tuple(sorted(ctx.spec(m).kind.value for m in g.members)) for g in mkb.groups.values()}
+    assert ("flange_height", "flange_width") in kinds
+    vctx = VisionContext.from_part(builtin_part, ctx.workcell, specs=list(ctx.specs))
+    def width_mm(fov_deg: float, standoff_m: float) -> float:
+        return 2000.0 * standoff_m * np.tan(np.radians(fov_deg) / 2)
+
+    for g in mkb.groups.values():
+        if len(g.members) > 1:
+            own = min(width_mm(scan_for(ctx.spec(m), vctx).fov_deg[0], vctx.standoff_m) for m in g.members)
+            assert width_mm(g.fov_deg[0], mkb.entry(g.anchor).standoff_m) <= GROUP_GROWTH * own * 1.001
+
+
+def test_view_group_rule() -> None:
+    from ita.specs.model import MeasurementKind, MeasurementSpec
+
+    def spec(i, x, feature="f"):
+        return MeasurementSpec(id=i, kind=MeasurementKind.FLANGE_WIDTH, feature=feature, point=(x, 0.0, 0.0),
+                               normal=(0.0, 0.0, 1.0), nominal=1.0, lower=-0.1, upper=0.1)
+
+    specs = [spec("a", 0.0), spec("b", 2.0), spec("c", 30.0), spec("d", 0.0, "g")]
+    groups = view_groups(specs, {"a": 40.0, "b": 40.0, "c": 40.0, "d": 40.0}, max_window_mm=200.0)
+    members = sorted(sorted(m) for _, m, _ in groups)
+    assert members == [["a", "b"], ["c"], ["d"]]
+
+
+def test_shared_frame_measures_every_member(prepared, builtin_part) -> None:
+    """A sample of view groups: one simulated frame at the anchor's pose, Vision measures
+    every member in it, within its stated uncertainty of the as-built value."""
+    from ita.part.truth import load_truth
+    from ita.sensors.slra_frame import ScanGeometry
+    from ita.sim.slra import SlraParams, SlraScene, simulate_frame
+    from ita.vision.measure import VisionContext, measure
+
+    ctx, _, mkb, _ = prepared
+    cell = ctx.workcell
+    scene = SlraScene.from_truth(builtin_part.directory, cell)
+    vctx = VisionContext.from_part(builtin_part, cell, specs=list(ctx.specs))
+    truth = load_truth(builtin_part.directory).values
+    rng = np.random.default_rng(3)
+    shared = [g for g in mkb.groups.values() if len(g.members) > 1]
+    kinds_seen = set()
+    for g in shared[::11][:8]:
+        anchor = mkb.entry(g.anchor)
+        frame = simulate_frame(scene, anchor.pose, ScanGeometry(g.pixels, g.fov_deg), SlraParams(), rng)
+        for m in g.members:
+            reply = measure(frame, ctx.spec(m), vctx)
+            assert reply.ok, (m, reply)
+            assert abs(reply.value - truth[m]) <= 3 * reply.expanded + 1e-3, (m, reply.value, truth[m])
+            kinds_seen.add(ctx.spec(m).kind.value)
+    assert len(kinds_seen) >= 2
+
+
+def test_resolver_turns_plan_terms_into_numbers(prepared) -> None:
+    ctx, _, mkb, _ = prepared
+    reasoner = GeometricReasoner(mkb, ctx.workcell, ctx.specs)
+    probe = next(e for e in mkb.entries.values() if e.ok and e.tool_class == "us_tool")
+    slra = next(e for e in mkb.entries.values() if e.ok and e.group is not None)
+    contact = reasoner.resolve(_meas("in_contact_point", probe.spec_id))
+    assert isinstance(contact, Target) and np.allclose(contact.q, probe.q)
+    assert np.allclose(reasoner.resolve(_meas("approach_point", probe.spec_id)).q, probe.q_approach)
+    assert np.allclose(reasoner.resolve(_meas("viewing_pose", slra.spec_id)).q, slra.q)
+    assert reasoner.resolve(_meas("patches", slra.spec_id)).id == slra.group
+    spec = ctx.spec(probe.spec_id)
+    assert reasoner.resolve(_meas("min_value", probe.spec_id)) == spec.low_limit
+    assert reasoner.resolve(_meas("max_value", probe.spec_id)) == spec.high_limit
+    assert reasoner.resolve(_meas("goal_point", probe.spec_id)).shape == (3,)
+    assert reasoner.resolve(Term("approach_point", ("home",))).q.shape == (6,)
+    slot = ctx.workcell.slot_of(probe.tool).name
+    assert reasoner.resolve(Term("approach_point", (Term("rack", (slot,)),))).q.shape == (6,)
+    with pytest.raises(KeyError):
+        reasoner.resolve(_meas("approach_point", "NO-SUCH-SPEC"))
+    with pytest.raises(KeyError):
+        reasoner.resolve(Term("approach_point", ("nowhere",)))
+    bad = next((e for e in mkb.entries.values() if not e.ok), None)
+    if bad is not None:
+        with pytest.raises(KeyError):
+            reasoner.resolve(_meas("approach_point", bad.spec_id))
+
+
+def test_mkb_is_stored_keyed_by_digest(prepared, tmp_path) -> None:
+    _, _, mkb, _ = prepared
+    path = save_mkb(mkb, tmp_path / "m.json")
+    again = load_mkb(mkb.part, mkb.digest, path)
+    assert again is not None and set(again.entries) == set(mkb.entries)
+    e = next(iter(mkb.entries.values()))
+    assert np.allclose(again.entry(e.spec_id).pose, e.pose) if e.ok else True
+    assert again.groups == mkb.groups
+    assert load_mkb(mkb.part, "another digest", path) is None
+    (tmp_path / "broken.json").write_text("{not json")
+    assert load_mkb(mkb.part, None, tmp_path / "broken.json") is None

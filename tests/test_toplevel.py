@@ -1,0 +1,154 @@
+"""The Top Level end to end: runs, interruptions, stops, a killed process, continuing."""
+
+from __future__ import annotations
+
+import os
+import random
+import signal
+import subprocess
+import sys
+import time
+from collections import Counter
+from pathlib import Path
+
+import pytest
+from click.testing import CliRunner
+
+from ita.cli import main
+
+REPO = Path(__file__).resolve().parent.parent
+
+
+@pytest.fixture(scope="module")
+def runs(tmp_path_factory, builtin_part) -> Path:
+    return tmp_path_factory.mktemp("runs")
+
+
+@pytest.fixture(scope="module")
+def session(builtin_part):
+    """One loaded system for the in-process runs of this module."""
+    from ita.toplevel import open_session
+
+    s = open_session(None, seed=2)
+    yield s
+    s.close()
+
+
+def _archive(runs: Path):
+    from ita.archive import Archive, archive_path
+
+    return Archive.open(archive_path(runs))
+
+
+def _exactly_once(archive, run_id: str, total: int) -> None:
+    results = archive.results(run_id)
+    ids = Counter(r.spec_id for r in results)
+    assert len(results) == total and all(n == 1 for n in ids.values())
+    assert ids.keys() == set(archive.run(run_id).settings["specs"])
+
+
+def test_inspect_limit_12_end_to_end(runs) -> None:
+    result = CliRunner().invoke(main, ["inspect", "--limit", "12", "--seed", "1", "--runs-dir", str(runs), "--json"])
+    assert result.exit_code == 0, result.output
+    import json
+
+    summary = json.loads(result.stdout)
+    assert summary["status"] == "completed" and summary["done"] == 12
+    with _archive(runs) as archive:
+        run_id = summary["run_id"]
+        _exactly_once(archive, run_id, 12)
+        results = archive.results(run_id)
+        measured = [r for r in results if r.outcome.value == "measured"]
+        assert len(measured) >= 10
+        assert all(r.decision is not None and r.u > 0 and r.sim_time_end >= r.sim_time_start for r in measured)
+        events = archive.events(run_id)
+        kinds = Counter(e.kind for e in events)
+        assert kinds["plan_start"] >= 1 and kinds["command"] > 12
+        # SLRA plans: the vision stream WAITs for the arm's viewing pose, then CONTINUEs
+        waits = [e for e in events if e.kind == "wait" and e.stream == "slra"]
+        continues = [e for e in events if e.kind == "continue" and e.stream == "slra"]
+        assert waits and len(waits) == len(continues)
+        scans = [e for e in events if e.kind == "command" and e.payload.get("name") == "scan"]
+        assert scans and all(e.payload["end"] > e.sim_time for e in scans)
+        assert archive.run(run_id).status.value == "completed"
+        assert summary["simulated_cycle_s"] > 0 and summary["breakdown_s"]["measuring"] > 0
+
+
+def test_interrupt_then_continue_finishes_every_result_once(session, runs) -> None:
+    from ita.toplevel import RunSignals, TopLevel, start_run
+
+    with _archive(runs) as archive:
+        run_id = start_run(session, archive, limit=9)
+        signals = RunSignals(message=None)
+
+        def interrupt_after_three(p) -> None:
+            if p.done >= 3:
+                signals.interrupt = True
+
+        first = TopLevel(session, archive, run_id, signals).run(on_progress=interrupt_after_three)
+        assert first.status == "interrupted" and 3 <= first.done < 9
+        assert first.continue_hint == f"ita continue {run_id}"
+        assert archive.run(run_id).status.value == "interrupted"
+    result = CliRunner().invoke(main, ["continue", run_id, "--runs-dir", str(runs), "--json"])
+    assert result.exit_code == 0, result.output
+    with _archive(runs) as archive:
+        _exactly_once(archive, run_id, 9)
+        assert archive.run(run_id).status.value == "completed"
+        assert [e.kind for e in archive.events(run_id, kinds=["resume"])] == ["resume"]
+
+
+def test_stop_from_the_control_table(session, runs) -> None:
+    from ita.toplevel import RunSignals, TopLevel, start_run
+
+    with _archive(runs) as archive:
+        run_id = start_run(session, archive, limit=8)
+        signals = RunSignals(message=None, poll_interval=0.0)
+
+        def stop_after_two(p) -> None:
+            if p.status == "measuring" and p.done >= 2 and not archive.pending_control(run_id):
+                archive.issue_control(run_id, "STOP")
+
+        summary = TopLevel(session, archive, run_id, signals).run(on_progress=stop_after_two)
+        assert summary.status == "stopped" and summary.done < 8
+        info = archive.run(run_id)
+        assert info.status.value == "stopped"
+        assert archive.integrity_check() == "ok"
+        archive.resume_run(run_id)
+        again = TopLevel(session, archive, run_id, RunSignals(message=None)).run()
+        assert again.status == "completed"
+        _exactly_once(archive, run_id, 8)
+
+
+def test_sigkill_then_continue_loses_and_repeats_nothing(runs, ita_home) -> None:
+    env = dict(os.environ, PYTHONPATH=str(REPO), ITA_HOME=str(ita_home))
+    cmd = [sys.executable, str(REPO / "cli.py"), "inspect", "--limit", "30", "--seed", "3", "--runs-dir", str(runs)]
+    proc = subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    kill_at = random.Random().randint(2, 20)
+    from ita.archive import Archive, archive_path
+
+    run_id = None
+    deadline = time.monotonic() + 120
+    try:
+        while time.monotonic() < deadline and proc.poll() is None:
+            time.sleep(0.05)
+            if not archive_path(runs).exists():
+                continue
+            with Archive.open(archive_path(runs)) as archive:
+                mine = [r for r in archive.runs() if r.pid == proc.pid]
+                if mine and mine[0].done >= kill_at:
+                    run_id = mine[0].id
+                    break
+        os.kill(proc.pid, signal.SIGKILL)
+    finally:
+        proc.wait(timeout=30)
+    assert run_id is not None, "the run did not get going"
+    with Archive.open(archive_path(runs)) as archive:
+        info = archive.run(run_id)
+        assert info.state_label == "dead" and info.done < 30
+        assert archive.integrity_check() == "ok"
+    done = subprocess.run([sys.executable, str(REPO / "cli.py"), "continue", run_id, "--runs-dir", str(runs)],
+                          env=env, capture_output=True, text=True, timeout=180, check=False)
+    assert done.returncode == 0, done.stderr[-2000:]
+    with Archive.open(archive_path(runs)) as archive:
+        _exactly_once(archive, run_id, 30)
+        assert archive.run(run_id).status.value == "completed"
