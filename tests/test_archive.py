@@ -304,7 +304,7 @@ CHILD = textwrap.dedent("""
             print("duplicate", sid, flush=True)
             sys.exit(3)
         t += 2.0
-        time.sleep(0.001)
+        time.sleep(0.005)  # 300 results take >= 1.5 s: more than the five kills' delays add up to
     a.set_status(run_id, RunStatus.COMPLETED)
     print("done", flush=True)
 """)
