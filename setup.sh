@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Set up ITA (SWI-Prolog, a virtual environment, the package) and run something.
 #
-#   bash setup.sh run [ARGS]    set up, then run the main job (`ita prepare`)
+#   bash setup.sh run [ARGS]    set up, then run the main job (`ita inspect`: the whole bulkhead)
 #   bash setup.sh test [ARGS]   set up, then run every test (pytest; ARGS go to pytest)
 #   bash setup.sh setup         set up only
 #
@@ -68,7 +68,7 @@ setup() {
 setup
 case "$action" in
     setup) say "ready: $venv/bin/ita" ;;
-    run)   exec "$venv/bin/ita" prepare "$@" ;;
+    run)   exec "$venv/bin/ita" inspect "$@" ;;
     test)
         set +e
         "$venv/bin/python" -m pytest "$@"
