@@ -7,7 +7,19 @@ import numpy as np
 import pytest
 import trimesh
 
-from ita.collision import ArmChecker, Regions, RegionTree, build_tree, kernels, mesh_regions, shapes, tool_tube
+from ita.collision import (
+    TIP_CLEARANCE,
+    ArmChecker,
+    Regions,
+    RegionTree,
+    arm_tubes,
+    build_tree,
+    kernels,
+    mesh_regions,
+    shapes,
+    tool_tube,
+    tool_tubes,
+)
 from ita.collision.reference import BulletScene, FclScene, urdf_tubes
 from ita.workcell import load_workcell
 
@@ -240,3 +252,126 @@ def test_no_missed_arm_collision_against_pybullet(cell, part, tree):
     assert not np.any(ref & ~got), f"{np.sum(ref & ~got)} arm collisions missed"
     print(f"\narm: pybullet {ref.mean():.3f} collide, tree {got.mean():.3f}, false positives "
           f"{np.sum(got & ~ref) / max(1, np.sum(~ref)):.3f} of the free ones")
+
+
+def _shape_samples(kind, centre, axis_or_size, radius, length, rng, n=4000):
+    """Points (n, 3) on the surface of one of ita.sim.world.tool_shapes' shapes."""
+    if kind == "box":
+        local = rng.uniform(-0.5, 0.5, (n, 3))
+        face = rng.integers(3, size=n)
+        local[np.arange(n), face] = np.sign(local[np.arange(n), face]) * 0.5
+        return centre + local * axis_or_size
+    axis = axis_or_size / np.linalg.norm(axis_or_size)
+    u = np.cross(axis, [1.0, 0.0, 0.0] if abs(axis[0]) < 0.9 else [0.0, 1.0, 0.0])
+    u /= np.linalg.norm(u)
+    v = np.cross(axis, u)
+    ang = rng.uniform(0.0, 2 * np.pi, n)
+    s = rng.uniform(-0.5, 0.5, n) * length
+    rim = centre + s[:, None] * axis + radius * (np.cos(ang)[:, None] * u + np.sin(ang)[:, None] * v)
+    if kind == "cylinder":   # the rims' corners and the flat faces too
+        rho = radius * np.sqrt(rng.uniform(0.0, 1.0, n))
+        face = centre + np.sign(s)[:, None] * length / 2 * axis + rho[:, None] * (
+            np.cos(ang)[:, None] * u + np.sin(ang)[:, None] * v)
+        return np.vstack([rim, face])
+    d = rng.normal(size=(n, 3))
+    cap = centre + np.sign(s)[:, None] * length / 2 * axis + radius * d / np.linalg.norm(d, axis=1, keepdims=True)
+    return np.vstack([rim, cap])
+
+
+def test_tool_tubes_enclose_the_simulators_tool_shapes(cell):
+    """Plan and simulator see the same tool: every point of each pybullet shape of a tool
+    (ita.sim.world.tool_shapes) lies in its tubes, and the tubes are much tighter than the
+    one enclosing tube."""
+    from ita.sim.world import TIP_CLEARANCE as SIM_TIP_CLEARANCE
+    from ita.sim.world import tool_shapes
+
+    assert TIP_CLEARANCE == SIM_TIP_CLEARANCE
+    rng = np.random.default_rng(12)
+    for tool in cell.tools:
+        ends, radii = tool_tubes(tool, TIP_CLEARANCE)
+        pts = np.vstack([_shape_samples(*shape, rng) for shape in tool_shapes(tool)])
+        inside = shapes.points_in_tubes(pts[:, None], ends[None, :, 0], ends[None, :, 1], radii[None] + 1e-9)
+        assert inside.any(axis=1).all(), tool.name
+        full, _ = tool_tubes(tool)                      # the whole probe, tip included
+        assert shapes.point_segment_distance(np.array(tool.tcp.position), full[-1, 0], full[-1, 1]) <= radii[-1] + 1e-9
+        assert radii.max() < 0.9 * tool_tube(tool)[1]
+
+
+def test_wrist_self_collision_is_the_urdfs_not_the_capsules():
+    """Links 4 and 6 meet where pybullet's real cylinder and capsule meet (j5 near 100 deg
+    folded), not 18 mm earlier as the enclosing capsules did; the tight tubes stay on the
+    conservative side of pybullet at every fold."""
+    import pybullet as p
+
+    from ita.kinematics import arm_model, link_segments
+
+    cell = load_workcell()
+    model = arm_model(cell.arm)
+    tubes = arm_tubes(cell.arm.urdf, model.link_names)
+    checker = tubes.checker(RegionTree())
+    tight = tubes.apply(model)
+    folds = np.linspace(1.3, 2.09, 80)
+    q = np.column_stack([np.zeros((len(folds), 4)), folds, np.full(len(folds), 0.3)])
+    cid = p.connect(p.DIRECT)
+    try:
+        arm = p.loadURDF(str(cell.arm.urdf), useFixedBase=True, physicsClientId=cid)
+        real = []
+        for c in q:
+            for j, v in enumerate(c):
+                p.resetJointState(arm, j, float(v), physicsClientId=cid)
+            pts = p.getClosestPoints(arm, arm, 0.5, linkIndexA=3, linkIndexB=5, physicsClientId=cid)
+            real.append(min(x[8] for x in pts) < 0.0)
+    finally:
+        p.disconnect(cid)
+    real = np.array(real)
+    model_says = checker.collides(link_segments(tight, q))
+    loose = ArmChecker(RegionTree(), model.tube_radii, model.tube_links).collides(link_segments(model, q))
+    assert real.any() and not real.all()
+    assert not np.any(real & ~model_says)                     # never free where pybullet collides
+    assert folds[np.argmax(model_says)] > folds[np.argmax(loose)] + 0.2   # much later than the capsules
+
+
+def test_no_missed_collision_with_the_held_tool_against_the_simulator(cell, part):
+    """Random configurations with a tool held: whenever the simulator (pybullet, the tool's
+    real shapes, the nominal part) finds a contact deeper than 0.1 mm, the tight tubes do."""
+    from ita.kinematics import arm_model, link_segments
+    from ita.sim.world import SimWorld
+
+    model = arm_model(cell.arm)
+    rng = np.random.default_rng(13)
+    lo, hi = np.array(cell.arm.joints.lower), np.array(cell.arm.joints.upper)
+    with SimWorld(cell, asbuilt_mesh=part.mesh) as world:
+        for name in ("us_probe_1", "slra_1"):
+            tool = cell.tool(name)
+            t = build_tree(cell, part)
+            t.remove(name)
+            tubes = arm_tubes(cell.arm.urdf, model.link_names).with_tool(tool, model.dof + 1, TIP_CLEARANCE)
+            checker = tubes.checker(t, mount=[cell.pedestal.name])
+            q = rng.uniform(lo, hi, (300, 6))
+            world.attach(name)
+            ref = []
+            for c in q:
+                world.set_q(c)
+                ref.append(any(x.distance < -1e-4 for x in world.contacts()))
+            world.detach()
+            ref = np.array(ref)
+            got = checker.collides(link_segments(tubes.apply(model), q))
+            assert 0.05 < ref.mean() < 0.95
+            assert not np.any(ref & ~got), f"{name}: {np.sum(ref & ~got)} collisions missed"
+
+
+def test_no_missed_arm_collision_with_tight_tubes_against_pybullet(cell, part, tree):
+    """The tight link tubes (clipped self-check capsules of the wrist's cylinders) find
+    every collision pybullet finds, self-collisions of non-adjacent links included."""
+    from ita.kinematics import arm_model, link_segments
+
+    model = arm_model(cell.arm)
+    tubes = arm_tubes(cell.arm.urdf, model.link_names)
+    rng = np.random.default_rng(14)
+    lo, hi = np.array(cell.arm.joints.lower), np.array(cell.arm.joints.upper)
+    q = rng.uniform(lo, hi, (400, 6))
+    q[::2, 4] = rng.choice([-1.0, 1.0], 200) * rng.uniform(1.5, 2.09, 200)     # folded wrists
+    with BulletScene(cell, part.mesh) as scene:
+        ref = np.array([scene.arm_collides(c) for c in q])
+    got = tubes.checker(tree, mount=[cell.pedestal.name]).collides(link_segments(tubes.apply(model), q))
+    assert not np.any(ref & ~got), f"{np.sum(ref & ~got)} arm collisions missed"

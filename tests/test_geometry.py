@@ -182,3 +182,19 @@ def test_mkb_is_stored_keyed_by_digest(prepared, tmp_path) -> None:
     assert load_mkb(mkb.part, "another digest", path) is None
     (tmp_path / "broken.json").write_text("{not json")
     assert load_mkb(mkb.part, None, tmp_path / "broken.json") is None
+
+
+def test_tilted_approach_directions_keep_their_angle_off_the_normal():
+    """The probe's fallback approach directions are unit vectors exactly the tilt off each
+    normal, spread about it; tilt 0 is the normal itself."""
+    import math
+
+    from ita.geometry.reasoner import TILT_AZIMUTHS, _tilted
+
+    normals = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, -0.6, 0.8]])
+    assert np.array_equal(_tilted(normals, 0.0)[0], normals)
+    dirs = np.stack(_tilted(normals, 20.0))                           # (azimuths, n, 3)
+    assert dirs.shape == (TILT_AZIMUTHS, 3, 3)
+    assert np.allclose(np.linalg.norm(dirs, axis=-1), 1.0)
+    assert np.allclose(np.einsum("anj,nj->an", dirs, normals), math.cos(math.radians(20.0)))
+    assert np.allclose(dirs.mean(axis=0) / math.cos(math.radians(20.0)), normals)

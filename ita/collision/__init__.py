@@ -7,12 +7,27 @@
     tree.update("us_probe_1", pose); tree.remove("us_probe_1")
     checker = ArmChecker(tree, model.tube_radii, model.tube_links)
     checker.collides(link_segments(model, q))              # (n, t, 2, 3) -> bool (n,)
+    tubes = arm_tubes(cell.arm.urdf, model.link_names).with_tool(tool, model.dof + 1)
+    tubes.checker(tree, mount=["pedestal"]); tubes.apply(model)   # tight links, real tool shape
 
 Modules: `shapes` (numpy distance and overlap primitives, the reference), `kernels`
 (compiled walks), `tree` (RegionTree, Regions), `build` (from Workcell and Part), `arm`.
 """
 
-from ita.collision.arm import FREE, SELF, WORLD, ArmChecker, ArmHits, self_pairs, tool_tube
+from ita.collision.arm import (
+    FREE,
+    SELF,
+    TIP_CLEARANCE,
+    WORLD,
+    ArmChecker,
+    ArmHits,
+    ArmTubes,
+    arm_tubes,
+    self_pairs,
+    tool_tube,
+    tool_tubes,
+    urdf_tubes,
+)
 from ita.collision.build import (
     PART_MARGIN_MM,
     build_tree,
@@ -30,12 +45,15 @@ __all__ = [
     "PART_MARGIN_MM",
     "SELF",
     "SPHERE",
+    "TIP_CLEARANCE",
     "TUBE",
     "WORLD",
     "ArmChecker",
     "ArmHits",
+    "ArmTubes",
     "RegionTree",
     "Regions",
+    "arm_tubes",
     "build_tree",
     "feature_regions",
     "mesh_regions",
@@ -43,4 +61,6 @@ __all__ = [
     "self_pairs",
     "tool_regions",
     "tool_tube",
+    "tool_tubes",
+    "urdf_tubes",
 ]

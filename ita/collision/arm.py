@@ -1,4 +1,5 @@
-"""Arm collision checks: the arm's links as tubes against the region tree and each other.
+"""Arm collision checks: the arm's links and the held tool as tubes against the region
+tree and each other.
 
 The caller computes the tubes' world segments per configuration (forward kinematics, e.g.
 `ita.kinematics.fk.link_segments`, whose ArmModel carries the tube_links and tube_radii
@@ -9,26 +10,49 @@ this module needs); a check is then one compiled pass over a batch:
 
 World: every tube except those of the fixed base link (tube_links == 0), which never
 moves, is walked through the tree; the objects the arm is mounted on (`mount`, e.g. the
-pedestal) do not count for link 1's tubes, whose enclosing capsules reach down into them.  Self: tube pairs whose links are not adjacent in the
-chain (|link_i - link_j| > 1, pybullet's default filter).  A tool held by the arm is one
-more tube (`tool_tube`) on the flange link; it moves with the arm, so it is not in the
-tree while held (remove it from the tree at pick-up, add it back at put-down).
-Cylinders of the URDF are checked as the capsules that enclose them (conservative).
+pedestal) do not count for link 1's tubes, whose enclosing capsules reach down into them.
+Self: tube pairs whose links are not adjacent in the chain (|link_i - link_j| > 1,
+pybullet's default filter).
+
+Tight tubes (`arm_tubes`, `ArmTubes`): every tube encloses the URDF shape it stands for
+(conservative), but a short URDF cylinder is enclosed twice: by the capsule on its own
+axis and radius (checked against the world: radially exact) and by the capsule whose ends
+are clipped inside it (checked against the other links: it hardly sticks out of the
+cylinder's flat faces, which is where a folded wrist's links meet).  A held tool is the
+tubes of its real shape (`tool_tubes`: the simulator's holder and bent shaft, or its body
+box as 2 x 2 tubes) on the flange link; it moves with the arm, so it is not in the tree
+while held (remove it from the tree at pick-up, add it back at put-down).  `tool_tube` is
+the one tube that encloses the whole tool (a size for clearances, not a collision shape).
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+import dataclasses
+import xml.etree.ElementTree as ET
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ita.collision import kernels
 from ita.collision.tree import RegionTree
+from ita.workcell.frames import rpy_to_matrix
 from ita.workcell.model import ToolSpec
 
 FREE, WORLD, SELF = 0, 1, 2
+
+# The held tools' shapes, as the simulator has them (ita.sim.world.tool_shapes; the test
+# suite checks that these tubes enclose those shapes).
+PROBE_HOLDER_RADIUS = 0.03   # m: a contact probe's holder, a cylinder along the flange axis
+PROBE_SHAFT_RADIUS = 0.008   # m: its shaft, a capsule along the tip axis from the bend
+TOOL_GAP = 0.002             # m: tool shapes start this far off the flange face
+TIP_CLEARANCE = 0.008        # m: the simulator's shaft stops this far short of the tip
+BOX_CLIP = 0.5               # a box tool's tubes end this fraction of their cell's half diagonal inside it
+SELF_CLIP = 0.85             # a cylinder's self-check capsule ends clipped up to this times its radius
+SELF_CLIP_MAX_RADIUS = 0.1   # m: ... for cylinders no thicker (the wrist's housings)
 
 
 def self_pairs(tube_links: ArrayLike, skip: int = 1, exclude: ArrayLike = ()) -> NDArray[np.int64]:
@@ -55,6 +79,143 @@ def tool_tube(tool: ToolSpec) -> tuple[np.ndarray, float]:
     ends[0, axis] -= size[axis] / 2
     ends[1, axis] += size[axis] / 2
     return ends, radius
+
+
+def urdf_tubes(urdf: Path, link_names: Sequence[str]) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[str]]:
+    """Collision cylinders and capsules of the listed links (chain order): tube_links (t,)
+    index into link_names, ends (t, 2, 3) in the link frame, radii (t,), shape tags."""
+    root = ET.parse(urdf).getroot()
+    links = {link.get("name"): link for link in root.findall("link")}
+    index, ends, radii, tags = [], [], [], []
+    for i, name in enumerate(link_names):
+        for col in links[name].findall("collision") if name in links else []:
+            shape = col.find("geometry")[0]  # type: ignore[index]
+            if shape.tag not in ("cylinder", "capsule"):
+                continue
+            org = col.find("origin")
+            xyz = [float(v) for v in (org.get("xyz", "0 0 0") if org is not None else "0 0 0").split()]
+            rpy = [float(v) for v in (org.get("rpy", "0 0 0") if org is not None else "0 0 0").split()]
+            axis = rpy_to_matrix(rpy)[:, 2] * float(shape.get("length")) / 2
+            index.append(i)
+            ends.append([np.subtract(xyz, axis), np.add(xyz, axis)])
+            radii.append(float(shape.get("radius")))
+            tags.append(shape.tag)
+    return np.array(index), np.array(ends, dtype=float), np.array(radii), tags
+
+
+def tool_tubes(tool: ToolSpec, tip_clearance: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+    """Tubes enclosing the tool's real shape: ends (k, 2, 3) in the flange frame, radii (k,).
+
+    A contact probe (no stand-off): its holder, the cylinder of PROBE_HOLDER_RADIUS along
+    the flange axis from TOOL_GAP up to the bend (as the capsule on that axis), and its
+    shaft, the capsule of PROBE_SHAFT_RADIUS along the tip axis from the bend to
+    `tip_clearance` short of the tip (0: the whole probe, for free-space checks;
+    TIP_CLEARANCE: the simulator's shaft, which leaves the spring-loaded tip free to touch
+    the part).  Any other tool: its body box as 2 x 2 tubes along the box's longest side,
+    each enclosing a quarter of the box (its cell's half diagonal, the ends clipped
+    BOX_CLIP of it inside the box and the radius grown to match)."""
+    if tool.standoff_nominal > 0.0 or tool.tcp_length <= TOOL_GAP:
+        c, size = np.asarray(tool.body_center, dtype=float), np.asarray(tool.body_size, dtype=float)
+        axis = int(np.argmax(size))
+        u, v = [k for k in range(3) if k != axis]
+        cell = float(np.hypot(size[u], size[v]) / 4.0)
+        clip = min(BOX_CLIP * cell, size[axis] / 2.0)
+        ends, radii = [], []
+        for su in (-1.0, 1.0):
+            for sv in (-1.0, 1.0):
+                mid = c.copy()
+                mid[u] += su * size[u] / 4.0
+                mid[v] += sv * size[v] / 4.0
+                a, b = mid.copy(), mid.copy()
+                a[axis] -= size[axis] / 2.0 - clip
+                b[axis] += size[axis] / 2.0 - clip
+                ends.append([a, b])
+                radii.append(float(np.hypot(cell, clip)))
+        return np.asarray(ends), np.asarray(radii)
+    tip = np.asarray(tool.tcp.position, dtype=float)
+    axis = tool.tcp.rotation()[:, 2]
+    xy = axis[:2] @ axis[:2]
+    s = float(tip[:2] @ axis[:2] / xy) if xy > 1e-12 else 0.5 * tip[2]
+    bend = tip - s * axis
+    bend[:2] = 0.0
+    ends = [[np.array([0.0, 0.0, TOOL_GAP]), np.array([0.0, 0.0, bend[2]])]]
+    radii = [PROBE_HOLDER_RADIUS]
+    end = tip - (tip_clearance + PROBE_SHAFT_RADIUS) * axis
+    if np.linalg.norm(end - bend) > 1e-6:
+        ends.append([bend, end])
+        radii.append(PROBE_SHAFT_RADIUS)
+    return np.asarray(ends), np.asarray(radii, dtype=float)
+
+
+@dataclass(frozen=True, eq=False)
+class ArmTubes:
+    """The collision tubes of the arm (and held tool), with what each is checked against.
+
+    links (t,) index of each tube's link (0 the base, the flange dof + 1); ends (t, 2, 3)
+    in the link's frame; radii (t,); world (t,) bool: walked through the tree; self_check
+    (t,) bool: met against the other links' tubes; exclude (k, 2): link pairs never
+    checked (the held tool and the wrist link it is bolted next to)."""
+
+    links: np.ndarray
+    ends: np.ndarray
+    radii: np.ndarray
+    world: np.ndarray
+    self_check: np.ndarray
+    exclude: tuple[tuple[int, int], ...] = ()
+
+    def __len__(self) -> int:
+        return len(self.radii)
+
+    def pairs(self) -> np.ndarray:
+        """(p, 2) self-collision tube pairs: non-adjacent links, both tubes self_check."""
+        pairs = self_pairs(self.links, exclude=self.exclude)
+        keep = self.self_check[pairs[:, 0]] & self.self_check[pairs[:, 1]] if len(pairs) else np.zeros(0, bool)
+        return pairs[keep]
+
+    def with_tool(self, tool: ToolSpec, flange: int, tip_clearance: float = 0.0) -> ArmTubes:
+        """These tubes and the held tool's (`tool_tubes`) on link `flange` (dof + 1),
+        which are not checked against link flange - 2 (the wrist link before the last)."""
+        ends, radii = tool_tubes(tool, tip_clearance)
+        k = len(radii)
+        return ArmTubes(np.append(self.links, np.full(k, flange)).astype(np.int64),
+                        np.concatenate([self.ends, ends]), np.append(self.radii, radii),
+                        np.append(self.world, np.ones(k, bool)), np.append(self.self_check, np.ones(k, bool)),
+                        self.exclude + ((flange - 2, flange),))
+
+    def apply(self, model: Any) -> Any:
+        """An ArmModel (ita.kinematics) with these tubes instead of its own."""
+        return dataclasses.replace(model, tube_links=self.links.copy(), tube_ends=self.ends.copy(),
+                                   tube_radii=self.radii.copy())
+
+    def checker(self, tree: RegionTree, mount: Iterable[str] = ()) -> ArmChecker:
+        """The ArmChecker of these tubes over `tree`."""
+        return ArmChecker(tree, self.radii, self.links, pairs=self.pairs(), world=self.world & (self.links != 0),
+                          mount=mount)
+
+
+def arm_tubes(urdf: Path, link_names: Sequence[str], self_clip: float = SELF_CLIP,
+              clip_max_radius: float = SELF_CLIP_MAX_RADIUS) -> ArmTubes:
+    """The tight tubes of the URDF's links (`link_names` in chain order, as ArmModel's).
+
+    A capsule is itself.  A cylinder of radius r and length L is the capsule on its axis
+    and radius (world and self); when r <= clip_max_radius, its self-check tube is instead
+    the capsule whose ends lie d = min(L / 2, self_clip r) inside the flat faces, of radius
+    sqrt(r^2 + d^2) (the faces' rims lie on it), and the first is checked against the world
+    only."""
+    links, ends, radii, tags = urdf_tubes(urdf, link_names)
+    out_l, out_e, out_r, world, self_ = [], [], [], [], []
+    for link, (a, b), r, tag in zip(links, ends, radii, tags):
+        out_l.append(link), out_e.append([a, b]), out_r.append(r)
+        clip = tag == "cylinder" and r <= clip_max_radius
+        world.append(True), self_.append(not clip)
+        if clip:
+            length = float(np.linalg.norm(b - a))
+            d = min(length / 2.0, self_clip * r)
+            u = (b - a) / length
+            out_l.append(link), out_e.append([a + d * u, b - d * u]), out_r.append(float(np.hypot(r, d)))
+            world.append(False), self_.append(True)
+    return ArmTubes(np.asarray(out_l, dtype=np.int64), np.asarray(out_e, dtype=float).reshape(-1, 2, 3),
+                    np.asarray(out_r, dtype=float), np.asarray(world, bool), np.asarray(self_, bool))
 
 
 def transform_points(poses: ArrayLike, points: ArrayLike) -> np.ndarray:

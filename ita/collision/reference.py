@@ -11,36 +11,13 @@ material is not a collision for them (the region tree says it is).
 
 from __future__ import annotations
 
-import xml.etree.ElementTree as ET
-from pathlib import Path
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 
-from ita.workcell.frames import homogeneous, matrix_to_quaternion, quaternion_to_matrix, rpy_to_matrix
+from ita.collision.arm import urdf_tubes  # noqa: F401  (its home was here; tests import it from here)
+from ita.workcell.frames import homogeneous, matrix_to_quaternion, quaternion_to_matrix
 from ita.workcell.model import Workcell
-
-
-def urdf_tubes(urdf: Path, link_names: Sequence[str]) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[str]]:
-    """Collision cylinders and capsules of the listed links (chain order): tube_links (t,)
-    index into link_names, ends (t, 2, 3) in the link frame, radii (t,), shape tags."""
-    root = ET.parse(urdf).getroot()
-    links = {link.get("name"): link for link in root.findall("link")}
-    index, ends, radii, tags = [], [], [], []
-    for i, name in enumerate(link_names):
-        for col in links[name].findall("collision") if name in links else []:
-            shape = col.find("geometry")[0]  # type: ignore[index]
-            if shape.tag not in ("cylinder", "capsule"):
-                continue
-            org = col.find("origin")
-            xyz = [float(v) for v in (org.get("xyz", "0 0 0") if org is not None else "0 0 0").split()]
-            rpy = [float(v) for v in (org.get("rpy", "0 0 0") if org is not None else "0 0 0").split()]
-            axis = rpy_to_matrix(rpy)[:, 2] * float(shape.get("length")) / 2
-            index.append(i)
-            ends.append([np.subtract(xyz, axis), np.add(xyz, axis)])
-            radii.append(float(shape.get("radius")))
-            tags.append(shape.tag)
-    return np.array(index), np.array(ends, dtype=float), np.array(radii), tags
 
 
 def _part_world(cell: Workcell, mesh: Any) -> tuple[np.ndarray, np.ndarray]:

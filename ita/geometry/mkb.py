@@ -32,7 +32,7 @@ from numpy.typing import NDArray
 from ita.paths import ita_home
 
 FloatArray = NDArray[np.float64]
-MKB_VERSION = 1
+MKB_VERSION = 2
 OK = "ok"
 
 __all__ = [

@@ -61,6 +61,10 @@ FloatArray = NDArray[np.float64]
 PRESS_M = 0.0015          # the probe tip pushed this far into its spring travel at contact
 GROUP_GROWTH = 1.25       # a view group's window at most this times its widest member's
 APPROACH_LADDER_M = (0.08, 0.10, 0.12, 0.15, 0.20)  # m, tried in turn for the probe
+APPROACH_TILTS_DEG = (0.0, 10.0, 20.0)  # approach directions off the normal, tried in turn
+TILT_AZIMUTHS = 8         # directions about the normal per tilt
+FALLBACK_ROLLS = 36       # rolls about the normal tried when the plan's own are blocked
+CONTACT_STEPS = 12        # configurations checked along the straight approach-to-contact move
 RACK_APPROACH_M = 0.15    # above a rack slot along its axis (ita.robot.ToolChanger's default)
 HOME_Q = (0.0, -0.6, 0.9, 0.0, 0.9, 0.0)  # ita.path.HOME: folded back, clear of the cell
 
@@ -100,8 +104,12 @@ def _probe_entries(cell: Workcell, tool: ToolSpec, specs: Sequence[MeasurementSp
 
     The approach point is the nearest of :data:`APPROACH_LADDER_M` (the tool's own
     approach distance first) that the Path Planner finds collision-free with the probe
-    held (its enclosing tube is conservative); when none is, the other rolls of the probe
-    about the normal are tried, nearest to the chosen configuration first.
+    held, along the normal or, failing that, along directions tilted
+    :data:`APPROACH_TILTS_DEG` off it (the probe keeps the contact pose's orientation, so it
+    still meets the surface along its normal, as the gauge needs); and from which the
+    straight move to contact keeps the arm and the probe (all but its spring-loaded tip)
+    off everything (:func:`_contact_free`).  When none is, :data:`FALLBACK_ROLLS` rolls of
+    the probe about the normal are tried, nearest to the chosen configuration first.
     """
     from ita.kinematics import measurement_poses, move_time
     from ita.sequence.cost import ROLLS, measurement_configurations
@@ -114,7 +122,8 @@ def _probe_entries(cell: Workcell, tool: ToolSpec, specs: Sequence[MeasurementSp
     q0 = np.nan_to_num(conf.q)
     surface = tcp_poses(model, q0, tcp)                                   # tip on the point
     ladder = [tool.approach_distance] + [d for d in APPROACH_LADDER_M if d > tool.approach_distance]
-    chosen = _probe_at(model, planner, tool, surface, q0, ladder)
+    contact_free = _contact_free(cell, planner, tool) if planner is not None else None
+    chosen = _probe_at(model, planner, tool, surface, q0, ladder, contact_free)
     out: list[MkbEntry] = []
     for i, spec in enumerate(specs):
         base = {"spec_id": spec.id, "tool": tool.name, "tool_class": tool.tool_class.value}
@@ -124,27 +133,66 @@ def _probe_entries(cell: Workcell, tool: ToolSpec, specs: Sequence[MeasurementSp
         found = chosen[i]
         if found is None:  # other rolls, nearest to the chosen configuration first
             poses = measurement_poses(cell.part, np.array([spec.point]), np.array([spec.normal]), tool,
-                                      ROLLS, standoff=0.0)[0]
+                                      max(ROLLS, FALLBACK_ROLLS), standoff=0.0)[0]
             ik = ik_tool(model, poses, tcp)
             qs = ik.q[ik.valid]
             if len(qs):
-                qs = qs[np.argsort(move_time(model, q0[i], qs), kind="stable")][:8]
-                alt = _probe_at(model, planner, tool, tcp_poses(model, qs, tcp), qs, ladder)
+                qs = qs[np.argsort(move_time(model, q0[i], qs), kind="stable")][:24]
+                alt = _probe_at(model, planner, tool, tcp_poses(model, qs, tcp), qs, ladder, contact_free)
                 found = next((a for a in alt if a is not None), None)
         if found is None:
             out.append(MkbEntry(**base, status="approach_blocked",
                                 reason=f"no collision-free approach point up to {ladder[-1] * 1000:.0f} mm "
-                                       "off the surface"))
+                                       f"off the surface, {max(APPROACH_TILTS_DEG):.0f} deg off the normal, "
+                                       "at any roll"))
             continue
         q_c, pressed, q_a, approach = found
         out.append(MkbEntry(**base, q=q_c, pose=pressed, q_approach=q_a, pose_approach=approach, press_m=PRESS_M))
     return out
 
 
+def _tilted(normal_dirs: FloatArray, tilt_deg: float) -> list[FloatArray]:
+    """Unit directions (n, 3) tilted `tilt_deg` off each of `normal_dirs` (n, 3), one
+    array per azimuth (just the normals for 0)."""
+    if tilt_deg == 0.0:
+        return [normal_dirs]
+    ref = np.where(np.abs(normal_dirs[:, :1]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])
+    u = np.cross(normal_dirs, ref)
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    v = np.cross(normal_dirs, u)
+    t = math.radians(tilt_deg)
+    return [math.cos(t) * normal_dirs + math.sin(t) * (math.cos(a) * u + math.sin(a) * v)
+            for a in np.linspace(0.0, 2.0 * math.pi, TILT_AZIMUTHS, endpoint=False)]
+
+
+def _contact_free(cell: Workcell, planner: PathPlanner, tool: ToolSpec) -> Any:
+    """``(q_a (n, 6), q_c (n, 6)) -> bool (n,)``: whether the straight joint move from the
+    approach point to contact (the controller's CONTACT) keeps the arm and the probe off the
+    part and the cell, the probe's last TIP_CLEARANCE (its spring-loaded tip, which the
+    gauge models) excepted.  Tight tubes (ita.collision.arm_tubes) over the planner's tree."""
+    from ita.collision import TIP_CLEARANCE, arm_tubes
+    from ita.kinematics import link_segments
+
+    tubes = arm_tubes(cell.arm.urdf, planner.model.link_names).with_tool(tool, planner.model.dof + 1,
+                                                                         TIP_CLEARANCE)
+    model = tubes.apply(planner.model)
+    checker = tubes.checker(planner.tree, planner.checker.mount)
+    s = np.linspace(0.0, 1.0, CONTACT_STEPS + 1)
+
+    def free(q_a: FloatArray, q_c: FloatArray) -> NDArray[np.bool_]:
+        path = q_a[:, None] + s[None, :, None] * (q_c - q_a)[:, None]          # (n, k, 6)
+        hit = checker.collides(link_segments(model, path.reshape(-1, 6)))
+        return ~hit.reshape(len(q_a), -1).any(axis=1)
+
+    return free
+
+
 def _probe_at(model: Any, planner: PathPlanner | None, tool: ToolSpec, surface: FloatArray, q0: FloatArray,
-              ladder: Sequence[float]) -> list[tuple[FloatArray, FloatArray, FloatArray, FloatArray] | None]:
+              ladder: Sequence[float], contact_free: Any = None
+              ) -> list[tuple[FloatArray, FloatArray, FloatArray, FloatArray] | None]:
     """Per tip-on-surface pose (n, 4, 4) near q0 (n, 6): (q contact, pressed pose, q approach,
-    approach pose) at the first free distance of `ladder`, or None."""
+    approach pose) at the first free distance of `ladder` along the normal, then along the
+    tilted directions of :data:`APPROACH_TILTS_DEG`, or None."""
     tcp = tool.tcp.matrix()
     n = len(surface)
     pressed = surface.copy()
@@ -152,19 +200,24 @@ def _probe_at(model: Any, planner: PathPlanner | None, tool: ToolSpec, surface: 
     q_c, ok_c = choose_nearest(model, ik_tool(model, pressed[:, None], tcp).flatten_batch(), q0)
     out: list[Any] = [None] * n
     todo = ok_c.copy()
-    for d in ladder:
-        if not todo.any():
-            break
-        approach = surface.copy()
-        approach[:, :3, 3] -= d * surface[:, :3, 2]
-        q_a, ok_a = choose_nearest(model, ik_tool(model, approach[:, None], tcp).flatten_batch(), q0)
-        good = todo & ok_a
-        free = np.zeros(n, dtype=bool)
-        if good.any():
-            free[good] = planner.config_free(q_a[good], tool) if planner is not None else True
-        for i in np.flatnonzero(free):
-            out[i] = (q_c[i], pressed[i], q_a[i], approach[i])
-        todo &= ~free
+    normal_dirs = surface[:, :3, 2]
+    for tilt in APPROACH_TILTS_DEG:
+        for direction in _tilted(normal_dirs, tilt):
+            for d in ladder:
+                if not todo.any():
+                    return out
+                approach = surface.copy()
+                approach[:, :3, 3] -= d * direction
+                q_a, ok_a = choose_nearest(model, ik_tool(model, approach[:, None], tcp).flatten_batch(), q0)
+                good = todo & ok_a
+                free = np.zeros(n, dtype=bool)
+                if good.any():
+                    free[good] = planner.config_free(q_a[good], tool) if planner is not None else True
+                if contact_free is not None and free.any():
+                    free[free] = contact_free(q_a[free], q_c[free])
+                for i in np.flatnonzero(free):
+                    out[i] = (q_c[i], pressed[i], q_a[i], approach[i])
+                todo &= ~free
     return out
 
 
@@ -212,20 +265,32 @@ def view_groups(specs: Sequence[MeasurementSpec], windows: Mapping[str, float], 
     return out
 
 
+def _view_candidates(cell: Workcell, tool: ToolSpec, spec: MeasurementSpec) -> FloatArray:
+    """Viewing poses (c, 4, 4) of one SLRA spec: the Sequence Planner's candidates, then
+    :data:`FALLBACK_ROLLS` rolls at stand-offs every 25 mm over the tool's whole range."""
+    from ita.kinematics import measurement_poses
+    from ita.sequence.cost import candidate_poses
+
+    poses, _ = candidate_poses(cell, tool, [spec])
+    standoffs = np.linspace(tool.standoff_min, tool.standoff_max,
+                            max(2, round((tool.standoff_max - tool.standoff_min) / 0.025) + 1))
+    more = [measurement_poses(cell.part, np.array([spec.point]), np.array([spec.normal]), tool, FALLBACK_ROLLS,
+                              standoff=float(d))[0] for d in standoffs]
+    return np.concatenate([poses[0], *more])
+
+
 def _free_views(cell, model, tool, specs, planner, q, found):
     """The viewing configurations (n, 6) with each one the Path Planner finds in
-    collision replaced by the candidate (another roll or stand-off) nearest to it that
-    is free; `found` False where there is none."""
+    collision replaced by the candidate (another roll or stand-off, see
+    :func:`_view_candidates`) nearest to it that is free; `found` False where there is none."""
     from ita.kinematics import move_time
-    from ita.sequence.cost import candidate_poses
 
     q, found = q.copy(), found.copy()
     blocked = np.flatnonzero(found)
     if len(blocked):
         blocked = blocked[~planner.config_free(q[blocked], tool)]
     for i in blocked:
-        poses, _ = candidate_poses(cell, tool, [specs[i]])
-        ik = ik_tool(model, poses[0], tool.tcp.matrix())
+        ik = ik_tool(model, _view_candidates(cell, tool, specs[i]), tool.tcp.matrix())
         qs = ik.q[ik.valid]
         found[i] = False
         if len(qs):
@@ -275,7 +340,8 @@ def _slra_entries(cell: Workcell, tool: ToolSpec, specs: Sequence[MeasurementSpe
             continue
         if not found[i]:
             out.append(MkbEntry(**base, status="view_blocked",
-                                reason="no collision-free viewing configuration at any roll or stand-off"))
+                                reason="no collision-free viewing configuration at any roll or stand-off "
+                                       f"({tool.standoff_min * 1000:.0f}..{tool.standoff_max * 1000:.0f} mm)"))
             continue
         g = by_id[group_of[spec.id]]
         a = index[g.anchor]                         # every member is measured from the anchor's view
