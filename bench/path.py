@@ -7,8 +7,8 @@ Same problems, same collision geometry, same validity test, same timing:
   back, random free configurations), generated with --n/--seed unless --problems is given;
 - validity: the planner's own `config_free` (joint limits, then the region tree's
   `ArmChecker` over the arm's tubes and the held tool's) called per state by OMPL, and
-  the planner's own sound motion check (`lift.MotionChecker`: grown tubes over cells of
-  the segment, so a motion it accepts is free at every position) as OMPL's
+  the planner's own sound motion check (`motion.MotionChecker`: conservative advancement
+  on exact clearances, so a motion it accepts is free at every position) as OMPL's
   MotionValidator, called per motion from Python;
 - OMPL: RRTConnect in joint space (each joint scaled by its lever arm), `simplifySolution()`
   (OMPL's shortcutting, vertex reduction and smoothing) after it.  A pose goal becomes a

@@ -12,16 +12,11 @@ from click.testing import CliRunner
 
 from ita.cli import main
 from ita.collision import ArmChecker, Regions, RegionTree
+from ita.collision.kernels import _seg_seg_d2
 from ita.errors import InputError
 from ita.kinematics import arm_model, link_segments, move_time, tcp_poses
-from ita.path.lift import (
-    ConfigChecker,
-    Effort,
-    Lifter,
-    path_free,
-    segments_free,
-    sweep_bounds,
-)
+from ita.path.lift import Effort, Lifter, path_free, segments_free
+from ita.path.motion import ConfigChecker, MotionChecker, sweep_bounds
 from ita.path.planner import HOME, PathPlanner, PlannerSettings, Reason, planners_for
 from ita.path.problems import (
     Problem,
@@ -215,16 +210,74 @@ def test_motion_check_refuses_what_sparse_samples_miss(cell):
     assert not ctx.motion_free(a, b)[0]
 
 
-def test_motions_the_check_accepts_are_free_everywhere(planner_for):
-    planner, tool = planner_for("us_probe_1")
+@pytest.mark.parametrize("held", [None, "us_probe_1", "slra_1"])
+def test_motions_the_check_accepts_are_free_everywhere(planner_for, held):
+    """Random motions, short and long, many near obstacles: every one the check accepts is
+    free at positions 0.5 mm of any tube's travel apart; and it does refuse some."""
+    planner, tool = planner_for(held)
     ctx = planner.context(tool)
     rng = np.random.default_rng(5)
-    q = rng.uniform(ctx.model.lower, ctx.model.upper, (1500, 6))
-    a = q[ctx.config_free(q)][:150]
-    b = a + rng.normal(size=a.shape) * 0.3
+    q = rng.uniform(ctx.model.lower, ctx.model.upper, (2000, 6))
+    a = q[ctx.config_free(q)][:200]
+    b = a + rng.normal(size=a.shape) * rng.choice([0.05, 0.3, 1.0], size=(len(a), 1))
     accepted = ctx.motion_free(a, b)
-    assert accepted.sum() > 30
-    assert segments_free(ctx.config_free, a[accepted], b[accepted], ctx.motion_free.bounds, 0.001).all()
+    assert 30 < accepted.sum() < len(a)
+    assert segments_free(ctx.config_free, a[accepted], b[accepted], ctx.motion_free.bounds, 0.0005).all()
+
+
+def test_segment_speeds_bound_the_tubes_motion(planner_for):
+    """The per-segment speeds (lever arms from the segment's own ends) bound every tube
+    end's travel and every self-collision pair's change of distance."""
+    planner, tool = planner_for("us_probe_1")
+    ctx = planner.context(tool)
+    model, mc = ctx.model, ctx.motion_free
+    pairs = ctx.checker.pairs
+    rng = np.random.default_rng(7)
+    s = np.linspace(0.0, 1.0, 201)[:, None]
+    tight = 0
+    for _ in range(60):
+        a = rng.uniform(model.lower, model.upper)
+        b = a + rng.normal(size=6) * 0.5
+        speed, pair_speed = mc.speeds(a, b)
+        ends = link_segments(model, a + s * (b - a))                               # (201, t, 2, 3)
+        travel = np.linalg.norm(np.diff(ends, axis=0), axis=-1).max(axis=-1) * 200   # (200, t) per unit s
+        assert (travel <= speed * (1 + 1e-9) + 1e-12).all()
+        gap = np.array([[np.sqrt(_seg_seg_d2(e[i, 0], e[i, 1], e[j, 0], e[j, 1])) for i, j in pairs] for e in ends])
+        assert (np.abs(np.diff(gap, axis=0)) * 200 <= pair_speed * (1 + 1e-9) + 1e-9).all()
+        tight += (speed <= np.abs(b - a) @ mc.bounds * (1 + 1e-12)).all() and (speed < np.abs(b - a) @ mc.bounds).any()
+    assert tight > 30                        # tighter than the configuration-free bound
+
+
+def test_a_start_micrometres_from_contact_moves_away(cell):
+    """A slab 5 micrometres under the arm's lowest point: the motion lifting the arm is
+    accepted (its steps grow with the clearance), the one lowering it is not, and the
+    plain 0.5 mm re-check agrees that the accepted one is free."""
+    model = arm_model(cell.arm)
+    a = np.array([0.0, 0.5, 0.4, 0.0, 0.6, 0.0])
+    ends = link_segments(model, a)[0]
+    low = np.where(model.tube_links >= 3, ends[..., 2].min(axis=1) - model.tube_radii, np.inf)
+    k = int(np.argmin(low))                               # the wrist's lowest tube, in front of the arm
+    under = ends[k][np.argmin(ends[k, :, 2])]
+    top = float(low[k]) - 5e-6
+    tree = RegionTree()
+    tree.add("pedestal", Regions.boxes([[0.0, 0.0, 0.3]], np.eye(3), [[0.9, 0.9, 0.6]]))
+    tree.add("slab", Regions.boxes([[under[0], under[1], top - 0.05]], np.eye(3), [[0.4, 0.4, 0.1]]))
+    planner = PathPlanner(model, tree, ArmChecker(tree, model.tube_radii, model.tube_links, mount=["pedestal"]))
+    ctx = planner.context(None)
+    assert ctx.config_free(a)[0] and not ctx.motion_free.clear(a)[0]     # free, within the floor of contact
+    up, down = a + [0.0, -0.4, 0.0, 0.0, 0.0, 0.0], a + [0.0, 0.1, 0.0, 0.0, 0.0, 0.0]
+    assert ctx.motion_free(a, up)[0] and ctx.motion_free(up, a)[0]        # leaving it, and arriving at it
+    assert not ctx.motion_free(a, down)[0]
+    assert segments_free(ctx.config_free, a, up, ctx.motion_free.bounds, 0.0005)[0]
+    r = planner.plan(a, up)
+    assert r.ok and trajectory_free(r.trajectory, lambda p, q: segments_free(ctx.config_free, p, q,
+                                                                            ctx.motion_free.bounds, 0.0005))
+
+
+def test_motion_checker_settings_are_checked(planner_for):
+    planner, tool = planner_for(None)
+    with pytest.raises(ValueError, match="floor"):
+        MotionChecker(planner.context(tool).config_free, floor=0.0)
 
 
 def test_visibility_route_goes_around_a_box():
@@ -279,7 +332,7 @@ def test_tool_point_speed_limit_is_kept(wall_scene, planner_for):
 def test_the_planner_makes_the_controllers_trajectory(planner_for):
     from ita.robot.trajectory import TimedTrajectory
 
-    planner, tool = planner_for(None)
+    planner, _ = planner_for(None)
     w = np.array([HOME, np.array(HOME) + 0.3, np.array(HOME) + [0.6, 0.3, 0.3, 0.3, 0.0, 0.3]])
     traj = planner.time(w, None, stops=[True, True, True])
     assert isinstance(traj, TimedTrajectory)

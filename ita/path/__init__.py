@@ -11,8 +11,9 @@ every joint's limits (`smooth`).
     result = planner.plan(q_start, goal_tool_poses, tool)     # or a goal configuration (6,)
     result.ok, result.reason, result.trajectory.times, result.trajectory.q
 
-Modules: `visibility`, `lift`, `smooth`, `planner` (the facade), `problems` (problem sets),
-`render` (pictures), `trajectory` (the timed trajectory the controller runs).  The planner
+Modules: `visibility`, `lift`, `motion` (configuration and sound motion checks),
+`smooth`, `planner` (the facade), `problems` (problem sets), `render` (pictures),
+`trajectory` (the timed trajectory the controller runs).  The planner
 takes an ArmModel, a RegionTree and an ArmChecker and hands plain callables
 (`config_free`, `motion_free`) to the levels below; no simulator.
 """

@@ -15,17 +15,10 @@ Subgoals, in the order they are proposed for a colliding segment a -> b:
 A candidate that frees both halves is taken (the quickest); else one that frees one half,
 and the other half is replanned (depth-first, bounded).
 
-Incremental positions, made sound (`MotionChecker`): along a joint segment a -> b no point
-of tube k's axis moves faster than D_k = sum_j |b_j - a_j| R[j, k] metres per unit of the
-segment's parameter, R[j, k] bounding tube k's distance from joint j's axis in any
-configuration (`sweep_bounds`).  The segment is cut into cells; each cell's centre is
-checked with every tube grown by the most its axis can move within half the cell
-(h * D_k), so a free cell proves its whole stretch free.  Cells are at most `resolution`
-metres of the fastest tube's sweep long; a cell whose grown check fails (but whose centre
-is free) is halved, down to `depth` halvings, before the segment is given up.  So a
-segment the checker accepts is free at every position, not only at the checked ones.
-`segments_free` is the plain sampled test (exact tubes at spaced positions), kept for
-re-checks at a stated resolution.
+Segments are tested by `motion_free` (a `motion.MotionChecker` for sound paths: a segment
+it accepts is free at every position, not only at checked ones).  `segments_free` is the
+plain sampled test (exact tubes at spaced positions), kept for re-checks at a stated
+resolution.
 
 Everything here takes plain callables: `config_free(q (n, 6)) -> bool (n,)`,
 `motion_free(a (n, 6), b (n, 6)) -> bool (n,)`.
@@ -38,12 +31,9 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
-from numba import njit
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial.transform import Rotation, Slerp
 
-from ita.collision import ArmChecker
-from ita.collision.kernels import check_arm
 from ita.kinematics import (
     ArmModel,
     choose_nearest,
@@ -52,6 +42,10 @@ from ita.kinematics import (
     move_time,
     tcp_poses,
 )
+from ita.path.motion import ConfigChecker, MotionChecker, sweep_bounds
+
+__all__ = ["ConfigChecker", "Effort", "Lifter", "MotionChecker", "lever_arms", "lift_route", "path_free",
+           "path_time", "segments_free", "sweep_bounds"]
 
 FloatArray = NDArray[np.float64]
 ConfigFree = Callable[[FloatArray], NDArray[np.bool_]]
@@ -59,275 +53,6 @@ SegmentsFree = Callable[[FloatArray, FloatArray], NDArray[np.bool_]]
 RETREAT_DISTANCES = (0.15, 0.3, 0.5)   # m
 DETOUR_STEPS = (0.5, -0.5)             # rad on j1, j2, j3
 CHUNK = 8                              # subgoals evaluated per batch, quickest first
-
-
-class ConfigChecker:
-    """`config_free` for an ArmModel and its ArmChecker, compiled end to end.
-
-    The same test as ``model.within_limits(q) & ~checker.collides(link_segments(model,
-    q))`` (the checker's own compiled kernel over the tree's current arrays), with the
-    forward kinematics compiled too, so that one configuration costs microseconds rather
-    than the numpy overhead of a batch: what a sampling planner calling it per state needs.
-    """
-
-    def __init__(self, model: ArmModel, checker: ArmChecker) -> None:
-        if len(checker.radii) != len(model.tube_radii):
-            raise ValueError("the checker's tubes are not the model's")
-        self.model, self.checker = model, checker
-        self._fk = (np.ascontiguousarray(model.base), np.ascontiguousarray(model.origins),
-                    np.ascontiguousarray(model.axes), np.ascontiguousarray(model.flange_offset),
-                    np.ascontiguousarray(model.tube_links), np.ascontiguousarray(model.tube_ends))
-        self._limits = (np.ascontiguousarray(model.lower), np.ascontiguousarray(model.upper))
-        self._objects = -1
-        self._ignore = np.zeros((0, 0), dtype=np.bool_)
-
-    def ignore(self) -> NDArray[np.bool_]:
-        """(t, objects) the mount objects that links 0 and 1 may touch (as ArmChecker)."""
-        tree = self.checker.tree
-        if tree.object_count != self._objects:
-            ignore = np.zeros((len(self.checker.radii), tree.object_count), dtype=np.bool_)
-            low = self.checker.tube_links <= 1
-            for name in self.checker.mount:
-                if name in tree.objects:
-                    ignore[low, tree.object_id(name)] = True
-            self._ignore, self._objects = ignore, tree.object_count
-        return self._ignore
-
-    def __call__(self, q: ArrayLike) -> NDArray[np.bool_]:
-        """Bool (n,): configurations q (n, 6) (or (6,)) within the limits and collision-free."""
-        q = np.ascontiguousarray(np.atleast_2d(np.asarray(q, dtype=float)))
-        c = self.checker
-        return _configs_free(q, *self._limits, *self._fk, c.radii, c.world, self.ignore(), c.pairs,
-                             *c.tree.arrays())
-
-
-@njit(cache=True)
-def _link_segments(q, base, origins, axes, flange_offset, tube_links, tube_ends, frames, joint, out):
-    """Compiled `fk.link_segments` of one configuration q (6,) into out (t, 2, 3);
-    frames (dof + 2, 4, 4) and joint (4, 4) are scratch."""
-    dof = q.shape[0]
-    frames[0] = base
-    for j in range(dof):
-        kx, ky, kz = axes[j, 0], axes[j, 1], axes[j, 2]
-        c, s = np.cos(q[j]), np.sin(q[j])
-        v = 1.0 - c
-        r00, r01, r02 = c + kx * kx * v, kx * ky * v - kz * s, kx * kz * v + ky * s
-        r10, r11, r12 = ky * kx * v + kz * s, c + ky * ky * v, ky * kz * v - kx * s
-        r20, r21, r22 = kz * kx * v - ky * s, kz * ky * v + kx * s, c + kz * kz * v
-        o = origins[j]
-        for r in range(3):
-            joint[r, 0] = o[r, 0] * r00 + o[r, 1] * r10 + o[r, 2] * r20
-            joint[r, 1] = o[r, 0] * r01 + o[r, 1] * r11 + o[r, 2] * r21
-            joint[r, 2] = o[r, 0] * r02 + o[r, 1] * r12 + o[r, 2] * r22
-            joint[r, 3] = o[r, 3]
-        joint[3, 0], joint[3, 1], joint[3, 2], joint[3, 3] = 0.0, 0.0, 0.0, 1.0
-        _mul(frames[j], joint, frames[j + 1])
-    _mul(frames[dof], flange_offset, frames[dof + 1])
-    for k in range(tube_links.shape[0]):
-        f = frames[tube_links[k]]
-        for e in range(2):
-            for r in range(3):
-                out[k, e, r] = (f[r, 0] * tube_ends[k, e, 0] + f[r, 1] * tube_ends[k, e, 1]
-                                + f[r, 2] * tube_ends[k, e, 2] + f[r, 3])
-
-
-@njit(cache=True)
-def _mul(a, b, out):
-    for r in range(4):
-        for k in range(4):
-            out[r, k] = a[r, 0] * b[0, k] + a[r, 1] * b[1, k] + a[r, 2] * b[2, k] + a[r, 3] * b[3, k]
-
-
-@njit(cache=True)
-def _configs_free(q, lower, upper, base, origins, axes, flange_offset, tube_links, tube_ends, radii, world,
-                  ignore, pairs, kind, pos, rot, half, rad, bound, solid, obj, active, child_ptr, child_idx, roots):
-    n, dof = q.shape
-    inside = np.ones(n, dtype=np.bool_)
-    segs = np.empty((n, tube_links.shape[0], 2, 3))
-    frames = np.empty((dof + 2, 4, 4))
-    joint = np.empty((4, 4))
-    for i in range(n):
-        for j in range(dof):
-            if q[i, j] < lower[j] - 1e-9 or q[i, j] > upper[j] + 1e-9:
-                inside[i] = False
-        _link_segments(q[i], base, origins, axes, flange_offset, tube_links, tube_ends, frames, joint, segs[i])
-    hit, _ = check_arm(segs, radii, world, ignore, pairs, kind, pos, rot, half, rad, bound, solid, obj,
-                       active, child_ptr, child_idx, roots)
-    return inside & (hit == 0)
-
-
-def sweep_bounds(model: ArmModel) -> FloatArray:
-    """(dof, t) m/rad: R[j, k] bounds the distance of any point of tube k's axis from joint
-    j's axis in every configuration, so no such point moves faster than R[j, k] per radian
-    of joint j (0 for joints that do not move the tube's link).
-
-    Exact for a tube on the joint's own child link (its largest distance from the axis);
-    otherwise the next joint's (fixed) distance from the axis plus the chain's length from
-    that joint's origin to the tube's farthest end."""
-    dof = model.dof
-    steps = [np.linalg.norm(model.origins[m][:3, 3]) for m in range(dof)]
-    steps.append(np.linalg.norm(model.flange_offset[:3, 3]))       # frame dof -> flange
-    out = np.zeros((dof, len(model.tube_links)))
-    for k, link in enumerate(model.tube_links):
-        ends = model.tube_ends[k]
-        reach = float(np.linalg.norm(ends, axis=1).max())
-        for j in range(min(int(link), dof)):
-            axis = model.axes[j]
-            if link == j + 1:
-                perp = ends - np.outer(ends @ axis, axis)
-                out[j, k] = float(np.linalg.norm(perp, axis=1).max())
-            else:              # frame j+2's origin is rigid on link j+1; then the chain
-                nxt = model.origins[j + 1][:3, 3] if j + 1 < dof else model.flange_offset[:3, 3]
-                offset = float(np.linalg.norm(nxt - (nxt @ axis) * axis))
-                out[j, k] = offset + float(sum(steps[m] for m in range(j + 2, int(link)))) + reach
-    return out
-
-
-@njit(cache=True)
-def _motions_free(a, b, bounds, margin, depth, budget, lower, upper, base, origins, axes, flange_offset, tube_links,
-                  tube_ends, radii, world, ignore, pairs, kind, pos, rot, half, rad, bound, solid, obj, active,
-                  child_ptr, child_idx, roots):
-    """Bool (n,): segments a -> b (n, dof) proven free by grown cells (see `MotionChecker`)."""
-    n, dof = a.shape
-    t = tube_links.shape[0]
-    out = np.zeros(n, dtype=np.bool_)
-    segs = np.empty((1, t, 2, 3))
-    frames = np.empty((dof + 2, 4, 4))
-    joint = np.empty((4, 4))
-    q = np.empty(dof)
-    speed = np.empty(t)
-    grown = np.empty(t)
-    centre = np.empty(2 * depth + 4)
-    width = np.empty(2 * depth + 4)
-    level = np.empty(2 * depth + 4, dtype=np.int64)
-    for i in range(n):
-        ok = True
-        for j in range(dof):
-            if (a[i, j] < lower[j] - 1e-9 or a[i, j] > upper[j] + 1e-9
-                    or b[i, j] < lower[j] - 1e-9 or b[i, j] > upper[j] + 1e-9):
-                ok = False
-        if not ok:
-            continue
-        fastest = 0.0
-        for k in range(t):
-            speed[k] = 0.0
-            for j in range(dof):
-                speed[k] += abs(b[i, j] - a[i, j]) * bounds[j, k]
-            fastest = max(fastest, speed[k])
-        cells = max(1, int(np.ceil(fastest / (2.0 * margin))))
-        spare = budget                      # halved cells this segment may still check
-        stride = 8
-        while stride >= 1 and ok:
-            for c in range(0, cells, stride):
-                if stride < 8 and c % (2 * stride) == 0:
-                    continue
-                top = 0
-                centre[0], width[0], level[0] = (c + 0.5) / cells, 0.5 / cells, 0
-                while top >= 0:
-                    s, h, lev = centre[top], width[top], level[top]
-                    top -= 1
-                    for j in range(dof):
-                        q[j] = a[i, j] + s * (b[i, j] - a[i, j])
-                    _link_segments(q, base, origins, axes, flange_offset, tube_links, tube_ends, frames, joint,
-                                   segs[0])
-                    for k in range(t):
-                        grown[k] = radii[k] + h * speed[k]
-                    hit, _ = check_arm(segs, grown, world, ignore, pairs, kind, pos, rot, half, rad, bound, solid,
-                                       obj, active, child_ptr, child_idx, roots)
-                    if hit[0] == 0:
-                        continue
-                    if lev >= depth or spare < 2:
-                        ok = False
-                        break
-                    spare -= 2
-                    exact, _ = check_arm(segs, radii, world, ignore, pairs, kind, pos, rot, half, rad, bound,
-                                         solid, obj, active, child_ptr, child_idx, roots)
-                    if exact[0] != 0:
-                        ok = False
-                        break
-                    for side in (-0.5, 0.5):
-                        top += 1
-                        centre[top], width[top], level[top] = s + side * h, h / 2.0, lev + 1
-                if not ok:
-                    break
-            stride //= 2
-        out[i] = ok
-    return out
-
-
-@njit(cache=True)
-def _configs_clear(q, margin, moving, lower, upper, base, origins, axes, flange_offset, tube_links, tube_ends, radii, world,
-                   ignore, pairs, kind, pos, rot, half, rad, bound, solid, obj, active, child_ptr, child_idx, roots):
-    """Bool (n,): configurations q (n, dof) within the limits and free with every moving
-    tube (moving (t,) 1.0, else 0.0) grown by margin."""
-    n, dof = q.shape
-    t = tube_links.shape[0]
-    out = np.zeros(n, dtype=np.bool_)
-    segs = np.empty((1, t, 2, 3))
-    frames = np.empty((dof + 2, 4, 4))
-    joint = np.empty((4, 4))
-    grown = radii + margin * moving
-    for i in range(n):
-        inside = True
-        for j in range(dof):
-            if q[i, j] < lower[j] - 1e-9 or q[i, j] > upper[j] + 1e-9:
-                inside = False
-        if not inside:
-            continue
-        _link_segments(q[i], base, origins, axes, flange_offset, tube_links, tube_ends, frames, joint, segs[0])
-        hit, _ = check_arm(segs, grown, world, ignore, pairs, kind, pos, rot, half, rad, bound, solid, obj, active,
-                           child_ptr, child_idx, roots)
-        out[i] = hit[0] == 0
-    return out
-
-
-class MotionChecker:
-    """`motion_free(a (n, 6), b (n, 6)) -> bool (n,)`: joint segments free at every position
-    (see the module doc), compiled end to end over a ConfigChecker's arm and tree.
-
-    resolution: m, the longest a cell may be along the fastest tube's sweep (cells are
-    checked with tubes grown by up to resolution / 2); depth: halvings of a cell whose
-    grown check fails before the segment is refused (the closest approach accepted is
-    then resolution / 2 ** (depth + 1)); budget: halved cells checked per segment before
-    it is refused (a motion grazing an obstacle over a long stretch would need many)."""
-
-    def __init__(self, config_free: ConfigChecker, resolution: float = 0.02, depth: int = 10,
-                 budget: int = 256) -> None:
-        if resolution <= 0.0 or depth < 0:
-            raise ValueError(f"resolution must be > 0 and depth >= 0, got {resolution}, {depth}")
-        self.config_free = config_free
-        self.bounds = np.ascontiguousarray(sweep_bounds(config_free.model).astype(float))
-        self.resolution, self.depth, self.budget = float(resolution), int(depth), int(budget)
-        self.checks = 0
-
-    @property
-    def floor(self) -> float:
-        """m: the smallest growth a cell is checked with; a motion passing closer to an
-        obstacle than this is refused."""
-        return self.resolution / 2.0 ** (self.depth + 1)
-
-    def clear(self, q: ArrayLike) -> NDArray[np.bool_]:
-        """Bool (n,): configurations q (n, 6) free with every tube a joint moves grown by
-        `floor`: those a motion can be proven to start from or end at (a configuration
-        closer than that to an obstacle cannot be)."""
-        q = np.ascontiguousarray(np.atleast_2d(np.asarray(q, dtype=float)))
-        cf = self.config_free
-        c = cf.checker
-        moving = (self.bounds.sum(axis=0) > 0.0).astype(float)
-        return _configs_clear(q, self.floor, moving, *cf._limits, *cf._fk, c.radii, c.world, cf.ignore(), c.pairs,
-                              *c.tree.arrays())
-
-    def __call__(self, a: ArrayLike, b: ArrayLike) -> NDArray[np.bool_]:
-        """Bool (n,): whether each segment a -> b ((n, 6) or (6,)) is free everywhere."""
-        a = np.ascontiguousarray(np.atleast_2d(np.asarray(a, dtype=float)))
-        b = np.ascontiguousarray(np.atleast_2d(np.asarray(b, dtype=float)))
-        a, b = np.broadcast_arrays(a, b)
-        cf = self.config_free
-        c = cf.checker
-        self.checks += len(a)
-        return _motions_free(np.ascontiguousarray(a), np.ascontiguousarray(b), self.bounds,
-                             self.resolution / 2.0, self.depth, self.budget, *cf._limits, *cf._fk, c.radii, c.world,
-                             cf.ignore(), c.pairs, *c.tree.arrays())
 
 
 def lever_arms(model: ArmModel, tool_length: float = 0.0) -> FloatArray:

@@ -40,14 +40,8 @@ from ita.kinematics import (
     link_segments,
     tcp_poses,
 )
-from ita.path.lift import (
-    ConfigChecker,
-    Effort,
-    Lifter,
-    MotionChecker,
-    lever_arms,
-    lift_route,
-)
+from ita.path.lift import Effort, Lifter, lever_arms, lift_route
+from ita.path.motion import ConfigChecker, MotionChecker
 from ita.path.smooth import estimate_durations, shortcut, time_parameterize
 from ita.path.trajectory import TimedTrajectory
 from ita.path.visibility import VisibilityGraph, build_graph
@@ -71,13 +65,12 @@ class Reason(str, Enum):
 class PlannerSettings:
     """Figures of the planner.
 
-    clearance: m beyond the tool's radius for visibility nodes; resolution: m of the
-    fastest tube's sweep per checked cell of a joint segment, depth: halvings of a cell
-    that does not pass (see `lift.MotionChecker`: every accepted motion is free at every
-    position; one passing closer than resolution / 2 ** (depth + 1) to an obstacle is
-    refused); max_rounds / max_seconds: the effort bound (subgoal rounds, seconds per
-    query); goal_candidates: IK solutions of the goal tried, quickest (by estimated
-    duration) first; detour_rounds / detour_gain: when the quickest goal solution is
+    clearance: m beyond the tool's radius for visibility nodes; motion_floor: m, the
+    closest approach to contact a motion may make away from its ends, motion_budget:
+    clearance evaluations per segment (see `motion.MotionChecker`: every accepted motion
+    is free at every position); max_rounds / max_seconds: the effort bound (subgoal
+    rounds, seconds per query); goal_candidates: IK solutions of the goal tried,
+    quickest (by estimated duration) first; detour_rounds / detour_gain: when the quickest goal solution is
     blocked but a slower one is free, subgoal rounds spent on the quicker one if its
     direct time is under detour_gain of the free path's; shortcut_rounds: corner-pulling
     passes;
@@ -87,8 +80,8 @@ class PlannerSettings:
     depend on the queries before it)."""
 
     clearance: float = 0.05
-    resolution: float = 0.02
-    depth: int = 10
+    motion_floor: float = 1e-5
+    motion_budget: int = 400
     max_rounds: int = 60
     max_seconds: float = 2.0
     goal_candidates: int = 6
@@ -194,7 +187,7 @@ class PathPlanner:
             radius = float(self.model.tube_radii[-1]) if tool is None else tool_tube(tool)[1]
             reach = 0.0 if tool is None else float(np.linalg.norm(tool.tcp.position))
             config_free = ConfigChecker(model, checker)
-            motion_free = MotionChecker(config_free, self.settings.resolution, self.settings.depth)
+            motion_free = MotionChecker(config_free, self.settings.motion_floor, self.settings.motion_budget)
             self._contexts[key] = _ToolContext(model, checker, tcp, radius, lever_arms(self.model, reach + radius),
                                                config_free, motion_free)
         return self._contexts[key]
@@ -221,7 +214,8 @@ class PathPlanner:
     def goal_configs(self, q_start: FloatArray, goal: ArrayLike, tool: ToolSpec | None
                      ) -> tuple[FloatArray, Reason | None, str]:
         """Free goal configurations (m, 6), quickest from q_start (estimated blended
-        duration) first, those the motion check cannot reach (`MotionChecker.clear`) last;
+        duration) first, those within the motion check's floor of contact (reachable
+        only by moving straight out of it: `MotionChecker.clear`) last;
         or a reason."""
         ctx = self.context(tool)
         g = np.asarray(goal, dtype=float)
@@ -243,7 +237,7 @@ class PathPlanner:
             return np.zeros((0, 6)), Reason.GOAL_IN_COLLISION, f"every joint solution of the goal hits something: {self._culprits(q, ctx)}"
         q = q[free]
         direct = estimate_durations(self.model, np.stack([np.broadcast_to(q_start, q.shape), q], axis=1), ctx.tcp)
-        # solutions closer to an obstacle than the motion check can prove a motion to last
+        # solutions within micrometres of contact last
         touching = ~ctx.motion_free.clear(q)
         q = q[np.lexsort((direct, touching))]
         _, first = np.unique(np.round(q, 9), axis=0, return_index=True)
