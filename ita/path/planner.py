@@ -32,7 +32,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ita.collision import ArmChecker, RegionTree, build_tree, self_pairs, tool_tube
+from ita.collision import ArmChecker, ArmTubes, RegionTree, arm_tubes, build_tree, self_pairs, tool_tube
 from ita.kinematics import (
     ArmModel,
     arm_model,
@@ -167,11 +167,14 @@ class PathPlanner:
     arm's checker over that tree (its `mount` is kept for tool variants)."""
 
     def __init__(self, model: ArmModel, tree: RegionTree, checker: ArmChecker,
-                 settings: PlannerSettings | None = None) -> None:
+                 settings: PlannerSettings | None = None, tubes: ArmTubes | None = None) -> None:
         self.model = model
         self.tree = tree
         self.checker = checker
         self.settings = settings or PlannerSettings()
+        # the arm's tight tubes (`ita.collision.arm_tubes`); a held tool then gets tubes of
+        # its real shape.  Without them a tool is one enclosing tube (`arm_with_tool`).
+        self.tubes = tubes
         self._contexts: dict[str | None, _ToolContext] = {}
 
     # ---- per tool --------------------------------------------------------------------
@@ -181,8 +184,14 @@ class PathPlanner:
         if key not in self._contexts:
             if tool is not None and tool.name in self.tree.objects:
                 raise ValueError(f"the held tool {tool.name!r} is still in the region tree as parked")
-            model = arm_with_tool(self.model, tool)
-            checker = self.checker if tool is None else checker_for(model, self.tree, self.checker.mount)
+            if tool is None:
+                model, checker = self.model, self.checker
+            elif self.tubes is not None:
+                held = self.tubes.with_tool(tool, self.model.dof + 1)
+                model, checker = held.apply(self.model), held.checker(self.tree, self.checker.mount)
+            else:
+                model = arm_with_tool(self.model, tool)
+                checker = checker_for(model, self.tree, self.checker.mount)
             tcp = np.eye(4) if tool is None else tool.tcp.matrix()
             radius = float(self.model.tube_radii[-1]) if tool is None else tool_tube(tool)[1]
             reach = 0.0 if tool is None else float(np.linalg.norm(tool.tcp.position))
@@ -398,6 +407,8 @@ def workcell_planner(cell: Workcell, part: Any | None, held: str | None = None,
         tool = cell.tool(held)
         if held in tree.objects:
             tree.remove(held)
-    model = arm_model(cell.arm)
-    checker = ArmChecker(tree, model.tube_radii, model.tube_links, mount=[cell.pedestal.name])
-    return PathPlanner(model, tree, checker, settings), tool
+    bare = arm_model(cell.arm)
+    tubes = arm_tubes(cell.arm.urdf, bare.link_names)
+    model = tubes.apply(bare)
+    checker = tubes.checker(tree, mount=[cell.pedestal.name])
+    return PathPlanner(model, tree, checker, settings, tubes), tool
