@@ -299,8 +299,9 @@ def test_tool_tubes_enclose_the_simulators_tool_shapes(cell):
 
 def test_wrist_self_collision_is_the_urdfs_not_the_capsules():
     """Links 4 and 6 meet where pybullet's real cylinder and capsule meet (j5 near 100 deg
-    folded), not 18 mm earlier as the enclosing capsules did; the tight tubes stay on the
-    conservative side of pybullet at every fold."""
+    folded): within 20 mrad of pybullet's first contact (link 6 met as its flat-ended
+    cylinder), not 18 mm earlier as the enclosing capsules did; the tight tubes stay on
+    the conservative side of pybullet at every fold."""
     import pybullet as p
 
     from ita.kinematics import arm_model, link_segments
@@ -310,7 +311,7 @@ def test_wrist_self_collision_is_the_urdfs_not_the_capsules():
     tubes = arm_tubes(cell.arm.urdf, model.link_names)
     checker = tubes.checker(RegionTree())
     tight = tubes.apply(model)
-    folds = np.linspace(1.3, 2.09, 80)
+    folds = np.linspace(1.3, 2.09, 396)                          # every 2 mrad
     q = np.column_stack([np.zeros((len(folds), 4)), folds, np.full(len(folds), 0.3)])
     cid = p.connect(p.DIRECT)
     try:
@@ -329,6 +330,7 @@ def test_wrist_self_collision_is_the_urdfs_not_the_capsules():
     assert real.any() and not real.all()
     assert not np.any(real & ~model_says)                     # never free where pybullet collides
     assert folds[np.argmax(model_says)] > folds[np.argmax(loose)] + 0.2   # much later than the capsules
+    assert folds[np.argmax(model_says)] > folds[np.argmax(real)] - 0.02   # hardly before pybullet
 
 
 def test_no_missed_collision_with_the_held_tool_against_the_simulator(cell, part):
@@ -361,8 +363,8 @@ def test_no_missed_collision_with_the_held_tool_against_the_simulator(cell, part
 
 
 def test_no_missed_arm_collision_with_tight_tubes_against_pybullet(cell, part, tree):
-    """The tight link tubes (clipped self-check capsules of the wrist's cylinders) find
-    every collision pybullet finds, self-collisions of non-adjacent links included."""
+    """The tight link tubes (the cylinders met as flat-ended cylinders by the other links)
+    find every collision pybullet finds, self-collisions of non-adjacent links included."""
     from ita.kinematics import arm_model, link_segments
 
     model = arm_model(cell.arm)
@@ -375,3 +377,25 @@ def test_no_missed_arm_collision_with_tight_tubes_against_pybullet(cell, part, t
         ref = np.array([scene.arm_collides(c) for c in q])
     got = tubes.checker(tree, mount=[cell.pedestal.name]).collides(link_segments(tubes.apply(model), q))
     assert not np.any(ref & ~got), f"{np.sum(ref & ~got)} arm collisions missed"
+
+
+def test_pair_gap_meets_a_flat_cylinder_exactly_and_never_late():
+    """A capsule against a flat-ended cylinder: the gap is a lower bound of the true
+    distance (dense samples of the segment against the exact point-cylinder distance)
+    and within the samples' spacing of it."""
+    from ita.collision.kernels import pair_gap
+
+    rng = np.random.default_rng(21)
+    t = np.linspace(0.0, 1.0, 20001)[:, None]
+    for _ in range(60):
+        p0, p1, q0, q1 = rng.normal(size=(4, 3)) * 0.2
+        rq, rc = rng.uniform(0.01, 0.1), rng.uniform(0.02, 0.15)
+        u = (q1 - q0) / np.linalg.norm(q1 - q0)
+        w = p0 + t * (p1 - p0) - (q0 + q1) / 2
+        h = w @ u
+        rho = np.sqrt(np.maximum((w * w).sum(axis=1) - h * h, 0.0))
+        along = np.maximum(np.abs(h) - np.linalg.norm(q1 - q0) / 2, 0.0)
+        true = np.hypot(along, np.maximum(rho - rc, 0.0)).min() - rq
+        got = pair_gap(p0, p1, rq, 0.0, q0, q1, rc, rc)
+        assert got <= true + 1e-12
+        assert got >= true - 1e-5                  # the samples' own spacing

@@ -15,10 +15,11 @@ Self: tube pairs whose links are not adjacent in the chain (|link_i - link_j| > 
 pybullet's default filter).
 
 Tight tubes (`arm_tubes`, `ArmTubes`): every tube encloses the URDF shape it stands for
-(conservative), but a short URDF cylinder is enclosed twice: by the capsule on its own
-axis and radius (checked against the world: radially exact) and by the capsule whose ends
-are clipped inside it (checked against the other links: it hardly sticks out of the
-cylinder's flat faces, which is where a folded wrist's links meet).  A held tool is the
+(conservative).  A URDF cylinder is two tubes: the capsule on its own axis and radius,
+checked against the world (radially exact), and for the other links the flat-ended
+cylinder itself grown by CYLINDER_PAD (`cylinder`, met by `kernels.pair_gap`: exact up
+to the pad, where a folded wrist's links meet at the cylinders' flat faces).  A held
+tool is the
 tubes of its real shape (`tool_tubes`: the simulator's holder and bent shaft, or its body
 box as 2 x 2 tubes) on the flange link; it moves with the arm, so it is not in the tree
 while held (remove it from the tree at pick-up, add it back at put-down).  `tool_tube` is
@@ -51,8 +52,8 @@ PROBE_SHAFT_RADIUS = 0.008   # m: its shaft, a capsule along the tip axis from t
 TOOL_GAP = 0.002             # m: tool shapes start this far off the flange face
 TIP_CLEARANCE = 0.008        # m: the simulator's shaft stops this far short of the tip
 BOX_CLIP = 0.5               # a box tool's tubes end this fraction of their cell's half diagonal inside it
-SELF_CLIP = 0.85             # a cylinder's self-check capsule ends clipped up to this times its radius
-SELF_CLIP_MAX_RADIUS = 0.1   # m: ... for cylinders no thicker (the wrist's housings)
+CYLINDER_PAD = 0.0015        # m: a cylinder's self-check shape grown this much all round (the simulator's
+                             # cylinders, convex hulls with a collision margin, reach up to 1 mm past it)
 
 
 def self_pairs(tube_links: ArrayLike, skip: int = 1, exclude: ArrayLike = ()) -> NDArray[np.int64]:
@@ -107,7 +108,8 @@ def tool_tubes(tool: ToolSpec, tip_clearance: float = 0.0) -> tuple[np.ndarray, 
     """Tubes enclosing the tool's real shape: ends (k, 2, 3) in the flange frame, radii (k,).
 
     A contact probe (no stand-off): its holder, the cylinder of PROBE_HOLDER_RADIUS along
-    the flange axis from TOOL_GAP up to the bend (as the capsule on that axis), and its
+    the flange axis from TOOL_GAP up to the bend (as the capsule on that axis; the first
+    tube), and its
     shaft, the capsule of PROBE_SHAFT_RADIUS along the tip axis from the bend to
     `tip_clearance` short of the tip (0: the whole probe, for free-space checks;
     TIP_CLEARANCE: the simulator's shaft, which leaves the spring-loaded tip free to touch
@@ -153,14 +155,17 @@ class ArmTubes:
 
     links (t,) index of each tube's link (0 the base, the flange dof + 1); ends (t, 2, 3)
     in the link's frame; radii (t,); world (t,) bool: walked through the tree; self_check
-    (t,) bool: met against the other links' tubes; exclude (k, 2): link pairs never
-    checked (the held tool and the wrist link it is bolted next to)."""
+    (t,) bool: met against the other links' tubes; cylinder (t,): the radius of the
+    flat-ended cylinder a tube stands for in self checks (0: the tube is its capsule);
+    exclude (k, 2): link pairs never checked (the held tool and the wrist link it is
+    bolted next to)."""
 
     links: np.ndarray
     ends: np.ndarray
     radii: np.ndarray
     world: np.ndarray
     self_check: np.ndarray
+    cylinder: np.ndarray
     exclude: tuple[tuple[int, int], ...] = ()
 
     def __len__(self) -> int:
@@ -174,13 +179,22 @@ class ArmTubes:
 
     def with_tool(self, tool: ToolSpec, flange: int, tip_clearance: float = 0.0) -> ArmTubes:
         """These tubes and the held tool's (`tool_tubes`) on link `flange` (dof + 1),
-        which are not checked against link flange - 2 (the wrist link before the last)."""
+        which are not checked against link flange - 2 (the wrist link before the last).
+        A contact probe's holder (the first tube) is met by the links as its cylinder
+        (`cylinder_tube`), its capsule by the world."""
         ends, radii = tool_tubes(tool, tip_clearance)
         k = len(radii)
+        world, self_, cylinder = np.ones(k, bool), np.ones(k, bool), np.zeros(k)
+        if not (tool.standoff_nominal > 0.0 or tool.tcp_length <= TOOL_GAP):
+            pad_ends, pad_r = cylinder_tube(ends[0], PROBE_HOLDER_RADIUS)
+            ends, radii = np.concatenate([ends, pad_ends[None]]), np.append(radii, pad_r)
+            world, self_, cylinder = np.append(world, False), np.append(self_, True), np.append(cylinder, pad_r)
+            self_[0] = False
+            k += 1
         return ArmTubes(np.append(self.links, np.full(k, flange)).astype(np.int64),
                         np.concatenate([self.ends, ends]), np.append(self.radii, radii),
-                        np.append(self.world, np.ones(k, bool)), np.append(self.self_check, np.ones(k, bool)),
-                        self.exclude + ((flange - 2, flange),))
+                        np.append(self.world, world), np.append(self.self_check, self_),
+                        np.append(self.cylinder, cylinder), self.exclude + ((flange - 2, flange),))
 
     def apply(self, model: Any) -> Any:
         """An ArmModel (ita.kinematics) with these tubes instead of its own."""
@@ -190,32 +204,36 @@ class ArmTubes:
     def checker(self, tree: RegionTree, mount: Iterable[str] = ()) -> ArmChecker:
         """The ArmChecker of these tubes over `tree`."""
         return ArmChecker(tree, self.radii, self.links, pairs=self.pairs(), world=self.world & (self.links != 0),
-                          mount=mount)
+                          mount=mount, cylinder=self.cylinder)
 
 
-def arm_tubes(urdf: Path, link_names: Sequence[str], self_clip: float = SELF_CLIP,
-              clip_max_radius: float = SELF_CLIP_MAX_RADIUS) -> ArmTubes:
+def cylinder_tube(ends: ArrayLike, radius: float, pad: float = CYLINDER_PAD) -> tuple[np.ndarray, float]:
+    """The self-check tube of the cylinder on the axis ends (2, 3) of `radius`: the
+    cylinder grown by `pad` (its ends (2, 3) moved pad outward, its radius)."""
+    a, b = np.asarray(ends, dtype=float)
+    u = (b - a) / np.linalg.norm(b - a)
+    return np.array([a - pad * u, b + pad * u]), float(radius + pad)
+
+
+def arm_tubes(urdf: Path, link_names: Sequence[str], pad: float = CYLINDER_PAD) -> ArmTubes:
     """The tight tubes of the URDF's links (`link_names` in chain order, as ArmModel's).
 
-    A capsule is itself.  A cylinder of radius r and length L is the capsule on its axis
-    and radius (world and self); when r <= clip_max_radius, its self-check tube is instead
-    the capsule whose ends lie d = min(L / 2, self_clip r) inside the flat faces, of radius
-    sqrt(r^2 + d^2) (the faces' rims lie on it), and the first is checked against the world
-    only."""
+    A capsule is itself (world and self).  A cylinder is the capsule on its axis and
+    radius (world only) and the flat-ended cylinder grown by `pad` (`cylinder_tube`; self
+    only)."""
     links, ends, radii, tags = urdf_tubes(urdf, link_names)
-    out_l, out_e, out_r, world, self_ = [], [], [], [], []
-    for link, (a, b), r, tag in zip(links, ends, radii, tags):
-        out_l.append(link), out_e.append([a, b]), out_r.append(r)
-        clip = tag == "cylinder" and r <= clip_max_radius
-        world.append(True), self_.append(not clip)
-        if clip:
-            length = float(np.linalg.norm(b - a))
-            d = min(length / 2.0, self_clip * r)
-            u = (b - a) / length
-            out_l.append(link), out_e.append([a + d * u, b - d * u]), out_r.append(float(np.hypot(r, d)))
-            world.append(False), self_.append(True)
+    out_l, out_e, out_r, world, self_, cyl = [], [], [], [], [], []
+    for link, e, r, tag in zip(links, ends, radii, tags):
+        flat = tag == "cylinder"
+        out_l.append(link), out_e.append(e), out_r.append(r)
+        world.append(True), self_.append(not flat), cyl.append(0.0)
+        if flat:
+            grown, radius = cylinder_tube(e, r, pad)
+            out_l.append(link), out_e.append(grown), out_r.append(radius)
+            world.append(False), self_.append(True), cyl.append(radius)
     return ArmTubes(np.asarray(out_l, dtype=np.int64), np.asarray(out_e, dtype=float).reshape(-1, 2, 3),
-                    np.asarray(out_r, dtype=float), np.asarray(world, bool), np.asarray(self_, bool))
+                    np.asarray(out_r, dtype=float), np.asarray(world, bool), np.asarray(self_, bool),
+                    np.asarray(cyl, dtype=float))
 
 
 def transform_points(poses: ArrayLike, points: ArrayLike) -> np.ndarray:
@@ -247,12 +265,13 @@ class ArmChecker:
     radii (t,), tube_links (t,) link index in chain order (0 = the fixed base); pairs:
     self-collision tube pairs (default `self_pairs(tube_links)`); world (t,) bool: tubes
     checked against the tree (default: all but the base link's); mount: names of the
-    objects the base stands on, which links 0 and 1 may touch.  The tree is read at each
-    call, so updates to it are seen."""
+    objects the base stands on, which links 0 and 1 may touch; cylinder (t,): the radius
+    of the flat-ended cylinder a tube stands for in self checks (default 0: every tube is
+    its capsule).  The tree is read at each call, so updates to it are seen."""
 
     def __init__(self, tree: RegionTree, radii: ArrayLike, tube_links: ArrayLike,
                  pairs: ArrayLike | None = None, world: ArrayLike | None = None,
-                 mount: Iterable[str] = ()) -> None:
+                 mount: Iterable[str] = (), cylinder: ArrayLike | None = None) -> None:
         self.tree = tree
         self.radii = np.ascontiguousarray(radii, dtype=float)
         self.tube_links = np.asarray(tube_links, dtype=np.int64)
@@ -261,6 +280,10 @@ class ArmChecker:
         self.pairs = np.ascontiguousarray(self_pairs(self.tube_links) if pairs is None else pairs, dtype=np.int64)
         self.world = np.ascontiguousarray(self.tube_links != 0 if world is None else world, dtype=np.bool_)
         self.mount = tuple(mount)
+        self.cylinder = np.ascontiguousarray(np.zeros(len(self.radii)) if cylinder is None else cylinder,
+                                             dtype=float)
+        if self.cylinder.shape != self.radii.shape:
+            raise ValueError("cylinder and radii must have the same length")
 
     def _ignore(self) -> np.ndarray:
         ignore = np.zeros((len(self.radii), self.tree.object_count), dtype=np.bool_)
@@ -276,7 +299,7 @@ class ArmChecker:
             segs = segs[None]
         if segs.shape[1:] != (len(self.radii), 2, 3):
             raise ValueError(f"segments must be (n, {len(self.radii)}, 2, 3), got {segs.shape}")
-        return kernels.check_arm(segs, self.radii, self.world, self._ignore(), self.pairs, *self.tree.arrays())
+        return kernels.check_arm(segs, self.radii, self.cylinder, self.world, self._ignore(), self.pairs, *self.tree.arrays())
 
     def collides(self, segments: ArrayLike) -> NDArray[np.bool_]:
         """Bool (n,): whether each configuration's tubes (n, t, 2, 3) meet the world or each other."""

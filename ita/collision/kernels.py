@@ -71,6 +71,76 @@ def _seg_seg_d2(p0, p1, q0, q1):
 
 
 @njit(cache=True)
+def _point_cyl_d2(x, y, z, c0, u, half, r):
+    """Squared distance of the point (x, y, z) from the solid cylinder of radius r whose
+    axis runs half either side of c0 along the unit u (0 inside)."""
+    wx, wy, wz = x - c0[0], y - c0[1], z - c0[2]
+    h = wx * u[0] + wy * u[1] + wz * u[2]
+    rho = np.sqrt(max(wx * wx + wy * wy + wz * wz - h * h, 0.0))
+    dx = max(abs(h) - half, 0.0)
+    dr = max(rho - r, 0.0)
+    return dx * dx + dr * dr
+
+
+@njit(cache=True)
+def _seg_cyl_d(p0, p1, q0, q1, r):
+    """A lower bound, within 1e-8 m, of the distance of the segment p0 p1 from the solid,
+    flat-ended cylinder of radius r on the axis q0 q1 (0 where they meet).
+
+    The distance from a convex set is convex along the segment: a golden-section search
+    brackets its least value, and the segment's length times the last bracket's width
+    (the most the distance changes across it) is taken off what was found."""
+    ux, uy, uz = q1[0] - q0[0], q1[1] - q0[1], q1[2] - q0[2]
+    length = np.sqrt(ux * ux + uy * uy + uz * uz)
+    u = np.empty(3)
+    c0 = np.empty(3)
+    if length > 0.0:
+        u[0], u[1], u[2] = ux / length, uy / length, uz / length
+    else:
+        u[0], u[1], u[2] = 1.0, 0.0, 0.0
+    for i in range(3):
+        c0[i] = 0.5 * (q0[i] + q1[i])
+    half = 0.5 * length
+    dx, dy, dz = p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2]
+    span = np.sqrt(dx * dx + dy * dy + dz * dz)
+    best = min(_point_cyl_d2(p0[0], p0[1], p0[2], c0, u, half, r),
+               _point_cyl_d2(p1[0], p1[1], p1[2], c0, u, half, r))
+    if span == 0.0:
+        return np.sqrt(best)
+    g = 0.6180339887498949
+    lo, hi = 0.0, 1.0
+    a = hi - g * (hi - lo)
+    b = lo + g * (hi - lo)
+    fa = _point_cyl_d2(p0[0] + a * dx, p0[1] + a * dy, p0[2] + a * dz, c0, u, half, r)
+    fb = _point_cyl_d2(p0[0] + b * dx, p0[1] + b * dy, p0[2] + b * dz, c0, u, half, r)
+    while (hi - lo) * span > 1e-9:
+        if fa <= fb:
+            hi, b, fb = b, a, fa
+            a = hi - g * (hi - lo)
+            fa = _point_cyl_d2(p0[0] + a * dx, p0[1] + a * dy, p0[2] + a * dz, c0, u, half, r)
+        else:
+            lo, a, fa = a, b, fb
+            b = lo + g * (hi - lo)
+            fb = _point_cyl_d2(p0[0] + b * dx, p0[1] + b * dy, p0[2] + b * dz, c0, u, half, r)
+        best = min(best, fa, fb)
+    return max(np.sqrt(best) - (hi - lo) * span - 1e-9, 0.0)
+
+
+@njit(cache=True)
+def pair_gap(p0, p1, rp, cp, q0, q1, rq, cq):
+    """m: a lower bound of the surface distance of two tubes of a self-collision pair
+    (<= 0 where they meet).  A tube (p0, p1, rp) with cp > 0 stands for the flat-ended
+    cylinder of radius cp on its axis grown by rp - cp (rp: the radius it is checked
+    with); with cp == 0 it is its capsule.  When both are cylinders, the thicker is met
+    exactly and the other as its capsule (which encloses it)."""
+    if cp == 0.0 and cq == 0.0:
+        return np.sqrt(_seg_seg_d2(p0, p1, q0, q1)) - rp - rq
+    if cp >= cq:
+        return _seg_cyl_d(q0, q1, p0, p1, cp) - (rp - cp) - rq
+    return _seg_cyl_d(p0, p1, q0, q1, cq) - (rq - cq) - rp
+
+
+@njit(cache=True)
 def _slab(a, d, h0, h1, h2, grow):
     """Whether a + t d, t in [0, 1], meets the box of half extents h + grow (box frame)."""
     t0, t1 = 0.0, 1.0
@@ -223,14 +293,15 @@ def query_pairs(p0, p1, r, kind, pos, rot, half, rad, bound, nodes):
 
 
 @njit(cache=True)
-def check_arm(segs, radii, world, ignore, pairs, kind, pos, rot, half, rad, bound, solid, obj, active, child_ptr,
+def check_arm(segs, radii, cyl, world, ignore, pairs, kind, pos, rot, half, rad, bound, solid, obj, active, child_ptr,
               child_idx, roots):
     """Per configuration of segs (n, t, 2, 3): (hit (n,) int8, detail (n,) int64).
 
     hit: 0 free, 1 a tube meets a solid region (detail: that region), 2 two tubes of a
     self-collision pair meet (detail: the pair's index).  World tubes (world[k]) are
     walked through the tree, not counting the objects ignore[k] (t, objects); pairs (p, 2)
-    are tube index pairs checked against each other.
+    are tube index pairs checked against each other, a tube with cyl[k] > 0 as the
+    flat-ended cylinder of that radius (see `pair_gap`).
     """
     n, t = segs.shape[0], segs.shape[1]
     hit = np.zeros(n, dtype=np.int8)
@@ -254,7 +325,10 @@ def check_arm(segs, radii, world, ignore, pairs, kind, pos, rot, half, rad, boun
         for p in range(pairs.shape[0]):
             i, j = pairs[p, 0], pairs[p, 1]
             reach = radii[i] + radii[j]
-            if _seg_seg_d2(segs[c, i, 0], segs[c, i, 1], segs[c, j, 0], segs[c, j, 1]) <= reach * reach:
+            if _seg_seg_d2(segs[c, i, 0], segs[c, i, 1], segs[c, j, 0], segs[c, j, 1]) > reach * reach:
+                continue        # the capsules enclose the cylinders
+            if (cyl[i] == 0.0 and cyl[j] == 0.0) or pair_gap(segs[c, i, 0], segs[c, i, 1], radii[i], cyl[i],
+                                                             segs[c, j, 0], segs[c, j, 1], radii[j], cyl[j]) <= 0.0:
                 hit[c] = 2
                 detail[c] = p
                 break

@@ -32,7 +32,7 @@ from numpy.typing import NDArray
 from ita.paths import ita_home
 
 FloatArray = NDArray[np.float64]
-MKB_VERSION = 2
+MKB_VERSION = 3
 OK = "ok"
 
 __all__ = [
@@ -58,7 +58,7 @@ def _array(value: Any, shape: tuple[int, ...]) -> FloatArray | None:
 class MkbEntry:
     """Where the arm stands for one measurement.
 
-    status: ``ok`` or why not (``no_pose``, ``approach_blocked``...), reason: one line.
+    status: ``ok`` or why not (``no_pose``, ``approach_blocked``, ``contact_blocked``...), reason: one line.
     q / pose: the measuring configuration (6,) and TCP pose (4, 4): in contact for the
     probe, the viewing pose for the SLRA.  q_approach / pose_approach: the free-space
     approach point (the viewing pose itself for the SLRA).  press_m: how far the probe's

@@ -17,7 +17,8 @@ information"):
 - the probe: in contact with the tip pressed :data:`PRESS_M` into its spring travel; the
   approach point :attr:`ToolSpec.approach_distance` back along the normal, which must be
   collision-free for the Path Planner (else the measurement cannot be done:
-  ``approach_blocked``);
+  ``approach_blocked``, or ``contact_blocked`` when the probe on the point itself
+  collides at every roll and arm branch);
 - the SLRA: the viewing pose at the chosen stand-off, the scan window Vision asks for
   (ita.vision.measure.scan_for) scaled to that stand-off; measurements of one feature
   whose windows fit, all together, into one frame no more than :data:`GROUP_GROWTH` times
@@ -109,7 +110,9 @@ def _probe_entries(cell: Workcell, tool: ToolSpec, specs: Sequence[MeasurementSp
     still meets the surface along its normal, as the gauge needs); and from which the
     straight move to contact keeps the arm and the probe (all but its spring-loaded tip)
     off everything (:func:`_contact_free`).  When none is, :data:`FALLBACK_ROLLS` rolls of
-    the probe about the normal are tried, nearest to the chosen configuration first.
+    the probe about the normal are tried, nearest to the chosen configuration first; when
+    every one of them collides at contact already, no approach can help:
+    ``contact_blocked``.
     """
     from ita.kinematics import measurement_poses, move_time
     from ita.sequence.cost import ROLLS, measurement_configurations
@@ -131,15 +134,21 @@ def _probe_entries(cell: Workcell, tool: ToolSpec, specs: Sequence[MeasurementSp
             out.append(MkbEntry(**base, status="no_pose", reason=f"no arm configuration ({conf.status[i]})"))
             continue
         found = chosen[i]
+        every = np.zeros((0, model.dof))
         if found is None:  # other rolls, nearest to the chosen configuration first
             poses = measurement_poses(cell.part, np.array([spec.point]), np.array([spec.normal]), tool,
                                       max(ROLLS, FALLBACK_ROLLS), standoff=0.0)[0]
             ik = ik_tool(model, poses, tcp)
-            qs = ik.q[ik.valid]
-            if len(qs):
-                qs = qs[np.argsort(move_time(model, q0[i], qs), kind="stable")][:24]
+            every = ik.q[ik.valid]
+            if len(every):
+                qs = every[np.argsort(move_time(model, q0[i], every), kind="stable")][:24]
                 alt = _probe_at(model, planner, tool, tcp_poses(model, qs, tcp), qs, ladder, contact_free)
                 found = next((a for a in alt if a is not None), None)
+        if found is None and len(every) and contact_free is not None and not contact_free(every, every).any():
+            out.append(MkbEntry(**base, status="contact_blocked",
+                                reason=f"the probe on the point collides in every arm configuration "
+                                       f"({len(every)}: {max(ROLLS, FALLBACK_ROLLS)} rolls, every arm branch)"))
+            continue
         if found is None:
             out.append(MkbEntry(**base, status="approach_blocked",
                                 reason=f"no collision-free approach point up to {ladder[-1] * 1000:.0f} mm "

@@ -11,7 +11,8 @@ advancement on exact clearances:
   and (r_a + r_b + V) / 2, r_a and r_b the tube's actual lever arm at the segment's ends
   (forward kinematics) and V the most the joints past j can change it;
 * two tubes of a self-collision pair move relative to each other no faster than the
-  joints between their links move the outer one (the joints below move both alike);
+  joints between their links move the outer one (the joints below move both alike; a
+  tube met as its flat-ended cylinder reaches its radius farther from their axes);
 * at a position s with clearances c_k (tube to the tree) and c_p (pair), the stretch
   s +- min(c_k / W_k, c_p / P_p) is free.  The segment's middle is checked first (a short
   segment is done in one step); the rest is covered by advancing from both ends toward
@@ -37,6 +38,7 @@ from ita.collision.kernels import (
     _seg_seg_d2,
     _slab,
     check_arm,
+    pair_gap,
 )
 from ita.kinematics import ArmModel
 
@@ -80,7 +82,7 @@ class ConfigChecker:
         """Bool (n,): configurations q (n, 6) (or (6,)) within the limits and collision-free."""
         q = np.ascontiguousarray(np.atleast_2d(np.asarray(q, dtype=float)))
         c = self.checker
-        return _configs_free(q, *self._limits, *self._fk, c.radii, c.world, self.ignore(), c.pairs,
+        return _configs_free(q, *self._limits, *self._fk, c.radii, c.cylinder, c.world, self.ignore(), c.pairs,
                              *c.tree.arrays())
 
 
@@ -122,7 +124,7 @@ def _mul(a, b, out):
 
 
 @njit(cache=True)
-def _configs_free(q, lower, upper, base, origins, axes, flange_offset, tube_links, tube_ends, radii, world,
+def _configs_free(q, lower, upper, base, origins, axes, flange_offset, tube_links, tube_ends, radii, cyl, world,
                   ignore, pairs, kind, pos, rot, half, rad, bound, solid, obj, active, child_ptr, child_idx, roots):
     n, dof = q.shape
     inside = np.ones(n, dtype=np.bool_)
@@ -134,7 +136,7 @@ def _configs_free(q, lower, upper, base, origins, axes, flange_offset, tube_link
             if q[i, j] < lower[j] - 1e-9 or q[i, j] > upper[j] + 1e-9:
                 inside[i] = False
         _link_segments(q[i], base, origins, axes, flange_offset, tube_links, tube_ends, frames, joint, segs[i])
-    hit, _ = check_arm(segs, radii, world, ignore, pairs, kind, pos, rot, half, rad, bound, solid, obj,
+    hit, _ = check_arm(segs, radii, cyl, world, ignore, pairs, kind, pos, rot, half, rad, bound, solid, obj,
                        active, child_ptr, child_idx, roots)
     return inside & (hit == 0)
 
@@ -167,7 +169,8 @@ def sweep_bounds(model: ArmModel) -> FloatArray:
 
 
 @njit(cache=True)
-def _configs_clear(q, margin, moving, lower, upper, base, origins, axes, flange_offset, tube_links, tube_ends, radii, world,
+def _configs_clear(q, margin, moving, lower, upper, base, origins, axes, flange_offset, tube_links, tube_ends, radii,
+                   cyl, world,
                    ignore, pairs, kind, pos, rot, half, rad, bound, solid, obj, active, child_ptr, child_idx, roots):
     """Bool (n,): configurations q (n, dof) within the limits and free with every moving
     tube (moving (t,) 1.0, else 0.0) grown by margin."""
@@ -186,7 +189,7 @@ def _configs_clear(q, margin, moving, lower, upper, base, origins, axes, flange_
         if not inside:
             continue
         _link_segments(q[i], base, origins, axes, flange_offset, tube_links, tube_ends, frames, joint, segs[0])
-        hit, _ = check_arm(segs, grown, world, ignore, pairs, kind, pos, rot, half, rad, bound, solid, obj, active,
+        hit, _ = check_arm(segs, grown, cyl, world, ignore, pairs, kind, pos, rot, half, rad, bound, solid, obj, active,
                            child_ptr, child_idx, roots)
         out[i] = hit[0] == 0
     return out
@@ -267,10 +270,11 @@ def _axis_distance(frame, axis, ends):
 
 
 @njit(cache=True)
-def _speeds(a, b, bounds, tube_links, pairs, frames_a, frames_b, ends_a, ends_b, axes, lever, speed, pspeed):
+def _speeds(a, b, bounds, tube_links, cyl, pairs, frames_a, frames_b, ends_a, ends_b, axes, lever, speed, pspeed):
     """Fill speed (t,) and pspeed (p,): the most tube k's axis points (and a pair's tubes
     relative to each other) move per unit of the segment a -> b's parameter; lever
-    (dof, t): R' (see the module doc)."""
+    (dof, t): R' (see the module doc).  A pair's outer tube met as a cylinder (cyl > 0)
+    has points up to its radius off its axis: as much farther from every joint's axis."""
     dof, t = bounds.shape
     for k in range(t):
         for j in range(dof - 1, -1, -1):
@@ -293,12 +297,12 @@ def _speeds(a, b, bounds, tube_links, pairs, frames_a, frames_b, ends_a, ends_b,
         low = min(tube_links[i], tube_links[j])
         s = 0.0
         for m in range(low, dof):
-            s += abs(b[m] - a[m]) * lever[m, outer]
+            s += abs(b[m] - a[m]) * (lever[m, outer] + cyl[outer])
         pspeed[p] = s
 
 
 @njit(cache=True)
-def _clearance_step(segs, need, floor, speed, pspeed, radii, world, ignore, pairs, kind, pos, rot, half, rad, bound,
+def _clearance_step(segs, need, floor, speed, pspeed, radii, cyl, world, ignore, pairs, kind, pos, rot, half, rad, bound,
                     solid, obj, active, child_ptr, child_idx, roots, stack, a, d, bp):
     """(step, low) at one position (tubes segs (t, 2, 3)): the parameter distance proven
     free either side (capped at need), and the least clearance (m; <= 0: a collision)."""
@@ -316,7 +320,7 @@ def _clearance_step(segs, need, floor, speed, pspeed, radii, world, ignore, pair
             step = min(step, c / speed[k])
     for p in range(pairs.shape[0]):
         i, j = pairs[p, 0], pairs[p, 1]
-        c = np.sqrt(_seg_seg_d2(segs[i, 0], segs[i, 1], segs[j, 0], segs[j, 1])) - radii[i] - radii[j]
+        c = pair_gap(segs[i, 0], segs[i, 1], radii[i], cyl[i], segs[j, 0], segs[j, 1], radii[j], cyl[j])
         if c <= 0.0:
             return 0.0, c
         low = min(low, c)
@@ -327,7 +331,7 @@ def _clearance_step(segs, need, floor, speed, pspeed, radii, world, ignore, pair
 
 @njit(cache=True)
 def _motions_free(a, b, bounds, floor, budget, probe, lower, upper, base, origins, axes, flange_offset, tube_links,
-                  tube_ends, radii, world, ignore, pairs, kind, pos, rot, half, rad, bound, solid, obj, active,
+                  tube_ends, radii, cyl, world, ignore, pairs, kind, pos, rot, half, rad, bound, solid, obj, active,
                   child_ptr, child_idx, roots):
     """Bool (n,): segments a -> b (n, dof) proven free (see the module doc); counts (n,)
     int64: clearance evaluations spent on each."""
@@ -354,7 +358,7 @@ def _motions_free(a, b, bounds, floor, budget, probe, lower, upper, base, origin
             continue
         _link_segments(a[i], base, origins, axes, flange_offset, tube_links, tube_ends, frames_a, joint, ends_a)
         _link_segments(b[i], base, origins, axes, flange_offset, tube_links, tube_ends, frames_b, joint, ends_b)
-        _speeds(a[i], b[i], bounds, tube_links, pairs, frames_a, frames_b, ends_a, ends_b, axes, lever, speed, pspeed)
+        _speeds(a[i], b[i], bounds, tube_links, cyl, pairs, frames_a, frames_b, ends_a, ends_b, axes, lever, speed, pspeed)
         fastest = 0.0
         for k in range(t):
             fastest = max(fastest, speed[k])
@@ -365,7 +369,7 @@ def _motions_free(a, b, bounds, floor, budget, probe, lower, upper, base, origin
             for j in range(dof):
                 q[j] = a[i, j] + s * (b[i, j] - a[i, j])
             _link_segments(q, base, origins, axes, flange_offset, tube_links, tube_ends, frames_a, joint, segs[0])
-            hit, _ = check_arm(segs, radii, world, ignore, pairs, kind, pos, rot, half, rad, bound, solid, obj,
+            hit, _ = check_arm(segs, radii, cyl, world, ignore, pairs, kind, pos, rot, half, rad, bound, solid, obj,
                                active, child_ptr, child_idx, roots)
             if hit[0] != 0:
                 ok = False
@@ -391,7 +395,7 @@ def _motions_free(a, b, bounds, floor, budget, probe, lower, upper, base, origin
             for j in range(dof):
                 q[j] = a[i, j] + s * (b[i, j] - a[i, j])
             _link_segments(q, base, origins, axes, flange_offset, tube_links, tube_ends, frames_a, joint, segs[0])
-            step, low = _clearance_step(segs[0], need, floor, speed, pspeed, radii, world, ignore, pairs, kind, pos,
+            step, low = _clearance_step(segs[0], need, floor, speed, pspeed, radii, cyl, world, ignore, pairs, kind, pos,
                                         rot, half, rad, bound, solid, obj, active, child_ptr, child_idx, roots, stack,
                                         wa, wd, bp)
             if low <= 0.0:
@@ -445,8 +449,8 @@ class MotionChecker:
         cf = self.config_free
         c = cf.checker
         moving = (self.bounds.sum(axis=0) > 0.0).astype(float)
-        return _configs_clear(q, self.floor, moving, *cf._limits, *cf._fk, c.radii, c.world, cf.ignore(), c.pairs,
-                              *c.tree.arrays())
+        return _configs_clear(q, self.floor, moving, *cf._limits, *cf._fk, c.radii, c.cylinder, c.world, cf.ignore(),
+                              c.pairs, *c.tree.arrays())
 
     def __call__(self, a: ArrayLike, b: ArrayLike) -> NDArray[np.bool_]:
         """Bool (n,): whether each segment a -> b ((n, 6) or (6,)) is free everywhere."""
@@ -457,8 +461,8 @@ class MotionChecker:
         c = cf.checker
         self.checks += len(a)
         ok, spent = _motions_free(np.ascontiguousarray(a), np.ascontiguousarray(b), self.bounds, self.floor,
-                                  self.budget, self.probe, *cf._limits, *cf._fk, c.radii, c.world, cf.ignore(),
-                                  c.pairs, *c.tree.arrays())
+                                  self.budget, self.probe, *cf._limits, *cf._fk, c.radii, c.cylinder, c.world,
+                                  cf.ignore(), c.pairs, *c.tree.arrays())
         self.evaluations += int(spent.sum())
         return ok
 
@@ -478,6 +482,6 @@ class MotionChecker:
         _link_segments(b, *fk, frames_b, joint, ends_b)
         pairs = cf.checker.pairs
         speed, pair_speed = np.empty(t), np.empty(len(pairs))
-        _speeds(a, b, self.bounds, fk[4], pairs, frames_a, frames_b, ends_a, ends_b, fk[2], np.empty((dof, t)), speed,
-                pair_speed)
+        _speeds(a, b, self.bounds, fk[4], cf.checker.cylinder, pairs, frames_a, frames_b, ends_a, ends_b, fk[2],
+                np.empty((dof, t)), speed, pair_speed)
         return speed, pair_speed
