@@ -3,7 +3,6 @@ trajectory's limits, smoothing that keeps paths free, problem sets, the CLI."""
 
 from __future__ import annotations
 
-import dataclasses
 import json
 from itertools import pairwise
 
@@ -29,12 +28,9 @@ from ita.path.problems import (
     write_problems,
 )
 from ita.path.smooth import (
-    estimate_durations,
     limit_violations,
     lspb,
-    reshape_path,
     shortcut,
-    subdivide,
     time_parameterize,
     trajectory_free,
 )
@@ -137,36 +133,11 @@ def test_free_path_is_direct_and_ends_at_the_goal(planner_for):
     planner, tool = planner_for("us_probe_1")
     goal = np.array(HOME) + np.array([0.3, 0.1, -0.1, 0.2, 0.1, 0.5])
     r = planner.plan(np.array(HOME), goal, tool)
-    assert r.ok and r.reason is None and r.stats["subgoals"] == 0
+    assert r.ok and r.reason is None
+    assert len(r.waypoints) == 2
     np.testing.assert_allclose(r.trajectory.q[0], HOME)
     np.testing.assert_allclose(r.trajectory.q[-1], goal, atol=1e-9)
     assert r.duration > 0 and r.tool_path_length > 0
-    # without the final reshaping the free path is the direct joint move; reshaped, it is
-    # cut into pieces moved where the estimated duration drops, every one of them checked
-    direct = PathPlanner(planner.model, planner.tree, planner.checker,
-                         dataclasses.replace(planner.settings, reshape_splits=1), planner.tubes)
-    d = direct.plan(np.array(HOME), goal, tool)
-    assert d.ok and len(d.waypoints) == 2
-    ctx = planner.context(tool)
-    assert planner._estimate(r.waypoints, ctx) <= planner._estimate(d.waypoints, ctx) + 1e-9
-    assert ctx.motion_free(r.waypoints[:-1], r.waypoints[1:]).all()
-    assert r.duration <= d.duration * 1.02
-
-
-def test_reshape_path_is_free_and_never_slower(planner_for):
-    planner, tool = planner_for("us_probe_1")
-    ctx = planner.context(tool)
-    w = np.vstack([HOME, np.array(HOME) + np.array([0.6, 0.2, -0.2, 0.3, 0.2, 0.8])])
-    assert ctx.motion_free(w[:1], w[1:]).all()
-    free = ctx.motion_free
-    out = reshape_path(planner.model, w, free, np.random.default_rng(0), tcp=ctx.tcp)
-    again = reshape_path(planner.model, w, free, np.random.default_rng(0), tcp=ctx.tcp)
-    np.testing.assert_array_equal(out, again)                       # deterministic
-    np.testing.assert_allclose(out[[0, -1]], w)
-    assert free(out[:-1], out[1:]).all()
-    assert estimate_durations(planner.model, out, ctx.tcp)[0] <= estimate_durations(planner.model, w, ctx.tcp)[0]
-    np.testing.assert_allclose(subdivide(w, 3)[[0, 3]], w)
-    assert len(subdivide(w, 3)) == 4
 
 
 def test_path_around_an_obstacle_uses_a_subgoal(wall_scene):

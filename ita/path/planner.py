@@ -12,8 +12,7 @@ the limits, then collision-free; the candidates ordered by motion time from the 
 plan the tool point among the regions grown by the tool's size (`visibility`); lift that
 route to joint space and check every link at incremental positions, replanning colliding
 stretches through intermediate subgoals (`lift`) within an effort bound; shorten the
-path, then cut it into pieces reshaped for the least estimated duration (`smooth.reshape_path`,
-every new segment checked); time it with blended corners within the joint limits (`smooth`).
+path; time it with blended corners within the joint limits (`smooth`).
 
 The held tool is one more collision tube on the flange (`tool_tube`), checked against the
 world and against the arm's links but its own wrist; the tree must not hold the held
@@ -43,7 +42,7 @@ from ita.kinematics import (
 )
 from ita.path.lift import Effort, Lifter, lever_arms, lift_route
 from ita.path.motion import ConfigChecker, MotionChecker
-from ita.path.smooth import estimate_durations, reshape_path, shortcut, time_parameterize
+from ita.path.smooth import estimate_durations, shortcut, time_parameterize
 from ita.path.trajectory import TimedTrajectory
 from ita.path.visibility import VisibilityGraph, build_graph
 from ita.workcell.model import ToolSpec, Workcell
@@ -76,8 +75,6 @@ class PlannerSettings:
     direct time is under detour_gain of the free path's; shortcut_rounds: corner-pulling
     passes;
     refine_rounds: random local descent rounds on each remaining corner;
-    reshape_splits: pieces each segment is cut into before the final descent on the
-    estimated duration (`smooth.reshape_path`; 1: none);
     knot_period: s between trajectory knots; blend: corners blended (else rest at every
     via); seed: random subgoals (each query starts from it: a query's answer does not
     depend on the queries before it)."""
@@ -92,7 +89,6 @@ class PlannerSettings:
     detour_gain: float = 0.85
     shortcut_rounds: int = 2
     refine_rounds: int = 6
-    reshape_splits: int = 2
     knot_period: float = 0.01
     blend: bool = True
     seed: int = 0
@@ -313,12 +309,8 @@ class PathPlanner:
             return self._fail(Reason.NO_PATH_WITHIN_EFFORT,
                               f"no collision-free path within {effort.rounds} subgoal rounds "
                               f"({time.perf_counter() - effort.started:.2f} s)", t0, route, stats)
-        reshape = s.reshape_splits > 1
-        path = shortcut(self.model, path, lifter.free_segments, s.shortcut_rounds, None if reshape else lifter.rng,
-                        s.refine_rounds, tcp=ctx.tcp)
-        if reshape:
-            path = reshape_path(self.model, path, lifter.free_segments, np.random.default_rng(s.seed),
-                                s.refine_rounds, tcp=ctx.tcp, splits=s.reshape_splits)
+        path = shortcut(self.model, path, lifter.free_segments, s.shortcut_rounds, lifter.rng, s.refine_rounds,
+                        tcp=ctx.tcp)
         traj = self.time(path, tool)
         tool_path = tcp_poses(self.model, traj.q, ctx.tcp)[:, :3, 3]
         stats["waypoints"] = len(path)

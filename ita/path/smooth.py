@@ -4,10 +4,6 @@
   (greedy, farthest first), then pulls each remaining corner toward its neighbours'
   midpoint as far as stays free.  Only free segments are ever accepted, so shortcutting
   never introduces a collision.
-* `reshape_path`: cuts every segment into pieces and moves the pieces' ends by random
-  descent on the estimated duration (a speed that varies along the path, a shorter
-  tool-point path where the TCP speed limit binds); kept only where every new segment
-  is free.
 * `time_parameterize`: linear segments with parabolic blends (LSPB).  Each segment is
   crossed at the highest constant joint velocity the slowest joint and the tool point's
   speed limit allow (synchronised: every joint's speed is |dq_j| / T_i <= its limit, and
@@ -172,41 +168,6 @@ def _refine(model: ArmModel, w: FloatArray, segments_free: SegmentsFree, rng: np
                     w[m] = part[good[0]]
                     break
     return w
-
-
-def subdivide(waypoints: ArrayLike, k: int) -> FloatArray:
-    """The joint path (k(n-1)+1, 6) with each segment of waypoints (n, 6) cut into k equal pieces."""
-    w = np.asarray(waypoints, dtype=float)
-    s = np.arange(1, k + 1) / k
-    inner = (w[:-1, None, :] + s[None, :, None] * (w[1:] - w[:-1])[:, None, :]).reshape(-1, w.shape[1])
-    return np.vstack([w[:1], inner])
-
-
-def reshape_path(model: ArmModel, waypoints: ArrayLike, segments_free: SegmentsFree, rng: np.random.Generator,
-                 rounds: int = 6, spread: float = 0.15, tcp: ArrayLike | None = None, splits: int = 2,
-                 batch: int = 8) -> FloatArray:
-    """A quicker joint path with the same ends: every segment of `waypoints` (whose segments
-    `segments_free` accepts) cut into `splits` pieces, then each interior waypoint moved by
-    random descent on the estimated duration (`estimate_durations`; a varying speed along
-    the path and a shorter tool-point path where the TCP speed limit binds).  The descent
-    first runs unchecked and the result is kept only if every segment is free; otherwise
-    the checked descent (`_refine`) runs from the cut path.  Never slower by the estimate
-    than `waypoints`, and every returned segment is accepted by `segments_free`."""
-    w0 = np.asarray(waypoints, dtype=float)
-    cut = subdivide(w0, splits)
-    w = cut.copy()
-    for r in range(rounds):
-        step = spread * 0.5**r
-        for m in range(1, len(w) - 1):
-            c = np.clip(w[m] + rng.normal(size=(batch, w.shape[1])) * step, model.lower, model.upper)
-            c = np.vstack([w[m][None], c])
-            w[m] = c[int(np.argmin(_local_cost(model, w, m, c, tcp)))]
-    if not segments_free(w[:-1], w[1:]).all():
-        half = (cut + w) / 2.0
-        w = half if segments_free(half[:-1], half[1:]).all() else _refine(model, cut, segments_free, rng, rounds,
-                                                                           spread, tcp)
-    base, new = estimate_durations(model, w0, tcp)[0], estimate_durations(model, w, tcp)[0]
-    return w if new < base - 1e-9 else w0
 
 
 @dataclass(frozen=True, eq=False)
