@@ -3,6 +3,7 @@ trajectory's limits, smoothing that keeps paths free, problem sets, the CLI."""
 
 from __future__ import annotations
 
+import dataclasses
 import json
 from itertools import pairwise
 
@@ -28,9 +29,12 @@ from ita.path.problems import (
     write_problems,
 )
 from ita.path.smooth import (
+    estimate_durations,
     limit_violations,
     lspb,
+    reshape_path,
     shortcut,
+    subdivide,
     time_parameterize,
     trajectory_free,
 )
@@ -133,11 +137,60 @@ def test_free_path_is_direct_and_ends_at_the_goal(planner_for):
     planner, tool = planner_for("us_probe_1")
     goal = np.array(HOME) + np.array([0.3, 0.1, -0.1, 0.2, 0.1, 0.5])
     r = planner.plan(np.array(HOME), goal, tool)
-    assert r.ok and r.reason is None
-    assert len(r.waypoints) == 2
+    assert r.ok and r.reason is None and r.stats["subgoals"] == 0
     np.testing.assert_allclose(r.trajectory.q[0], HOME)
     np.testing.assert_allclose(r.trajectory.q[-1], goal, atol=1e-9)
     assert r.duration > 0 and r.tool_path_length > 0
+    # without the final reshaping the free path is the direct joint move; reshaped, it is
+    # cut into pieces moved where they make the timed trajectory quicker, every one checked
+    direct = PathPlanner(planner.model, planner.tree, planner.checker,
+                         dataclasses.replace(planner.settings, reshape_splits=1), planner.tubes)
+    d = direct.plan(np.array(HOME), goal, tool)
+    assert d.ok and len(d.waypoints) == 2
+    ctx = planner.context(tool)
+    assert ctx.motion_free(r.waypoints[:-1], r.waypoints[1:]).all()
+    assert r.duration <= d.duration
+
+
+@pytest.mark.parametrize("step", [1e-4, 3e-3, 0.05])
+def test_a_short_move_stays_direct_and_as_quick_as_from_rest_to_rest(planner_for, step):
+    # the moves of an inspection are mostly this short: a detour is never quicker
+    planner, tool = planner_for("slra_1")
+    start = np.array(HOME)
+    goal = start + step * np.array([1.0, -0.5, 0.5, 1.0, -1.0, 1.0])
+    r = planner.plan(start, goal, tool)
+    assert r.ok and len(r.waypoints) == 2
+    assert r.duration == pytest.approx(lspb(planner.model, r.waypoints).duration, rel=1e-6)
+
+
+def test_reshape_path_is_free_and_never_slower(planner_for):
+    planner, tool = planner_for("us_probe_1")
+    ctx = planner.context(tool)
+    w = np.vstack([HOME, np.array(HOME) + np.array([0.6, 0.2, -0.2, 0.3, 0.2, 0.8])])
+    free = ctx.motion_free
+    assert free(w[:1], w[1:]).all()
+    out = reshape_path(planner.model, w, free, np.random.default_rng(0), tcp=ctx.tcp)
+    again = reshape_path(planner.model, w, free, np.random.default_rng(0), tcp=ctx.tcp)
+    np.testing.assert_array_equal(out, again)                       # deterministic
+    np.testing.assert_allclose(out[[0, -1]], w)
+    assert len(out) == 3 and free(out[:-1], out[1:]).all()
+    assert estimate_durations(planner.model, out, ctx.tcp)[0] < estimate_durations(planner.model, w, ctx.tcp)[0]
+    assert time_parameterize(planner.model, out, tcp=ctx.tcp).duration < \
+        time_parameterize(planner.model, w, tcp=ctx.tcp).duration
+    np.testing.assert_allclose(subdivide(w, 3)[[0, 3]], w)
+    assert len(subdivide(w, 3)) == 4
+
+
+@pytest.mark.parametrize("scale", [1e-4, 1e-2, 0.3])
+def test_estimated_duration_is_the_timed_one(wall_scene, scale):
+    # what shortcutting, reshaping and the goal choice minimise is what the arm flies, from
+    # a move too short to reach any joint's speed limit to long multi-segment ones
+    model = wall_scene[0].model
+    rng = np.random.default_rng(4)
+    for k in (2, 3, 5):
+        paths = np.cumsum(rng.normal(size=(6, k, 6)) * scale, axis=1)
+        timed = [time_parameterize(model, w, tool_speed=np.inf).duration for w in paths]
+        np.testing.assert_allclose(estimate_durations(model, paths, tool_speed=np.inf), timed, rtol=1e-3)
 
 
 def test_path_around_an_obstacle_uses_a_subgoal(wall_scene):

@@ -12,7 +12,9 @@ the limits, then collision-free; the candidates ordered by motion time from the 
 plan the tool point among the regions grown by the tool's size (`visibility`); lift that
 route to joint space and check every link at incremental positions, replanning colliding
 stretches through intermediate subgoals (`lift`) within an effort bound; shorten the
-path; time it with blended corners within the joint limits (`smooth`).
+path, then cut it into pieces reshaped for the least estimated duration (`smooth.reshape_path`,
+every new segment checked); time it with blended corners within the joint limits (`smooth`),
+keeping the reshaped path only if its trajectory is the quicker.
 
 The held tool is one more collision tube on the flange (`tool_tube`), checked against the
 world and against the arm's links but its own wrist; the tree must not hold the held
@@ -42,7 +44,7 @@ from ita.kinematics import (
 )
 from ita.path.lift import Effort, Lifter, lever_arms, lift_route
 from ita.path.motion import ConfigChecker, MotionChecker
-from ita.path.smooth import estimate_durations, shortcut, time_parameterize
+from ita.path.smooth import estimate_durations, reshape_path, shortcut, time_parameterize
 from ita.path.trajectory import TimedTrajectory
 from ita.path.visibility import VisibilityGraph, build_graph
 from ita.workcell.model import ToolSpec, Workcell
@@ -74,7 +76,11 @@ class PlannerSettings:
     blocked but a slower one is free, subgoal rounds spent on the quicker one if its
     direct time is under detour_gain of the free path's; shortcut_rounds: corner-pulling
     passes;
-    refine_rounds: random local descent rounds on each remaining corner;
+    refine_rounds: random local descent rounds on each remaining corner (or on the
+    reshaped path's waypoints);
+    reshape_splits: pieces each segment is cut into before the final descent on the
+    estimated duration (`smooth.reshape_path`, kept where the timed trajectory is quicker;
+    1: none, the corners refined instead);
     knot_period: s between trajectory knots; blend: corners blended (else rest at every
     via); seed: random subgoals (each query starts from it: a query's answer does not
     depend on the queries before it)."""
@@ -89,6 +95,7 @@ class PlannerSettings:
     detour_gain: float = 0.85
     shortcut_rounds: int = 2
     refine_rounds: int = 6
+    reshape_splits: int = 2
     knot_period: float = 0.01
     blend: bool = True
     seed: int = 0
@@ -309,9 +316,7 @@ class PathPlanner:
             return self._fail(Reason.NO_PATH_WITHIN_EFFORT,
                               f"no collision-free path within {effort.rounds} subgoal rounds "
                               f"({time.perf_counter() - effort.started:.2f} s)", t0, route, stats)
-        path = shortcut(self.model, path, lifter.free_segments, s.shortcut_rounds, lifter.rng, s.refine_rounds,
-                        tcp=ctx.tcp)
-        traj = self.time(path, tool)
+        path, traj = self._shorten(path, lifter, ctx, tool)
         tool_path = tcp_poses(self.model, traj.q, ctx.tcp)[:, :3, 3]
         stats["waypoints"] = len(path)
         return PathResult(True, None, f"{len(path)} waypoints, {traj.duration:.2f} s", path, route, tool_path, traj,
@@ -351,6 +356,24 @@ class PathPlanner:
         return results, self.time(np.vstack(path), tool, np.array(rest))
 
     # ---- helpers ---------------------------------------------------------------------
+    def _shorten(self, path: FloatArray, lifter: Lifter, ctx: _ToolContext, tool: ToolSpec | None
+                 ) -> tuple[FloatArray, TimedTrajectory]:
+        """The free path shortened (`smooth.shortcut`), then reshaped (`smooth.reshape_path`)
+        where that gives a quicker timed trajectory, and its trajectory."""
+        s = self.settings
+        reshape = s.reshape_splits > 1
+        path = shortcut(self.model, path, lifter.free_segments, s.shortcut_rounds, None if reshape else lifter.rng,
+                        s.refine_rounds, tcp=ctx.tcp)
+        traj = self.time(path, tool)
+        if not reshape:
+            return path, traj
+        quick = reshape_path(self.model, path, lifter.free_segments, np.random.default_rng(s.seed),
+                             s.refine_rounds, tcp=ctx.tcp, splits=s.reshape_splits)
+        if len(quick) == len(path):                  # not reshaped: no quicker by the estimate
+            return path, traj
+        timed = self.time(quick, tool)
+        return (quick, timed) if timed.duration < traj.duration else (path, traj)
+
     def _estimate(self, waypoints: FloatArray, ctx: _ToolContext) -> float:
         """Estimated blended duration (s) of a joint path (`smooth.estimate_durations`)."""
         return float(estimate_durations(self.model, waypoints, ctx.tcp)[0])
