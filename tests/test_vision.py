@@ -4,6 +4,7 @@ planar regions, pictures, and the wall between measuring code and the as-built t
 from __future__ import annotations
 
 import ast
+import math
 from dataclasses import replace
 from pathlib import Path
 
@@ -208,3 +209,29 @@ def test_a_ribs_width_deviation_cancels_in_its_centre_line():
     reg = register.solve([c], prior_sigma=0.083)
     assert reg.shift[1] == pytest.approx(t_y, abs=1e-9)
 
+
+
+LIGHTENING = Hole("L1", HoleRole.LIGHTENING, (0.0, 0.0, 2.5), (0.0, 0.0, 1.0), 100.0, 2.5, "P1")
+HD_L = MeasurementSpec("HD-L1", K.HOLE_DIAMETER, "L1", (0.0, 0.0, 2.5), (0.0, 0.0, 1.0), 100.0, -0.5, 0.5)
+
+
+@pytest.fixture(scope="module")
+def fixture_scene() -> SlraScene:
+    """A 2.5 mm web with a 100 mm lightening hole; under a third of it, 20 mm down, a
+    fixture block; under the rest the floor, 300 mm down."""
+    cyl = m3d.Manifold.cylinder(10.0, LIGHTENING.diameter / 2, circular_segments=256).translate((0, 0, -5))
+    solid = (_box((-150, -150, 0), (150, 150, 2.5)) - cyl + _box((20, -150, -25), (150, 150, -20))
+             + _box((-300, -300, -305), (300, 300, -300)))
+    return SlraScene(_mesh(solid), PLACEMENT, holes=[LIGHTENING])
+
+
+def test_lightening_hole_over_a_fixture_reads_true_all_round(fixture_scene):
+    # the rim over the fixture and the rim over the floor are one circle: neither side's
+    # edge is pulled in, and the bore's wall (seen beyond the rim) is modelled, not guessed
+    ctx = _ctx(LIGHTENING)
+    reply = measure(_frame(fixture_scene, HD_L, ctx), HD_L, ctx)
+    assert reply.ok, reply
+    assert abs(reply.value - LIGHTENING.diameter) <= reply.expanded
+    assert abs(reply.value - LIGHTENING.diameter) < 0.1
+    assert math.hypot(*reply.diagnostics["center"]) < 0.1
+    assert reply.expanded < 0.3                   # a +/-0.5 hole can be shown to conform

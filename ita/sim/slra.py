@@ -13,7 +13,8 @@ What is modelled, per pixel of the raster (see ita.sensors.slra_frame for the sc
 * return amplitude A = rho cos(theta) (R_ref / R)^2 (diffuse machined 7075);
 * mixed pixels: the beam footprint is a Gaussian of sigma_b(R) = waist + R * divergence;
   where it straddles a depth step (found between neighbouring pixels, then located by
-  bisecting the scan angle) the return is the phasor sum of the two surfaces' returns,
+  bisecting the scan angle; a third surface between the two, such as a bore's wall below
+  a rim, goes with the farther side, so the step lies at the near surface's edge) the return is the phasor sum of the two surfaces' returns,
   weighted by the share of the footprint on each (half-plane model of the edge; the other
   surface is sampled at the pixel's mirror image across the edge);
 * range from phase: phi = 4 pi f R / c plus phase noise sigma_phi = sigma_phi_ref
@@ -103,6 +104,7 @@ class SlraParams:
 MISS, PART, BOX = -1, 0, 1
 GRAZING_WALL_COS = 0.1
 HOLE_EXIT_MARGIN_MM = 1.0
+SAME_SURFACE_COS = 0.9   # normals within ~25 deg: one surface, for locating a step between two
 
 
 class Hits(NamedTuple):
@@ -365,7 +367,13 @@ def _mix(geometry: ScanGeometry, params: SlraParams, cast_sensor, origin: FloatA
         with np.errstate(invalid="ignore"):
             ep = np.where(hp & hm, np.abs(dm - _plane_range(normals[p], pts[p], origin, dd)), np.inf)
             eq = np.where(hq & hm, np.abs(dm - _plane_range(normals[q], pts[q], origin, dd)), np.inf)
-        p_like = np.where(hp & hq, hm & (ep <= eq), np.where(hp, hm & (ep < 5 * thr), ~(hm & (eq < 5 * thr))))
+        # the mid ray is on p's surface when near p's plane AND facing the same way: a third
+        # surface between them (a bore's wall below a rim) belongs to neither, and goes
+        # with the farther side (what lies beyond the near surface's edge; a miss is farthest)
+        like_p = hp & hm & (ep < 5 * thr) & _aligned(mid.normals, normals[p])
+        like_q = hq & hm & (eq < 5 * thr) & _aligned(mid.normals, normals[q])
+        p_far = np.where(hp, dist[p], np.inf) > np.where(hq, dist[q], np.inf)
+        p_like = np.where(like_p & like_q, ep <= eq, np.where(like_p | like_q, like_p, p_far))
         lo, hi = np.where(p_like, t, lo), np.where(p_like, hi, t)
     t = (lo + hi) / 2
     ang = np.column_stack(geometry.angles(rc_p[:, 0] + t * (rc_q[:, 0] - rc_p[:, 0]),
@@ -388,10 +396,15 @@ def _mix(geometry: ScanGeometry, params: SlraParams, cast_sensor, origin: FloatA
     am, pm = _returns(params, far, dd, scale)
     dm, hm = far.dist, far.kind != MISS
     with np.errstate(invalid="ignore"):
-        same = (hm == hit[x]) & (~hm | (np.abs(dm - dist[x]) < thr))
+        same = (hm == hit[x]) & (~hm | ((np.abs(dm - dist[x]) < thr) & _aligned(far.normals, normals[x])))
     f = np.where(same, 0.0, f)
     frac[x], other_r[x], other_amp[x], other_drop[x] = f, np.where(hm, dm, 0.0), am, pm
     return frac, other_r, other_amp, other_drop
+
+
+def _aligned(a: FloatArray, b: FloatArray) -> NDArray[np.bool_]:
+    """(n,) whether unit normals a, b (n, 3) face the same way within about 25 deg."""
+    return np.abs(np.einsum("ij,ij->i", a, b)) > SAME_SURFACE_COS
 
 
 def _edge_distance(edges: FloatArray, x: FloatArray, pitch: float

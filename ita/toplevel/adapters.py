@@ -8,9 +8,11 @@ Vision).  Each implements ita.executive.adapters.DeviceAdapter.
 
 Times.  The robot controller, the tool changer and the gauge advance the world's
 simulated clock themselves as they work; the arm adapter reports each command's end as
-the clock after it.  The SLRA adapter does not touch the clock: it reports the frame's
-scan time (and :data:`VISION_SECONDS` per measurement computed) from the `now` it is
-given, and the executive advances the clock.
+the clock after it.  The SLRA adapter reports the frames' scan times (and
+:data:`VISION_SECONDS` per frame Vision measures) from the `now` it is given, and the
+executive advances the clock; only the re-approach moves between the frames of a
+multi-frame SCAN advance it themselves (through the robot controller), and the SCAN
+ends after them and all its frames.
 
 The arm receives its whole queue at plan start (lookahead).  Consecutive MOVEs of the
 queue (no WAIT, no other command between them) are planned together
@@ -42,13 +44,16 @@ from ita.executive.commands import Command, Reply, Wait
 from ita.geometry.reasoner import GeometricReasoner, Target
 from ita.logic.terms import Term
 
-__all__ = ["VISION_SECONDS", "ArmAdapter", "SlraAdapter", "spec_of_message"]
+__all__ = ["REAPPROACH_M", "VISION_SECONDS", "ArmAdapter", "SlraAdapter", "spec_of_message"]
 
 #: simulated seconds Vision takes per measurement in a frame (patches, fits)
 VISION_SECONDS = 0.15
 #: speed scale of the guarded contact move and of the retract (of the joints' limits)
 CONTACT_SPEED = 0.5
 RETRACT_SPEED = 1.0
+#: how far (m) the arm backs off along the line of sight between the frames of a
+#: multi-frame SLRA measurement, so that each return is a real approach of the pose
+REAPPROACH_M = 0.02
 #: the probe's spring rate (N/m), to report the contact force
 SPRING_N_PER_M = 2000.0
 _SAME_Q = 1e-6
@@ -317,13 +322,20 @@ def _guarded_measure(measure: Callable[..., Any], frame: Any, spec: Any, vctx: A
 
 
 class SlraAdapter:
-    """The SLRA's stream: a range frame of the view group at the arm's pose, then Vision."""
+    """The SLRA's stream: range frames of the view group at the arm's pose, then Vision.
+
+    A view group whose members need several frames (:func:`ita.vision.measure.frames_for`:
+    a position whose only datum is the arm's pose) gets them at one SCAN, each after a
+    re-approach: the arm backs off :data:`REAPPROACH_M` from the part and comes back to
+    the viewing configuration (through the robot controller, so each return settles with
+    a new repeatability draw and takes its real time on the simulated clock)."""
 
     lookahead = False
 
     def __init__(self, world: Any, scene: Any, reasoner: GeometricReasoner, vision_ctx: Any,
                  specs: Mapping[str, Any], rng: np.random.Generator, *, params: Any = None,
-                 wanted: Callable[[str], bool] | None = None) -> None:
+                 wanted: Callable[[str], bool] | None = None, controller: Any = None) -> None:
+        from ita.robot import RobotController
         from ita.sim.slra import SlraParams
 
         self.world = world
@@ -334,10 +346,12 @@ class SlraAdapter:
         self.rng = rng
         self.params = params if params is not None else SlraParams()
         self.wanted = wanted or (lambda _id: True)
-        self.frames: dict[str, Any] = {}        # group id -> the last frame of it
+        self.controller = controller if controller is not None else RobotController(world)
+        self.frames: dict[str, list[Any]] = {}  # group id -> the frames of its last SCAN
         self._results: dict[str, Any] = {}
         self.last_frame: Any = None
-        self.stats: dict[str, float] = {"frames": 0, "scan_s": 0.0, "vision_s": 0.0}
+        self.stats: dict[str, float] = {"frames": 0, "scan_s": 0.0, "vision_s": 0.0, "reapproaches": 0,
+                                         "reapproach_s": 0.0}
 
     def begin(self, items: Sequence[Command | Wait], now: float) -> None:
         pass
@@ -377,28 +391,70 @@ class SlraAdapter:
             anchor = self.reasoner.entry(group.anchor)
         except KeyError as exc:
             return Completion(now, _exception("NO_VIEW", str(exc), spec_id or "?"))
-        geometry = ScanGeometry(tuple(group.pixels), tuple(group.fov_deg))
-        frame = simulate_frame(self.scene, world.tcp_pose(), geometry, self.params, self.rng,
-                               reported_pose=np.asarray(anchor.pose), timestamp=now, sensor=tool.name)
-        self.frames = {group.id: frame}
-        self.last_frame = frame
-        self.stats["frames"] += 1
-        self.stats["scan_s"] += frame.frame_time
-        return Completion(now + frame.frame_time, Reply.normal(Term("IMAGE", (group.id,))))
+        plan = self._frame_plan(group)
+        t = max(now, world.clock.now)
+        frames: list[Any] = []
+        for k in range(plan.count):
+            if k:
+                moved = self._reapproach(np.asarray(anchor.q, dtype=float), anchor.pose)
+                if not moved.ok:
+                    return Completion(t + moved.time_s, _exception(
+                        "REAPPROACH", f"re-approach {k} of {plan.count - 1} for {group.id}: {moved.message}",
+                        moved.status.value))
+                t += moved.time_s
+                self.stats["reapproaches"] += 1
+                self.stats["reapproach_s"] += moved.time_s
+            shape = tuple(group.pixels) if k == 0 else plan.shape
+            frame = simulate_frame(self.scene, world.tcp_pose(), ScanGeometry(shape, tuple(group.fov_deg)),
+                                   self.params, self.rng, reported_pose=np.asarray(anchor.pose), timestamp=t,
+                                   sensor=tool.name)
+            frames.append(frame)
+            t += frame.frame_time
+            self.stats["frames"] += 1
+            self.stats["scan_s"] += frame.frame_time
+        self.frames = {group.id: frames}
+        self.last_frame = frames[0]
+        return Completion(t, Reply.normal(Term("IMAGE", (group.id,))))
+
+    def _members(self, group: Any, spec_id: str) -> list[str]:
+        return [m for m in group.members if m == spec_id or self.wanted(m)]
+
+    def _frame_plan(self, group: Any) -> Any:
+        """The frames the group's wanted members need (the most any of them needs)."""
+        from ita.vision.measure import frames_for
+
+        plans = [frames_for(self.specs[m], self.vctx) for m in self._members(group, group.anchor) if m in self.specs]
+        return max(plans, key=lambda p: p.count) if plans else frames_for(self.specs[group.anchor], self.vctx)
+
+    def _reapproach(self, q_view: np.ndarray, view_pose: Any) -> Any:
+        """Back off REAPPROACH_M along the line of sight and return to q_view (6,): the
+        controller's reply (its time; the arm settles with a new repeatability draw)."""
+        from ita.robot import from_waypoints
+        from ita.robot.controller import joint_offset
+
+        world = self.world
+        pose = np.asarray(view_pose, dtype=float)
+        look = pose[:3, 2] / np.linalg.norm(pose[:3, 2])      # the sensor looks along its z axis
+        tcp = world.held_tool.tcp.matrix()
+        q_back = q_view + joint_offset(world.model, q_view, tcp, -REAPPROACH_M * look)
+        traj = from_waypoints(world.model, [np.asarray(world.q), q_back, q_view], speed_scale=RETRACT_SPEED)
+        return self.controller.execute(traj, command="reapproach")
 
     def _measure(self, command: Command, now: float) -> Any:
         from ita.executive.adapters import Completion
-        from ita.vision.measure import measure
+        from ita.vision.measure import frames_for, measure_frames
 
         spec_id = spec_of_message(command.message) or ""
         group = self.reasoner.mkb.group_of(spec_id)
-        frame = self.frames.get(group.id) if group is not None else None
-        if frame is None:
+        frames = self.frames.get(group.id) if group is not None else None
+        if not frames:
             return Completion(now, _exception("NO_IMAGE", f"no frame for {spec_id}", spec_id))
-        members = [m for m in group.members if m == spec_id or self.wanted(m)]
-        replies = {m: _guarded_measure(measure, frame, self.specs[m], self.vctx) for m in members}
+        replies, took = {}, 0.0
+        for m in self._members(group, spec_id):
+            used = frames[:frames_for(self.specs[m], self.vctx).count]
+            replies[m] = _guarded_measure(measure_frames, used, self.specs[m], self.vctx)
+            took += VISION_SECONDS * len(used)
         self._results.update(replies)
-        took = VISION_SECONDS * len(members)
         self.stats["vision_s"] += took
         reply = replies[spec_id]
         if not reply.ok:

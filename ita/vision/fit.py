@@ -3,11 +3,14 @@
 Pure numpy.  Each fit returns a frozen value with its parameters, their covariance (from
 the residual scatter: sigma^2 (J^T J)^-1) and the RMS residual, or None when there are too
 few points to fit.  Robust variants drop points beyond `clip` times a MAD-based sigma and
-refit, a few rounds.
+refit, a few rounds; a circle whose residuals show a cluster of outliers on one side
+(spurious edge points) starts again from a trimmed fit, so that they cannot pull the start
+so far that the clip keeps them.
 """
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -165,26 +168,93 @@ def _coverage(xy: FloatArray, c: FloatArray) -> float:
     return float(2 * np.pi - gaps.max()) if len(ang) > 1 else 0.0
 
 
-def fit_circle(xy: FloatArray, clip: float = 3.5, rounds: int = 3, iterations: int = 10) -> CircleFit | None:
-    """Robust geometric circle fit to points (n, 2): algebraic start, Gauss-Newton on the
-    radial residuals |p - c| - r, covariance sigma^2 (J^T J)^-1."""
+def _circle_gauss_newton(q: FloatArray, c: FloatArray, r: float, iterations: int) -> tuple[FloatArray, float]:
+    """Geometric circle fit to points q (n, 2) from the start (c, r): Gauss-Newton on the
+    radial residuals |p - c| - r."""
+    for _ in range(iterations):
+        v = q - c
+        dist = np.linalg.norm(v, axis=1)
+        jac = np.column_stack([-v / dist[:, None], -np.ones(len(q))])
+        step, *_ = np.linalg.lstsq(jac, -(dist - r), rcond=None)
+        c, r = c + step[:2], r + step[2]
+        if np.abs(step).max() < 1e-10:
+            break
+    return c, float(r)
+
+
+def _concentrate(q: FloatArray, c: FloatArray, r: float, h: int, iterations: int) -> tuple[FloatArray, float, float]:
+    """Concentration steps of least trimmed squares from (c, r): refit the h points (of q,
+    (n, 2)) nearest the circle until that subset no longer changes.  Returns the centre,
+    radius and the trimmed sum of squared residuals."""
+    chosen = np.zeros(0, dtype=np.int64)
+    for _ in range(10):
+        best = np.sort(np.argsort(np.abs(np.linalg.norm(q - c, axis=1) - r))[:h])
+        if np.array_equal(best, chosen):
+            break
+        chosen = best
+        c, r = _circle_gauss_newton(q[chosen], c, r, iterations)
+    res = np.linalg.norm(q[chosen] - c, axis=1) - r
+    return c, r, float(res @ res)
+
+
+def _trimmed_start(q: FloatArray, keep_share: float, iterations: int) -> tuple[FloatArray, float]:
+    """A start that a minority of outliers cannot pull (least trimmed squares): from the fit
+    to all points (n, 2) and from the fits to each of four half-circles of them (a cluster
+    of outliers on one side spoils at most some of these), concentration steps on the
+    `keep_share` of the points nearest the circle; the start of least trimmed residual wins."""
+    c0, r0 = _circle_gauss_newton(q, *circle_algebraic(q), iterations)
+    h = min(len(q), max(5, int(math.ceil(keep_share * len(q)))))
+    ang = np.arctan2(q[:, 1] - c0[1], q[:, 0] - c0[0])
+    starts = [(c0, r0)]
+    for k in range(4):
+        half = np.cos(ang - k * np.pi / 2) > 0
+        if half.sum() >= 5:
+            starts.append(_circle_gauss_newton(q[half], c0, r0, iterations))
+    best = min((_concentrate(q, c, r, h, iterations) for c, r in starts), key=lambda t: t[2])
+    return best[0], best[1]
+
+
+def fit_circle(xy: FloatArray, clip: float = 3.5, rounds: int = 3, iterations: int = 10,
+               keep_share: float = 0.6) -> CircleFit | None:
+    """Robust geometric circle fit to points (n, 2): Gauss-Newton on the radial residuals
+    |p - c| - r of the points within `clip` robust sigmas, a few rounds, covariance
+    sigma^2 (J^T J)^-1.  Two starts: the algebraic fit to all points (the plain fit), and a
+    trimmed fit (the `keep_share` nearest points, so up to 1 - keep_share outliers on one
+    side cannot pull it).  The plain fit is the answer unless it lies more than 4 standard
+    uncertainties from the trimmed one (a cluster of outliers on one side has pulled it):
+    a clean rim keeps all its points, the same way from frame to frame."""
     xy = np.asarray(xy, dtype=float)
-    keep = np.all(np.isfinite(xy), axis=1)
+    finite = np.all(np.isfinite(xy), axis=1)
+    if finite.sum() < 5:
+        return None
+    q = xy[finite]
+    plain = _clipped_circle(xy, finite, *circle_algebraic(q), clip, rounds, iterations, trim_first=False)
+    trimmed = _clipped_circle(xy, finite, *_trimmed_start(q, keep_share, iterations), clip, rounds, iterations)
+    return trimmed if plain is None or (trimmed is not None and _apart(plain, trimmed)) else plain
+
+
+def _apart(a: CircleFit, b: CircleFit, k: float = 4.0) -> bool:
+    """Whether circle a differs from b by more than k of b's standard uncertainties in a
+    centre coordinate or the radius (a one-sided cluster of outliers has pulled a)."""
+    d = np.abs(np.array([a.center[0] - b.center[0], a.center[1] - b.center[1], a.radius - b.radius]))
+    sig = np.sqrt(np.maximum(np.diag(b.cov), 1e-18))
+    return bool(np.any(d > k * sig))
+
+
+def _clipped_circle(xy: FloatArray, finite: NDArray[np.bool_], c: FloatArray, r: float, clip: float, rounds: int,
+                    iterations: int, trim_first: bool = True) -> CircleFit | None:
+    """Rounds of Gauss-Newton from (c, r) on the points of xy (n, 2) within `clip` robust
+    sigmas of the current circle (in the first round: of (c, r) when `trim_first`, else
+    all finite points)."""
+    full = np.full(len(xy), np.inf)
+    full[finite] = np.linalg.norm(xy[finite] - c, axis=1) - r
+    keep = np.abs(full) < clip * max(_robust_sigma(full[finite]), 1e-9) if trim_first else finite.copy()
     fit = None
     for _ in range(rounds):
         q = xy[keep]
         if len(q) < 5:
             return fit
-        c, r = circle_algebraic(q)
-        for _ in range(iterations):
-            v = q - c
-            dist = np.linalg.norm(v, axis=1)
-            jac = np.column_stack([-v / dist[:, None], -np.ones(len(q))])
-            res = dist - r
-            step, *_ = np.linalg.lstsq(jac, -res, rcond=None)
-            c, r = c + step[:2], r + step[2]
-            if np.abs(step).max() < 1e-10:
-                break
+        c, r = _circle_gauss_newton(q, c, r, iterations)
         v = q - c
         dist = np.linalg.norm(v, axis=1)
         res = dist - r
@@ -196,9 +266,8 @@ def fit_circle(xy: FloatArray, clip: float = 3.5, rounds: int = 3, iterations: i
             return fit
         fit = CircleFit((float(c[0]), float(c[1])), float(r), cov, float(np.sqrt(np.mean(res ** 2))),
                         len(q), _coverage(q, c))
-        full = np.linalg.norm(xy - c, axis=1) - r
-        sig = max(_robust_sigma(res), 1e-9)
-        new = np.all(np.isfinite(xy), axis=1) & (np.abs(full) < clip * sig)
+        full[finite] = np.linalg.norm(xy[finite] - c, axis=1) - r
+        new = np.abs(full) < clip * max(_robust_sigma(res), 1e-9)
         if np.array_equal(new, keep):
             break
         keep = new

@@ -3,7 +3,9 @@ uncertainty or an exception reply out.
 
     ctx = VisionContext.from_part(part, workcell)
     geometry = scan_for(spec, ctx)             # the window Vision wants the SLRA to scan
+    plan = frames_for(spec, ctx)               # how many approaches (frames) it needs
     reply = measure(frame, spec, ctx)          # VisionResult | VisionException
+    reply = measure_frames(frames, spec, ctx)  # the same from plan.count frames
 
 Vision knows only the frame (with the pose the robot REPORTS), the nominal features and
 the part's placement.  Method, as the seed describes: rectangular patches over the critical
@@ -17,11 +19,29 @@ two things in the same image:
   thickness); the web's own tolerance (uniform, t / sqrt 3) enters the uncertainty;
 * widths and edge distances are between two edges of the same image;
 * a fastener hole's position is registered on its neighbours in the same image: the frame
-  is shifted so that their measured centres best match their nominal ones; their own
-  position scatter (assumed uniform over their tolerance zone: sigma = zone / 4 per axis,
-  divided by the number of neighbours) enters the uncertainty;
-* a lightening hole has no neighbour in view: its position takes the arm's pose error into
-  its uncertainty budget (said so in the diagnostics: `datum = "pose"`).
+  is shifted by the mean offset of their measured from their nominal centres.  Which
+  neighbours serve is fixed by the nominal part and the commanded pose alone (those whose
+  whole rim patch lies in the frame with a margin for the pose error), so repeated frames
+  use the same ones; a rim with several surfaces beneath it is left out when a clean one
+  is in view, and of three or more, one more than a zone radius from their median.  Their
+  own position scatter (assumed uniform over their tolerance zone: sigma = zone / 4 per
+  axis, divided by the number of neighbours) enters the uncertainty: it does not repeat
+  away, and it is the main term;
+* a lightening hole has no neighbour in view (pocket walls lie outside the window): its
+  datum is the arm's pose (`datum = "pose"`), whose error is a new draw of the arm's
+  repeatability at each approach.  `frames_for` asks for ctx.pose_datum_frames frames, each
+  after its own approach, and `measure_frames` averages their deviations: the random part
+  (pose, rim fit) falls by the square root of their number (never below what the frames'
+  own scatter shows); the systematic part (the edge model) does not.  This assumes the
+  arm's error at a taught pose is repeatability only (the simulated arm has no absolute
+  accuracy error); a calibrated arm's residual accuracy would be one more systematic term.
+
+Rims of large holes.  What lies beyond a rim may differ round it (a fixture under part of a
+lightening hole, the far floor under the rest): each edge pixel's far share comes from the
+surface on its own radius, from the range where that surface mixes in phase and from the
+intensity where it does not.  Rays cross a large hole's rim tilted outward, so the bore's
+wall shows beyond it, dark; the edge found then lies between the rim and depth * tilt^2
+inside it: the rim points move out by half of that, and the other half is a type-B term.
 
 Failures are replies, never made-up values: OUT_OF_VIEW (a patch the measurement needs is
 outside the frame), OCCLUDED (something nearer than the surface covers a patch),
@@ -31,7 +51,7 @@ TOO_FEW_PIXELS (too few valid pixels or edge points), FIT_RESIDUAL (a fit does n
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from enum import Enum
 from typing import Any, Union
@@ -72,9 +92,14 @@ MAX_PLANE_RMS_MM = 0.6
 MAX_EDGE_RMS_MM = 0.3    # plus half a pixel
 EDGE_CORRELATION = 1.6   # inflates edge-fit sigmas: row and column crossings share pixels
 EDGE_MODEL_PX = 0.05     # residual bias of a sub-pixel edge point (pixels), not averaged away
-FAR_SPREAD_MM = 2.0      # beyond a rim, ranges this far from their median are another surface,
+MIX_RANGE_MM = 100.0     # a surface this far beyond the face mixes with it in phase (range share)
+FAR_SPREAD_MM = 2.0      # beyond a rim, heights this far from their median are another surface,
 FAR_MIXED_SHARE = 0.03   # and more than this share of them means several surfaces
 FAR_MIXED_U_MM = 0.06    # then the rim's position (radius, centre) carries this much more
+DATUM_MIN_COVERAGE = math.radians(120)  # rim span a datum neighbour's fit needs
+MAX_DATUM_HOLES = 6      # a fastener hole registers on at most this many neighbours in view
+POSE_DATUM_FRAMES = 16   # re-approaches averaged for a position whose only datum is the pose
+REAPPROACH_SHAPE = (128, 128)  # pixels of each re-approach frame (a rim fit needs no more)
 
 
 class Reason(str, Enum):
@@ -129,7 +154,9 @@ class VisionContext:
     SLRA's nominal standoff and largest window, and tolerances it needs for references.
 
     web_tolerance: +/- of the web thickness (a height's reference); position_zones: hole id
-    -> true-position zone diameter; pose_sigma_m: the arm's pose error per axis (1 sigma).
+    -> true-position zone diameter; pose_sigma_m: the arm's pose error per axis (1 sigma);
+    pose_datum_frames: frames (each from its own approach) averaged for a position whose
+    only datum is the pose (see :func:`frames_for`).
     """
 
     features: Mapping[str, Feature]
@@ -140,6 +167,7 @@ class VisionContext:
     position_zones: Mapping[str, float] = field(default_factory=dict)
     pose_sigma_m: float = 0.25e-3 / 3
     shape: tuple[int, int] = (256, 256)
+    pose_datum_frames: int = POSE_DATUM_FRAMES
 
     @classmethod
     def from_part(cls, part: Any, workcell: Any, tool: str = "slra_1", specs: Any = None) -> VisionContext:
@@ -190,6 +218,28 @@ def scan_for(spec: MeasurementSpec, ctx: VisionContext) -> ScanGeometry:
     """The scan window Vision asks of the SLRA for `spec` (from the nominal standoff)."""
     ang = math.degrees(2 * math.atan(_window_mm(spec, ctx) / 2 / (ctx.standoff_m * 1000)))
     return ScanGeometry(ctx.shape, (min(ang, ctx.max_fov_deg[0]), min(ang, ctx.max_fov_deg[1])))
+
+
+@dataclass(frozen=True)
+class FramePlan:
+    """The frames a spec needs: `count` frames, each after its own approach of the arm (a
+    new draw of its pose error), the first of the spec's window, the others of `shape`
+    pixels over the same window."""
+
+    count: int
+    shape: tuple[int, int]
+
+
+def frames_for(spec: MeasurementSpec, ctx: VisionContext) -> FramePlan:
+    """How many frames `spec` needs.  A lightening hole's position has no datum in view but
+    the arm's pose, whose error (repeatability) is new at every approach: the deviations of
+    ctx.pose_datum_frames approaches are averaged (:func:`measure_frames`), at
+    :data:`REAPPROACH_SHAPE` pixels (its rim has hundreds of edge points even so).
+    Everything else needs one frame."""
+    f = ctx.features.get(spec.feature)
+    if spec.kind is K.HOLE_POSITION and isinstance(f, Hole) and f.role is not HoleRole.FASTENER:
+        return FramePlan(max(1, ctx.pose_datum_frames), REAPPROACH_SHAPE)
+    return FramePlan(1, ctx.shape)
 
 
 def _neighbours(hole: Hole, ctx: VisionContext, within: float) -> list[Hole]:
@@ -262,22 +312,29 @@ def _share(view: View, patch: Patch, near: PlaneFit, near_px: NDArray[np.bool_] 
         on_near &= near_px | ~far_region
     i_near = float(np.median(inten[on_near])) if on_near.any() else np.nan
     far_valid = far_region & np.isfinite(r)
+    s_i = _intensity_share(view, near, d, r_n, inten, on_near)
+    if far_valid.sum() < max(6, 0.5 * far_region.sum()):
+        s_i[~np.isfinite(r) & (inten <= 0)] = 1.0
+        return s_i, "intensity"
+    # what lies beyond may be several surfaces (a rib or a fixture under part of a hole, the
+    # far floor under the rest): each pixel takes the range and brightness of the far pixel
+    # it mixes with, and its share comes from the range where that surface is near enough
+    # to mix in phase, from the intensity where it is not (per pixel, never one mode for all)
+    _, (ri, ci) = ndimage.distance_transform_edt(~far_valid, return_indices=True)
+    if far_ref is not None:
+        use = far_valid[far_ref[0], far_ref[1]]
+        ri, ci = np.where(use, far_ref[0], ri), np.where(use, far_ref[1], ci)
+    r_f, ratio = r[ri, ci], inten[ri, ci] / i_near
     with np.errstate(invalid="ignore"):
-        gap = float(np.median(r[far_valid] - r_n[far_valid])) if far_valid.sum() >= 6 else np.inf
-    if far_valid.sum() >= max(6, 0.5 * far_region.sum()) and 0.3 < gap < 100.0:
-        # what lies beyond may be several surfaces (a rib under a hole): each pixel takes
-        # the range and brightness of the nearest pixel of the far region
-        _, (ri, ci) = ndimage.distance_transform_edt(~far_valid, return_indices=True)
-        if far_ref is not None:
-            use = far_valid[far_ref[0], far_ref[1]]
-            ri, ci = np.where(use, far_ref[0], ri), np.where(use, far_ref[1], ci)
-        r_f, ratio = r[ri, ci], inten[ri, ci] / i_near
-        # a dark third surface (a bore's wall near grazing) is "not the face" too
-        s_i = _intensity_share(view, near, d, r_n, inten, on_near)
-        return np.fmax(edges.far_share_from_range(r, r_n, r_f, ratio), np.where(np.isfinite(r), s_i, np.nan)), "range"
-    s = _intensity_share(view, near, d, r_n, inten, on_near)
-    s[~np.isfinite(r) & (inten <= 0)] = 1.0
-    return s, "intensity"
+        in_phase = (r_f - r_n > 0.3) & (r_f - r_n < MIX_RANGE_MM)
+    if not in_phase.any():
+        s_i[~np.isfinite(r) & (inten <= 0)] = 1.0
+        return s_i, "intensity"
+    # a dark third surface (a bore's wall near grazing) is "not the face" too
+    s_r = np.fmax(edges.far_share_from_range(r, r_n, r_f, ratio), np.where(np.isfinite(r), s_i, np.nan))
+    s = np.where(in_phase, s_r, s_i)
+    s[~in_phase & ~np.isfinite(r) & (inten <= 0)] = 1.0
+    return s, "range" if in_phase.all() else "range+intensity"
 
 
 def _intensity_share(view: View, near: PlaneFit, d: FloatArray, r_n: FloatArray, inten: FloatArray,
@@ -297,8 +354,8 @@ def _edge_xy(view: View, patch: Patch, s: FloatArray, band: NDArray[np.bool_], n
     return xyz[:, :2]
 
 
-def _circle(view: View, hole: Hole, name: str) -> tuple[CircleFit, PlaneFit, dict]:
-    """The hole's rim circle on its entry face."""
+def _circle(view: View, hole: Hole, name: str, min_coverage: float = math.pi) -> tuple[CircleFit, PlaneFit, dict]:
+    """The hole's rim circle on its entry face; its points must span `min_coverage` (rad)."""
     c, r, z = np.asarray(hole.center[:2]), hole.diameter / 2, hole.center[2]
     b = BLUR_MM + view.pixel_mm(view.range_mm[np.isfinite(view.range_mm)].mean() if np.isfinite(view.range_mm).any()
                                 else 450.0)
@@ -330,46 +387,64 @@ def _circle(view: View, hole: Hole, name: str) -> tuple[CircleFit, PlaneFit, dic
     s, mode = _share(view, patch, near, near_px, far_region, far_ref)
     band = np.abs(rho - r) < b
     xy = _edge_xy(view, patch, s, band, near)
-    hidden, wall = _wall_hidden(view, xy, c, z, hole.depth)
+    hidden, tilt = _wall_hidden(view, xy, c, z, hole.depth)
     wall_u = 0.0
     if hidden.sum() >= max(MIN_EDGE_POINTS, 0.4 * len(xy)):
         xy = xy[hidden]
     elif len(xy):
-        # the bore's wall shows all round (a large hole far off the axis): the edge found may
-        # lie anywhere between the rim and the wall's foot, up to the wall's visible width
-        wall_u = float(np.median(wall)) / math.sqrt(3)
+        xy, wall_u = _past_the_wall(xy, c, tilt, hole.depth)
     if len(xy) < MIN_EDGE_POINTS:
         raise _Fail(Reason.TOO_FEW_PIXELS, f"{len(xy)} rim points of {hole.id} (need {MIN_EDGE_POINTS})")
     fit = fit_circle(xy)
-    if fit is None or fit.coverage < math.pi:
-        raise _Fail(Reason.TOO_FEW_PIXELS, f"rim points of {hole.id} cover "
-                    f"{math.degrees(fit.coverage) if fit else 0:.0f} deg of the circle (need 180)")
+    if fit is None or fit.coverage < min_coverage:
+        raise _Fail(Reason.TOO_FEW_PIXELS, f"rim points of {hole.id} cover {math.degrees(fit.coverage) if fit else 0:.0f}"
+                    f" deg of the circle (need {math.degrees(min_coverage):.0f})")
     px = view.pixel_mm(float(np.median(view.plane_range(near.coef, patch.take(view.dirs)))))
     if fit.rms > MAX_EDGE_RMS_MM + 0.5 * px:
         raise _Fail(Reason.FIT_RESIDUAL, f"rim of {hole.id}: rms {fit.rms:.3f} mm")
     # several surfaces beyond the rim (a rib under the hole) break the two-surface model of
     # the mixed pixels: a type-B term, sized on such holes, instead of a false precision
-    r_far = patch.take(view.range_mm)[far_region]
-    r_far = r_far[np.isfinite(r_far)]
-    spread = float(np.mean(np.abs(r_far - np.median(r_far)) > FAR_SPREAD_MM)) if len(r_far) > 5 else 0.0
-    model = math.hypot(FAR_MIXED_U_MM if spread > FAR_MIXED_SHARE else 0.0, wall_u)
+    z_far = patch.take(view.points)[..., 2][far_region]
+    z_far = z_far[np.isfinite(z_far)]
+    spread = float(np.mean(np.abs(z_far - np.median(z_far)) > FAR_SPREAD_MM)) if len(z_far) > 5 else 0.0
+    far_u = FAR_MIXED_U_MM if spread > FAR_MIXED_SHARE else 0.0
+    model = math.hypot(far_u, wall_u)
     return fit, near, {"edge_points": int(fit.n), "rim_rms": fit.rms, "mode": mode, "pixel_mm": px,
                        "far_other_share": spread, "wall_u": wall_u, "u_model": model,
+                       "u_model_centre": model,
                        "patch": (patch.r0, patch.r1, patch.c0, patch.c1), "rim_xy": xy}
 
 
 def _wall_hidden(view: View, xy: FloatArray, c: FloatArray, z: float, depth: float
                  ) -> tuple[NDArray[np.bool_], FloatArray]:
-    """Rim points (n, 2) where the hole's wall is not in view: off the optical axis the
-    beam sees down the far side of a bore, whose wall (a third surface, near grazing)
-    would pull the edge inward; those points are left out of the fit."""
+    """Rim points (n, 2) where the hole's wall is not in view, and the outward tilt tau (n,)
+    of the ray at each (tan of its angle from the axis, across the rim).  Off the optical
+    axis the beam sees down the far side of a bore: its wall (a third surface, near
+    grazing) shows over depth * tau there and would pull the edge inward; such points are
+    left out of the fit when enough others remain (see :func:`_past_the_wall`)."""
     if not len(xy):
         return np.zeros(0, dtype=bool), np.zeros(0)
     ray = xy - view.origin[:2]
     lateral = ray / max(abs(z - view.origin[2]), 1e-9)            # tan of the ray's tilt, as a vector
     radial = (xy - c) / np.linalg.norm(xy - c, axis=1, keepdims=True)
-    wall = depth * np.maximum((lateral * radial).sum(1), 0.0)      # visible wall width (mm)
-    return wall < max(0.1, 0.25 * view.pixel_mm(abs(z - view.origin[2]))), wall
+    tilt = np.maximum((lateral * radial).sum(1), 0.0)
+    return depth * tilt < max(0.1, 0.25 * view.pixel_mm(abs(z - view.origin[2]))), tilt
+
+
+def _past_the_wall(xy: FloatArray, c: FloatArray, tilt: FloatArray, depth: float) -> tuple[FloatArray, float]:
+    """Rim points (n, 2) where the bore's wall shows beyond the rim (a large hole, whose
+    whole rim the rays cross tilted outward by tau = `tilt` (n,)), moved to the middle of
+    where the top rim may lie, and the standard uncertainty (mm) left on the radius.
+
+    The wall shows over w = depth * tau, lit at about tau of the face's brightness (cos of
+    its incidence against the face's).  A dark wall is "beyond" to the edge model, so the
+    edge found lies between the rim (a black wall) and tau * w inside it (the share of the
+    wall's light that the model takes for the face's): the points move out by half of
+    depth * tau^2, and the other half is a uniform type-B term, the same all round (radius
+    and, conservatively, each centre coordinate)."""
+    half = depth * tilt ** 2 / 2
+    radial = (xy - c) / np.maximum(np.linalg.norm(xy - c, axis=1, keepdims=True), 1e-9)
+    return xy + half[:, None] * radial, float(np.mean(half)) / math.sqrt(3)
 
 
 def _circle_in_view(view: View, c: FloatArray, r: float, z: float) -> float:
@@ -445,38 +520,84 @@ def _hole_diameter(view: View, spec: MeasurementSpec, hole: Hole, ctx: VisionCon
     return VisionResult(spec.id, spec.kind, 2 * fit.radius, u, diag)
 
 
+def _datum_neighbours(view: View, hole: Hole, ctx: VisionContext) -> list[Hole]:
+    """The fastener holes beside `hole` (same face) that serve as its datum in this frame:
+    those whose whole rim patch (rim, blur band, face annulus) lies inside the frame, with
+    a margin of 3 sigma of the arm's pose error and a pixel, as seen from the REPORTED
+    pose.  The set depends on the nominal part and the commanded pose only, never on what
+    the frame shows, so repeated frames register on the same holes."""
+    px = view.pixel_mm(ctx.standoff_m * 1000)
+    margin = 3 * ctx.pose_sigma_m / ctx.placement.scale + px
+    out = []
+    for nb in _neighbours(hole, ctx, math.inf)[:MAX_DATUM_HOLES * 4]:
+        reach = nb.diameter / 2 + BLUR_MM + px + max(3.0, 6 * px) + margin
+        corners = np.array([[nb.center[0] + sx * reach, nb.center[1] + sy * reach, nb.center[2]]
+                            for sx in (-1, 1) for sy in (-1, 1)])
+        if view.geometry.contains(view.pixel_of(corners)).all():
+            out.append(nb)
+    return out[:MAX_DATUM_HOLES]
+
+
+def _register_on_neighbours(view: View, hole: Hole, ctx: VisionContext
+                            ) -> tuple[FloatArray, float, list[str], list[str]]:
+    """The frame's shift (2,) from the datum neighbours' measured to nominal centres (their
+    mean), its per-axis standard uncertainty, the neighbours used and those left out (a
+    rim that cannot be measured; a rim with several surfaces beneath it when a clean one
+    is in view; one whose offset is more than a zone radius from the median of three or
+    more: out of its own tolerance, or mis-measured)."""
+    offsets, u_nb, used, left = [], [], [], []
+    fits = []
+    for nb in _datum_neighbours(view, hole, ctx):
+        try:
+            # off the axis, the far side of a neighbour's bore shows its wall and is left
+            # out: its rim points span about half the circle (the fit's covariance says
+            # how well that fixes the centre)
+            fits.append((nb,) + _circle(view, nb, f"rim {nb.id}", DATUM_MIN_COVERAGE))
+        except _Fail:
+            left.append(nb.id)
+    if any(f[3]["u_model_centre"] == 0 for f in fits):       # a rim with something beneath it (a
+        left += [f[0].id for f in fits if f[3]["u_model_centre"] > 0]   # rib) is no datum beside a clean one
+        fits = [f for f in fits if f[3]["u_model_centre"] == 0]
+    for nb, f2, _, d2 in fits:
+        offsets.append(np.asarray(nb.center[:2]) - np.asarray(f2.center))
+        u_nb.append(math.hypot(EDGE_CORRELATION * max(f2.center_sigma), _edge_sigma(d2["pixel_mm"], f2.n),
+                               d2["u_model_centre"]))
+        used.append(nb.id)
+    if len(offsets) >= 3:
+        mid = np.median(offsets, axis=0)
+        ok = [float(np.linalg.norm(o - mid)) <= ctx.position_zones.get(i, 0.5) / 2
+              for o, i in zip(offsets, used)]
+        left += [i for i, k in zip(used, ok) if not k]
+        offsets = [o for o, k in zip(offsets, ok) if k]
+        u_nb = [u for u, k in zip(u_nb, ok) if k]
+        used = [i for i, k in zip(used, ok) if k]
+    if not used:
+        return np.zeros(2), math.nan, used, left
+    k = len(used)
+    zone = max(ctx.position_zones.get(i, 0.5) for i in used)
+    # each neighbour's own position error, taken as uniform over its zone (sigma zone / 4
+    # per axis), averages down by k; so does the scatter of their rim fits
+    u_reg = math.sqrt((zone / 4) ** 2 / k + float(np.mean(np.square(u_nb))) / k)
+    return np.mean(offsets, axis=0), u_reg, used, left
+
+
 def _hole_position(view: View, spec: MeasurementSpec, hole: Hole, ctx: VisionContext) -> VisionResult:
     fit, _, diag = _circle(view, hole, "rim")
     px = diag["pixel_mm"]
-    u_c = math.hypot(EDGE_CORRELATION * max(fit.center_sigma), _edge_sigma(px, fit.n), diag["u_model"])
-    shift = np.zeros(2)
-    used: list[str] = []
-    u_reg2 = 0.0
+    u_fit = math.hypot(EDGE_CORRELATION * max(fit.center_sigma), _edge_sigma(px, fit.n))
+    shift, u_reg, used, left = np.zeros(2), math.nan, [], []
     if hole.role is HoleRole.FASTENER:
-        offsets, u_nb, fits = [], [], []
-        for nb in _neighbours(hole, ctx, 1e9)[:4]:
-            try:
-                fits.append((nb,) + _circle(view, nb, f"rim {nb.id}"))
-            except _Fail:
-                continue
-        if any(d2["u_model"] == 0 for *_, d2 in fits):    # degraded rims are no datum when
-            fits = [f for f in fits if f[3]["u_model"] == 0]  # a clean one is in view
-        for nb, f2, _, d2 in fits:
-            offsets.append(np.asarray(nb.center[:2]) - np.asarray(f2.center))
-            u_nb.append(math.hypot(EDGE_CORRELATION * max(f2.center_sigma), _edge_sigma(d2["pixel_mm"], f2.n),
-                                   d2["u_model"]))
-            used.append(nb.id)
-        if offsets:
-            k = len(offsets)
-            shift = np.median(offsets, axis=0) if k >= 3 else np.mean(offsets, axis=0)
-            zone = max(ctx.position_zones.get(i, 0.5) for i in used)
-            u_reg2 = (zone / 4) ** 2 / k + float(np.mean(np.square(u_nb))) / k
-    if not used:
-        u_reg2 = (ctx.pose_sigma_m / ctx.placement.scale) ** 2
+        shift, u_reg, used, left = _register_on_neighbours(view, hole, ctx)
+    pose_u = ctx.pose_sigma_m / ctx.placement.scale
     d = np.asarray(fit.center) + shift - np.asarray(hole.center[:2])
-    u_axis = math.sqrt(u_c ** 2 + u_reg2)
-    diag.update(center=fit.center, registered_on=used, shift=tuple(shift), deviation=tuple(d),
-                datum="neighbours" if used else "pose")
+    # random from frame to frame: the rim fit and, with the pose as datum, the arm's pose
+    # error (a new draw at each approach); the same in every frame: the edge model and the
+    # neighbours' own position errors
+    u_random = math.hypot(u_fit, pose_u) if not used else u_fit
+    u_system = math.hypot(diag["u_model_centre"], u_reg) if used else diag["u_model_centre"]
+    u_axis = math.hypot(u_random, u_system)
+    diag.update(center=fit.center, registered_on=used, left_out=left, shift=tuple(shift), deviation=tuple(d),
+                datum="neighbours" if used else "pose", u_random=u_random, u_systematic=u_system)
     return VisionResult(spec.id, spec.kind, 2 * float(np.hypot(*d)), 2 * u_axis, diag)
 
 
@@ -618,3 +739,39 @@ def measure(frame: RangeFrame, spec: MeasurementSpec, ctx: VisionContext) -> Rep
         return entry[1](View(frame, ctx.placement), spec, feature, ctx)
     except _Fail as exc:
         return VisionException(spec.id, exc.reason, exc.detail)
+
+
+def measure_frames(frames: Sequence[RangeFrame], spec: MeasurementSpec, ctx: VisionContext) -> Reply:
+    """Measure `spec` in frames taken after separate approaches of the arm (see
+    :func:`frames_for`).  A position: the mean of the frames' deviations, its random part
+    (rim fit, pose error) divided by the square root of their number, taken no smaller
+    than the scatter the frames themselves show; its systematic part (edge model,
+    neighbours' own errors) as it is.  Other kinds: the first frame.  More than half of
+    the frames failing is the first failure's reply."""
+    if not frames:
+        return VisionException(spec.id, Reason.NOT_MEASURABLE, "no frame")
+    if len(frames) == 1 or spec.kind is not K.HOLE_POSITION:
+        return measure(frames[0], spec, ctx)
+    replies = [measure(f, spec, ctx) for f in frames]
+    ok = [r for r in replies if isinstance(r, VisionResult)]
+    failed = [r for r in replies if isinstance(r, VisionException)]
+    if len(ok) < max(2, len(frames) // 2 + 1):
+        first = failed[0]
+        return VisionException(spec.id, first.reason, f"{len(failed)} of {len(frames)} frames failed; "
+                               f"first: {first.detail}")
+    return _mean_position(spec, ok)
+
+
+def _mean_position(spec: MeasurementSpec, replies: Sequence[VisionResult]) -> VisionResult:
+    """The position from several frames' replies (n >= 2)."""
+    d = np.array([r.diagnostics["deviation"] for r in replies])
+    n = len(d)
+    u_model = math.sqrt(float(np.mean([r.diagnostics["u_random"] ** 2 for r in replies])))
+    scatter = math.sqrt(float(np.mean(np.var(d, axis=0, ddof=1))))       # per axis, observed
+    u_random = max(u_model, scatter) / math.sqrt(n)
+    u_system = max(r.diagnostics["u_systematic"] for r in replies)
+    mean = d.mean(axis=0)
+    diag = {"frames": n, "deviation": tuple(mean), "deviations": d, "scatter": scatter, "u_random": u_random,
+            "u_systematic": u_system, "datum": replies[0].diagnostics["datum"],
+            "center": replies[0].diagnostics["center"], "rim_xy": replies[0].diagnostics.get("rim_xy")}
+    return VisionResult(spec.id, spec.kind, 2 * float(np.hypot(*mean)), 2 * math.hypot(u_random, u_system), diag)

@@ -1,0 +1,115 @@
+"""Hole position by Vision: a robust rim fit, a datum set that does not change with the
+arm's pose error, and averaged re-approaches where the pose is the only datum."""
+
+from __future__ import annotations
+
+import math
+
+import manifold3d as m3d
+import numpy as np
+import pytest
+
+from ita.part.model import Hole, HoleRole
+from ita.sensors.slra_frame import ScanGeometry
+from ita.sim.slra import SlraParams, SlraScene, pose_error, simulate_frame
+from ita.specs.model import MeasurementKind as K
+from ita.specs.model import MeasurementSpec
+from ita.vision.fit import fit_circle
+from ita.vision.measure import VisionContext, VisionException, frames_for, measure_frames, scan_for
+from tests.test_slra import PLACEMENT, looking_down
+from tests.test_vision import _box, _mesh
+
+PITCH = 40.0
+ROW = [Hole(f"H{i}", HoleRole.FASTENER, (PITCH * i, 0.0, 3.0), (0.0, 0.0, 1.0), 6.35, 3.0, "P1") for i in (-1, 0, 1)]
+BIG = Hole("L1", HoleRole.LIGHTENING, (0.0, 0.0, 3.0), (0.0, 0.0, 1.0), 60.0, 3.0, "P1")
+HP_ROW = MeasurementSpec("HP-H0", K.HOLE_POSITION, "H0", (0.0, 0.0, 3.0), (0.0, 0.0, 1.0), 0.0, 0.0, 0.5)
+HP_BIG = MeasurementSpec("HP-L1", K.HOLE_POSITION, "L1", (0.0, 0.0, 3.0), (0.0, 0.0, 1.0), 0.0, 0.0, 1.0)
+TRUE_OFFSET = np.array([0.12, -0.05])          # the as-built middle hole and big hole (mm)
+POSE_SIGMA_M = 0.25e-3 / 3
+
+
+def _plate(holes, offsets) -> SlraScene:
+    solid = _box((-100, -100, 0), (100, 100, 3)) + _box((-200, -200, -45), (200, 200, -40))
+    built = []
+    for h, d in zip(holes, offsets):
+        c = (h.center[0] + d[0], h.center[1] + d[1])
+        solid = solid - m3d.Manifold.cylinder(10.0, h.diameter / 2, circular_segments=96).translate((*c, -2))
+        built.append(Hole(h.id, h.role, (*c, 3.0), h.axis, h.diameter, h.depth, h.parent))
+    return SlraScene(_mesh(solid), PLACEMENT, holes=built)
+
+
+@pytest.fixture(scope="module")
+def row_scene() -> SlraScene:
+    return _plate(ROW, [(0.0, 0.0), TRUE_OFFSET, (0.0, 0.0)])
+
+
+@pytest.fixture(scope="module")
+def big_scene() -> SlraScene:
+    return _plate([BIG], [TRUE_OFFSET])
+
+
+def _frames(scene, spec, ctx, rng, n):
+    """n frames of spec, each from the commanded pose plus a new draw of the pose error."""
+    pose = looking_down(0.0, 0.0, 0.45 + spec.point[2] / 1000)
+    plan = frames_for(spec, ctx)
+    first = scan_for(spec, ctx)
+    out = []
+    for k in range(n):
+        g = first if k == 0 else ScanGeometry(plan.shape, first.fov_deg)
+        out.append(simulate_frame(scene, pose_error(pose, rng, POSE_SIGMA_M), g, SlraParams(), rng,
+                                  reported_pose=pose))
+    return out
+
+
+def test_circle_fit_ignores_a_cluster_of_spurious_edge_points():
+    rng = np.random.default_rng(3)
+    t = np.linspace(0, 2 * np.pi, 48, endpoint=False)
+    xy = np.column_stack([3.2 * np.cos(t), 3.2 * np.sin(t)]) + rng.normal(0, 0.005, (48, 2))
+    bad = (t > 0.6) & (t < 3.0)                    # 30 % of the rim, all pushed outward
+    xy[bad] *= 1 + 0.25 / 3.2
+    fit = fit_circle(xy)
+    assert fit is not None
+    assert math.hypot(*fit.center) < 0.01 and abs(fit.radius - 3.2) < 0.01
+
+
+def test_fastener_position_registers_on_the_same_neighbours_under_pose_error(row_scene):
+    ctx = VisionContext({h.id: h for h in ROW}, PLACEMENT, position_zones={h.id: 0.5 for h in ROW})
+    rng = np.random.default_rng(7)
+    frames = _frames(row_scene, HP_ROW, ctx, rng, 5)
+    replies = [measure_frames([f], HP_ROW, ctx) for f in frames]
+    assert all(r.ok for r in replies)
+    assert {tuple(sorted(r.diagnostics["registered_on"])) for r in replies} == {("H-1", "H1")}
+    values = np.array([r.value for r in replies])
+    truth = 2 * math.hypot(*TRUE_OFFSET)
+    assert values.std(ddof=1) < 0.02                  # the pose error cancels
+    assert all(abs(r.value - truth) <= r.expanded for r in replies)
+
+
+def test_lightening_position_averages_re_approaches(big_scene):
+    ctx = VisionContext({BIG.id: BIG}, PLACEMENT, pose_datum_frames=8)
+    assert frames_for(HP_BIG, ctx).count == 8
+    assert frames_for(HP_ROW, VisionContext({h.id: h for h in ROW}, PLACEMENT)).count == 1
+    rng = np.random.default_rng(11)
+    frames = _frames(big_scene, HP_BIG, ctx, rng, 8)
+    single = measure_frames(frames[:1], HP_BIG, ctx)
+    averaged = measure_frames(frames, HP_BIG, ctx)
+    assert single.ok and averaged.ok
+    assert averaged.diagnostics["frames"] == 8
+    truth = 2 * math.hypot(*TRUE_OFFSET)
+    assert abs(averaged.value - truth) <= averaged.expanded
+    # the pose error (0.083 mm per axis) is the single frame's main term; 8 approaches cut it
+    assert averaged.diagnostics["u_random"] < 0.5 * single.diagnostics["u_random"]
+    assert averaged.uncertainty <= single.uncertainty
+    assert single.diagnostics["datum"] == "pose"
+
+
+def test_mostly_failed_frames_are_an_exception_not_a_value(big_scene):
+    ctx = VisionContext({BIG.id: BIG}, PLACEMENT, pose_datum_frames=4)
+    rng = np.random.default_rng(5)
+    good = _frames(big_scene, HP_BIG, ctx, rng, 1)
+    far = looking_down(400.0, 0.0, 0.453)              # the hole is out of these frames
+    away = [simulate_frame(big_scene, far, scan_for(HP_BIG, ctx), SlraParams(), rng) for _ in range(3)]
+    reply = measure_frames(good + away, HP_BIG, ctx)
+    assert isinstance(reply, VisionException)
+    assert "3 of 4 frames failed" in reply.detail
+
