@@ -4,18 +4,20 @@ arm's pose error, and averaged re-approaches where the pose is the only datum.""
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import manifold3d as m3d
 import numpy as np
 import pytest
 
-from ita.part.model import Hole, HoleRole
+from ita.part.model import Hole, HoleRole, Stiffener
 from ita.sensors.slra_frame import ScanGeometry
 from ita.sim.slra import SlraParams, SlraScene, pose_error, simulate_frame
 from ita.specs.model import MeasurementKind as K
 from ita.specs.model import MeasurementSpec
-from ita.vision.fit import fit_circle
-from ita.vision.measure import VisionContext, VisionException, frames_for, measure_frames, scan_for
+from ita.vision.fit import fit_circle, fit_circle_fixed_radius
+from ita.vision.measure import VisionContext, VisionException, _rib_beneath, frames_for, measure_frames, scan_for
+from ita.vision.patches import View
 from tests.test_slra import PLACEMENT, looking_down
 from tests.test_vision import _box, _mesh
 
@@ -113,3 +115,65 @@ def test_mostly_failed_frames_are_an_exception_not_a_value(big_scene):
     assert isinstance(reply, VisionException)
     assert "3 of 4 frames failed" in reply.detail
 
+
+
+# a rib (3 mm wide, top 10 mm below the face) runs under H1, 0.8 mm off its centre: its edge
+# lies 0.9 mm inside the rim, so through
+# the hole the beam sees the rib's top on one side and the floor 40 mm down on the other
+RIB_UNDER = Stiffener("S1", (PITCH - 0.8, -60.0), (PITCH - 0.8, 60.0), 3.0, -7.0)
+HD_H1 = MeasurementSpec("HD-H1", K.HOLE_DIAMETER, "H1", (PITCH, 0.0, 3.0), (0.0, 0.0, 1.0), 6.35, -0.076, 0.076)
+
+
+@pytest.fixture(scope="module")
+def rib_row_scene() -> SlraScene:
+    solid = _box((-100, -100, 0), (100, 100, 3)) + _box((-200, -200, -45), (200, 200, -40))
+    solid = solid + _box((PITCH - 0.8 - 1.5, -60, -40), (PITCH - 0.8 + 1.5, 60, -7.0))
+    for h in ROW:
+        solid = solid - m3d.Manifold.cylinder(10.0, h.diameter / 2, circular_segments=96).translate(
+            (h.center[0], h.center[1], -2))
+    return SlraScene(_mesh(solid), PLACEMENT, holes=ROW)
+
+
+def test_circle_of_known_radius_from_half_a_rim_with_outliers():
+    rng = np.random.default_rng(4)
+    t = np.linspace(-np.pi / 2, np.pi / 2, 17)                # the half of the rim in view
+    xy = np.column_stack([2.4 * np.cos(t), 2.4 * np.sin(t)]) + rng.normal(0, 0.01, (17, 2))
+    xy[[2, 9, 14]] *= 1 + 0.3 / 2.4                           # three points half a pixel out
+    fit = fit_circle_fixed_radius(xy, 2.4)
+    assert fit is not None and fit.n == 14
+    assert math.hypot(*fit.center) < 0.02 and fit.radius == 2.4
+
+
+def test_datum_set_leaves_out_a_neighbour_with_a_rib_beneath_in_every_frame(rib_row_scene):
+    """The datum set is fixed by the nominal part (the rib is a nominal feature) and the
+    commanded pose: the same in every frame, whatever the rib does to H1's rim."""
+    ctx = VisionContext({f.id: f for f in ROW + [RIB_UNDER]}, PLACEMENT, position_zones={h.id: 0.5 for h in ROW})
+    rng = np.random.default_rng(9)
+    spec = replace(HP_ROW, feature="H-1", id="HP-H-1", point=(-PITCH, 0.0, 3.0))
+    pose = looking_down(-PITCH, 0.0, 0.453)
+    frames = [simulate_frame(rib_row_scene, pose_error(pose, rng, POSE_SIGMA_M), scan_for(spec, ctx), SlraParams(),
+                             rng, reported_pose=pose) for _ in range(3)]
+    replies = [measure_frames([f], spec, ctx) for f in frames]
+    assert all(r.ok for r in replies)
+    assert {tuple(r.diagnostics["registered_on"]) for r in replies} == {("H0",)}
+    assert all(_rib_beneath(View(f, PLACEMENT), ROW[2], ctx) for f in frames)
+    assert not any(_rib_beneath(View(f, PLACEMENT), ROW[1], ctx) for f in frames)
+
+
+def test_diameter_of_a_rim_with_a_rib_beneath_part_of_it(rib_row_scene):
+    """Where the rib's top shows just inside the rim on one side and the floor beyond the rim
+    pixels there, the rib is no reference for them: those radii give no rim points."""
+    ctx = VisionContext({f.id: f for f in ROW + [RIB_UNDER]}, PLACEMENT)
+    rng = np.random.default_rng(12)
+    pose = looking_down(PITCH, 0.0, 0.453)
+    for _ in range(4):
+        frame = simulate_frame(rib_row_scene, pose_error(pose, rng, POSE_SIGMA_M), scan_for(HD_H1, ctx),
+                               SlraParams(), rng, reported_pose=pose)
+        reply = measure_frames([frame], HD_H1, ctx)
+        assert reply.ok, reply
+        assert abs(reply.value - 6.35) < 0.02
+        assert abs(reply.value - 6.35) < reply.expanded
+        # most of the points off by the wrong reference (about 45 % of all) no longer reach
+        # the fit, where only its robust start stood between them and the radius (those
+        # where the rib's edge lies nearer the rim than the check still do)
+        assert reply.diagnostics["edge_points"] >= 0.65 * len(reply.diagnostics["rim_xy"])

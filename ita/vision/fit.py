@@ -233,6 +233,57 @@ def fit_circle(xy: FloatArray, clip: float = 3.5, rounds: int = 3, iterations: i
     return trimmed if plain is None or (trimmed is not None and _apart(plain, trimmed)) else plain
 
 
+def fit_circle_fixed_radius(xy: FloatArray, radius: float, clip: float = 3.5, rounds: int = 3,
+                            iterations: int = 10) -> CircleFit | None:
+    """Robust fit of a circle of known `radius` to points (n, 2): its centre only, from the
+    robust free fit (:func:`fit_circle`) and the points it kept (within `clip` times its
+    rms), Gauss-Newton on the radial residuals of the points within `clip` robust sigmas,
+    a few rounds.  For a rim seen over part of its
+    circle (half of it, say), where a free radius trades off against the centre along the
+    arc's bisector.  cov: (3, 3) of (cx, cy, r) with the radius's row and column zero."""
+    xy = np.asarray(xy, dtype=float)
+    finite = np.all(np.isfinite(xy), axis=1)
+    start = fit_circle(xy)
+    if start is None:
+        return None
+    c = np.asarray(start.center, dtype=float)
+    keep = finite.copy()
+    keep[finite] = np.abs(np.linalg.norm(xy[finite] - c, axis=1) - start.radius) < clip * max(start.rms, 1e-9)
+    fit = None
+    for _ in range(rounds):
+        q = xy[keep]
+        if len(q) < 4:
+            return fit
+        for _ in range(iterations):
+            v = q - c
+            dist = np.linalg.norm(v, axis=1)
+            jac = -v / dist[:, None]
+            step, *_ = np.linalg.lstsq(jac, -(dist - radius), rcond=None)
+            c = c + step
+            if np.abs(step).max() < 1e-10:
+                break
+        v = q - c
+        dist = np.linalg.norm(v, axis=1)
+        res = dist - radius
+        jac = -v / dist[:, None]
+        s2 = float(res @ res) / max(len(q) - 2, 1)
+        try:
+            cov2 = s2 * np.linalg.inv(jac.T @ jac)
+        except np.linalg.LinAlgError:
+            return fit
+        cov = np.zeros((3, 3))
+        cov[:2, :2] = cov2
+        fit = CircleFit((float(c[0]), float(c[1])), float(radius), cov, float(np.sqrt(np.mean(res ** 2))),
+                        len(q), _coverage(q, c))
+        full = np.full(len(xy), np.inf)
+        full[finite] = np.linalg.norm(xy[finite] - c, axis=1) - radius
+        new = np.abs(full) < clip * max(_robust_sigma(res), 1e-9)
+        if np.array_equal(new, keep):
+            break
+        keep = new
+    return fit
+
+
 def _apart(a: CircleFit, b: CircleFit, k: float = 4.0) -> bool:
     """Whether circle a differs from b by more than k of b's standard uncertainties in a
     centre coordinate or the radius (a one-sided cluster of outliers has pulled a)."""

@@ -22,8 +22,10 @@ two things in the same image:
   is shifted by the mean offset of their measured from their nominal centres.  Which
   neighbours serve is fixed by the nominal part and the commanded pose alone (those whose
   whole rim patch lies in the frame with a margin for the pose error), so repeated frames
-  use the same ones; a rim with several surfaces beneath it is left out when a clean one
-  is in view, and of three or more, one more than a zone radius from their median.  Their
+  use the same ones; a hole with a nominal rib showing through it is left out when a
+  clean one is in view.  The frame can still drop one: a rim that cannot be fitted in it,
+  and of three or more, one more than a zone radius from their median.  Their half-seen
+  rims are fitted with the hole's own radius (its as-built spread a type-B term).  Their
   own position scatter (assumed uniform over their tolerance zone: sigma = zone / 4 per
   axis, divided by the number of neighbours) enters the uncertainty: it does not repeat
   away, and it is the main term;
@@ -71,6 +73,7 @@ from ita.vision.fit import (
     LineFit,
     PlaneFit,
     fit_circle,
+    fit_circle_fixed_radius,
     fit_line,
     fit_parallel_planes,
     fit_plane,
@@ -96,7 +99,9 @@ MIX_RANGE_MM = 100.0     # a surface this far beyond the face mixes with it in p
 FAR_SPREAD_MM = 2.0      # beyond a rim, heights this far from their median are another surface,
 FAR_MIXED_SHARE = 0.03   # and more than this share of them means several surfaces
 FAR_MIXED_U_MM = 0.06    # then the rim's position (radius, centre) carries this much more
+FAR_CHECK_MM = 0.6       # the surface just beyond a rim is looked for this far inside it (2 sigma of the beam)
 DATUM_MIN_COVERAGE = math.radians(120)  # rim span a datum neighbour's fit needs
+DIAMETER_TOLERANCE = 0.076  # +/- of a hole's diameter when its spec does not say
 MAX_DATUM_HOLES = 6      # a fastener hole registers on at most this many neighbours in view
 POSE_DATUM_FRAMES = 16   # re-approaches averaged for a position whose only datum is the pose
 REAPPROACH_SHAPE = (128, 128)  # pixels of each re-approach frame (a rim fit needs no more)
@@ -154,7 +159,9 @@ class VisionContext:
     SLRA's nominal standoff and largest window, and tolerances it needs for references.
 
     web_tolerance: +/- of the web thickness (a height's reference); position_zones: hole id
-    -> true-position zone diameter; pose_sigma_m: the arm's pose error per axis (1 sigma);
+    -> true-position zone diameter; diameter_tolerances: hole id -> +/- of its diameter
+    (a datum neighbour's radius, see :func:`_register_on_neighbours`); pose_sigma_m: the
+    arm's pose error per axis (1 sigma);
     pose_datum_frames: frames (each from its own approach) averaged for a position whose
     only datum is the pose (see :func:`frames_for`).
     """
@@ -168,6 +175,7 @@ class VisionContext:
     pose_sigma_m: float = 0.25e-3 / 3
     shape: tuple[int, int] = (256, 256)
     pose_datum_frames: int = POSE_DATUM_FRAMES
+    diameter_tolerances: Mapping[str, float] = field(default_factory=dict)
 
     @classmethod
     def from_part(cls, part: Any, workcell: Any, tool: str = "slra_1", specs: Any = None) -> VisionContext:
@@ -178,8 +186,10 @@ class VisionContext:
         t = workcell.tool(tool)
         web = [s.upper for s in specs if s.kind is K.WEB_THICKNESS]
         zones = {s.feature: s.upper for s in specs if s.kind is K.HOLE_POSITION}
+        diameters = {s.feature: (s.upper - s.lower) / 2 for s in specs if s.kind is K.HOLE_DIAMETER}
         return cls({f.id: f for f in part.features}, workcell.part, t.standoff_nominal, tuple(t.fov_deg),
-                   max(web) if web else 0.127, zones, workcell.arm.repeatability_m / 3)
+                   max(web) if web else 0.127, zones, workcell.arm.repeatability_m / 3,
+                   diameter_tolerances=diameters)
 
     def pockets(self) -> list[Pocket]:
         return [f for f in self.features.values() if isinstance(f, Pocket)]
@@ -354,8 +364,18 @@ def _edge_xy(view: View, patch: Patch, s: FloatArray, band: NDArray[np.bool_], n
     return xyz[:, :2]
 
 
-def _circle(view: View, hole: Hole, name: str, min_coverage: float = math.pi) -> tuple[CircleFit, PlaneFit, dict]:
-    """The hole's rim circle on its entry face; its points must span `min_coverage` (rad)."""
+def _circle(view: View, hole: Hole, name: str, min_coverage: float = math.pi,
+            radius: float | None = None) -> tuple[CircleFit, PlaneFit, dict]:
+    """The hole's rim circle on its entry face; its points must span `min_coverage` (rad).
+    radius: fit the centre only, with this radius (mm).
+
+    Each rim pixel mixes the face with what lies just beyond the rim on its own radius;
+    its far share takes that surface from a pixel well inside (clear of the blur).  Where
+    the surface seen just inside the rim (:data:`FAR_CHECK_MM` in) is another one (a rib's
+    top against the floor beside it, a return against none), that reference is wrong and
+    the edge found there is off by a good part of the blur: such radii give no rim points
+    (see :func:`_other_far`), in frames whose pixels are fine enough to tell (a quarter of
+    FAR_CHECK_MM or less; coarser pixels would blur the check into the rim itself)."""
     c, r, z = np.asarray(hole.center[:2]), hole.diameter / 2, hole.center[2]
     b = BLUR_MM + view.pixel_mm(view.range_mm[np.isfinite(view.range_mm)].mean() if np.isfinite(view.range_mm).any()
                                 else 450.0)
@@ -379,13 +399,13 @@ def _circle(view: View, hole: Hole, name: str, min_coverage: float = math.pi) ->
     far_r = max(r - b, 0.5 * r)
     far_region = rho < far_r
     # each pixel mixes with what lies beyond the rim on its own radius
-    unit = q / np.maximum(rho, 1e-9)[..., None]
-    inner = np.concatenate([c + (far_r - view.pixel_mm(450.0)) * unit, np.full(rho.shape + (1,), z)], axis=-1)
-    rc_in = np.rint(view.pixel_of(inner.reshape(-1, 3))).reshape(rho.shape + (2,)) - [patch.r0, patch.c0]
-    rc_in = np.nan_to_num(rc_in, nan=0.0).astype(np.int64)
-    far_ref = np.stack([np.clip(rc_in[..., 0], 0, rho.shape[0] - 1), np.clip(rc_in[..., 1], 0, rho.shape[1] - 1)])
+    far_ref = _radial_pixels(view, patch, q, rho, c, z, far_r - view.pixel_mm(450.0))
     s, mode = _share(view, patch, near, near_px, far_region, far_ref)
     band = np.abs(rho - r) < b
+    px_far = view.pixel_mm(450.0)
+    if px_far <= FAR_CHECK_MM / 4:     # pixels fine enough to see what lies just inside the rim
+        check_ref = _radial_pixels(view, patch, q, rho, c, z, max(r - FAR_CHECK_MM - px_far, far_r - px_far))
+        band &= ~_other_far(patch.take(view.points)[..., 2], far_ref, check_ref, z)
     xy = _edge_xy(view, patch, s, band, near)
     hidden, tilt = _wall_hidden(view, xy, c, z, hole.depth)
     wall_u = 0.0
@@ -395,7 +415,7 @@ def _circle(view: View, hole: Hole, name: str, min_coverage: float = math.pi) ->
         xy, wall_u = _past_the_wall(xy, c, tilt, hole.depth)
     if len(xy) < MIN_EDGE_POINTS:
         raise _Fail(Reason.TOO_FEW_PIXELS, f"{len(xy)} rim points of {hole.id} (need {MIN_EDGE_POINTS})")
-    fit = fit_circle(xy)
+    fit = fit_circle(xy) if radius is None else fit_circle_fixed_radius(xy, radius)
     if fit is None or fit.coverage < min_coverage:
         raise _Fail(Reason.TOO_FEW_PIXELS, f"rim points of {hole.id} cover {math.degrees(fit.coverage) if fit else 0:.0f}"
                     f" deg of the circle (need {math.degrees(min_coverage):.0f})")
@@ -413,6 +433,33 @@ def _circle(view: View, hole: Hole, name: str, min_coverage: float = math.pi) ->
                        "far_other_share": spread, "wall_u": wall_u, "u_model": model,
                        "u_model_centre": model,
                        "patch": (patch.r0, patch.r1, patch.c0, patch.c1), "rim_xy": xy}
+
+
+def _radial_pixels(view: View, patch: Patch, q: FloatArray, rho: FloatArray, c: FloatArray, z: float,
+                   at: float) -> NDArray[np.int64]:
+    """(2, h, w) patch pixel on each pixel's own radius (q (h, w, 2) from the centre c, at
+    distance rho) at distance `at` (mm) from c, on the plane z; clipped to the patch."""
+    unit = q / np.maximum(rho, 1e-9)[..., None]
+    pts = np.concatenate([c + at * unit, np.full(rho.shape + (1,), z)], axis=-1)
+    rc = np.rint(view.pixel_of(pts.reshape(-1, 3))).reshape(rho.shape + (2,)) - [patch.r0, patch.c0]
+    rc = np.nan_to_num(rc, nan=0.0).astype(np.int64)
+    return np.stack([np.clip(rc[..., 0], 0, rho.shape[0] - 1), np.clip(rc[..., 1], 0, rho.shape[1] - 1)])
+
+
+def _other_far(z_img: FloatArray, far_ref: NDArray[np.int64], check_ref: NDArray[np.int64],
+               z: float) -> NDArray[np.bool_]:
+    """(h, w) pixels whose far reference (height z_img at far_ref) is another surface than
+    the one just inside the rim (at check_ref): one returns and the other does not, or
+    their heights differ by more than FAR_SPREAD_MM and a third of the deeper one's depth
+    below the face at z (the pixel at check_ref still holds some of the face: up to a
+    fifth of it where the rim lies its farthest from nominal)."""
+    z_f = z_img[far_ref[0], far_ref[1]]
+    z_c = z_img[check_ref[0], check_ref[1]]
+    fin_f, fin_c = np.isfinite(z_f), np.isfinite(z_c)
+    with np.errstate(invalid="ignore"):
+        depth = z - np.fmin(z_f, z_c)
+        apart = np.abs(z_f - z_c) > np.maximum(FAR_SPREAD_MM, depth / 3)
+    return (fin_f != fin_c) | (fin_f & fin_c & apart)
 
 
 def _wall_hidden(view: View, xy: FloatArray, c: FloatArray, z: float, depth: float
@@ -524,8 +571,9 @@ def _datum_neighbours(view: View, hole: Hole, ctx: VisionContext) -> list[Hole]:
     """The fastener holes beside `hole` (same face) that serve as its datum in this frame:
     those whose whole rim patch (rim, blur band, face annulus) lies inside the frame, with
     a margin of 3 sigma of the arm's pose error and a pixel, as seen from the REPORTED
-    pose.  The set depends on the nominal part and the commanded pose only, never on what
-    the frame shows, so repeated frames register on the same holes."""
+    pose; of these, those with no rib beneath them in view (:func:`_rib_beneath`) when
+    there is one such.  The set depends on the nominal part and the commanded pose only,
+    never on what the frame shows, so repeated frames register on the same holes."""
     px = view.pixel_mm(ctx.standoff_m * 1000)
     margin = 3 * ctx.pose_sigma_m / ctx.placement.scale + px
     out = []
@@ -535,33 +583,76 @@ def _datum_neighbours(view: View, hole: Hole, ctx: VisionContext) -> list[Hole]:
                             for sx in (-1, 1) for sy in (-1, 1)])
         if view.geometry.contains(view.pixel_of(corners)).all():
             out.append(nb)
-    return out[:MAX_DATUM_HOLES]
+    clean = [nb for nb in out if not _rib_beneath(view, nb, ctx)]
+    return (clean or out)[:MAX_DATUM_HOLES]
 
 
-def _register_on_neighbours(view: View, hole: Hole, ctx: VisionContext
+def _rib_beneath(view: View, hole: Hole, ctx: VisionContext) -> bool:
+    """Whether a nominal stiffener shows through `hole` from the view's (reported) origin:
+    its strip comes within the hole's radius and a millimetre of where the rays through
+    the hole reach at the rib's heights (they lean away from the view axis by their tilt
+    times the depth).  Such a rim has several surfaces beyond it, whose mixed pixels the
+    two-surface edge model does not fit."""
+    c, z = np.asarray(hole.center[:2]), hole.center[2]
+    tilt = (c - view.origin[:2]) / max(view.origin[2] - z, 1e-9)
+    for rib in ctx.features.values():
+        if not isinstance(rib, Stiffener) or rib.height >= z:
+            continue
+        a, b = np.asarray(rib.start), np.asarray(rib.end)
+        reach = hole.diameter / 2 + rib.width / 2 + 1.0
+        seen = np.array([c + tilt * (z - rib.height), c + tilt * z])    # rib top down to datum A
+        if _segments_apart(seen, np.array([a, b])) < reach:
+            return True
+    return False
+
+
+def _segments_apart(p: FloatArray, q: FloatArray) -> float:
+    """Least distance between the segments p (2, 2) and q (2, 2)."""
+    def to_segment(x: FloatArray, s: FloatArray) -> float:
+        d = s[1] - s[0]
+        t = float(np.clip((x - s[0]) @ d / max(float(d @ d), 1e-12), 0.0, 1.0))
+        return float(np.linalg.norm(x - (s[0] + t * d)))
+
+    if _segments_cross(p, q):
+        return 0.0
+    return min(to_segment(p[0], q), to_segment(p[1], q), to_segment(q[0], p), to_segment(q[1], p))
+
+
+def _segments_cross(p: FloatArray, q: FloatArray) -> bool:
+    def side(a: FloatArray, b: FloatArray, x: FloatArray) -> float:
+        return float((b[0] - a[0]) * (x[1] - a[1]) - (b[1] - a[1]) * (x[0] - a[0]))
+
+    return (side(p[0], p[1], q[0]) * side(p[0], p[1], q[1]) < 0
+            and side(q[0], q[1], p[0]) * side(q[0], q[1], p[1]) < 0)
+
+
+def _register_on_neighbours(view: View, hole: Hole, radius: float | None, ctx: VisionContext
                             ) -> tuple[FloatArray, float, list[str], list[str]]:
     """The frame's shift (2,) from the datum neighbours' measured to nominal centres (their
     mean), its per-axis standard uncertainty, the neighbours used and those left out (a
-    rim that cannot be measured; a rim with several surfaces beneath it when a clean one
-    is in view; one whose offset is more than a zone radius from the median of three or
-    more: out of its own tolerance, or mis-measured)."""
+    rim that cannot be measured in this frame; one whose offset is more than a zone radius
+    from the median of three or more: out of its own tolerance, or mis-measured).
+
+    Off the axis a neighbour's far side shows its bore's wall and is left out, so its rim
+    points span about half the circle: its centre is fitted with the radius fixed to
+    `radius` (the hole's own, fitted over its whole rim) plus the difference of their
+    nominal diameters.  Their as-built diameters differ (each uniform over its
+    tolerance), which moves a half-circle's centre by about 1.3 times the radius
+    difference along its bisector: a type-B term in the uncertainty.  radius None: their
+    radii are fitted too."""
     offsets, u_nb, used, left = [], [], [], []
-    fits = []
     for nb in _datum_neighbours(view, hole, ctx):
         try:
-            # off the axis, the far side of a neighbour's bore shows its wall and is left
-            # out: its rim points span about half the circle (the fit's covariance says
-            # how well that fixes the centre)
-            fits.append((nb,) + _circle(view, nb, f"rim {nb.id}", DATUM_MIN_COVERAGE))
+            f2, _, d2 = _circle(view, nb, f"rim {nb.id}", DATUM_MIN_COVERAGE,
+                                None if radius is None else radius + (nb.diameter - hole.diameter) / 2)
         except _Fail:
             left.append(nb.id)
-    if any(f[3]["u_model_centre"] == 0 for f in fits):       # a rim with something beneath it (a
-        left += [f[0].id for f in fits if f[3]["u_model_centre"] > 0]   # rib) is no datum beside a clean one
-        fits = [f for f in fits if f[3]["u_model_centre"] == 0]
-    for nb, f2, _, d2 in fits:
+            continue
+        t_r = math.hypot(ctx.diameter_tolerances.get(nb.id, DIAMETER_TOLERANCE),
+                         ctx.diameter_tolerances.get(hole.id, DIAMETER_TOLERANCE)) / 2 / math.sqrt(3)
         offsets.append(np.asarray(nb.center[:2]) - np.asarray(f2.center))
         u_nb.append(math.hypot(EDGE_CORRELATION * max(f2.center_sigma), _edge_sigma(d2["pixel_mm"], f2.n),
-                               d2["u_model_centre"]))
+                               d2["u_model_centre"], 0.0 if radius is None else 1.3 * t_r))
         used.append(nb.id)
     if len(offsets) >= 3:
         mid = np.median(offsets, axis=0)
@@ -576,7 +667,7 @@ def _register_on_neighbours(view: View, hole: Hole, ctx: VisionContext
     k = len(used)
     zone = max(ctx.position_zones.get(i, 0.5) for i in used)
     # each neighbour's own position error, taken as uniform over its zone (sigma zone / 4
-    # per axis), averages down by k; so does the scatter of their rim fits
+    # per axis), averages down by k; so do the scatter of their rim fits and their radii
     u_reg = math.sqrt((zone / 4) ** 2 / k + float(np.mean(np.square(u_nb))) / k)
     return np.mean(offsets, axis=0), u_reg, used, left
 
@@ -587,7 +678,9 @@ def _hole_position(view: View, spec: MeasurementSpec, hole: Hole, ctx: VisionCon
     u_fit = math.hypot(EDGE_CORRELATION * max(fit.center_sigma), _edge_sigma(px, fit.n))
     shift, u_reg, used, left = np.zeros(2), math.nan, [], []
     if hole.role is HoleRole.FASTENER:
-        shift, u_reg, used, left = _register_on_neighbours(view, hole, ctx)
+        # a rim with a rib beneath is fitted less well than its neighbours' are: no radius for them
+        radius = None if _rib_beneath(view, hole, ctx) else fit.radius
+        shift, u_reg, used, left = _register_on_neighbours(view, hole, radius, ctx)
     pose_u = ctx.pose_sigma_m / ctx.placement.scale
     d = np.asarray(fit.center) + shift - np.asarray(hole.center[:2])
     # random from frame to frame: the rim fit and, with the pose as datum, the arm's pose
