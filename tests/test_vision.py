@@ -171,46 +171,6 @@ def test_measuring_code_never_reads_the_truth_or_the_simulator(package):
         assert not bad, f"{f.name} imports {bad}"
 
 
-# ----------------------------------------------------------------------------- registration
-
-def test_registration_combines_an_edge_and_holes_and_drops_an_outlier():
-    from ita.vision import register
-
-    t = np.array([0.12, -0.07])
-    # a straight edge along x (normal +y): its points read -n.t off the nominal edge
-    edge = register.edge_constraint("edge", np.full(200, -t[1]) + np.random.default_rng(1).normal(0, 0.01, 200),
-                                    np.tile([0.0, 1.0], (200, 1)), 0.01, 0.002)
-    cov = 0.03 ** 2 * np.eye(2)
-    holes = [register.point_constraint(f"h{i}", np.array([x, 0.0]), np.array([x, 0.0]) - t, cov)
-             for i, x in enumerate((-60.0, 60.0, 120.0))]
-    bad = register.point_constraint("bad", np.array([0.0, 0.0]), np.array([0.4, 0.0]) - t, cov)
-    reg = register.solve([edge, *holes, bad], prior_sigma=0.083)
-    assert reg.rejected == ("bad",)
-    assert np.allclose(reg.shift, t, atol=0.01)
-    assert reg.sigma[1] < 0.005 < reg.sigma[0] < 0.03        # the edge fixes y, the holes x
-
-
-def test_registration_leaves_to_the_pose_only_what_the_references_leave_loose():
-    from ita.vision import register
-
-    edge = register.edge_constraint("edge", np.full(100, 0.05), np.tile([0.0, 1.0], (100, 1)), 0.01, 0.002)
-    reg = register.solve([edge], prior_sigma=0.083)
-    assert reg.shift[0] == pytest.approx(0.0) and reg.shift[1] == pytest.approx(-0.05, abs=1e-6)
-    assert reg.sigma[0] == pytest.approx(0.083) and reg.sigma[1] < 0.005
-    assert register.solve([edge]) is None                    # nothing fixes x
-
-
-def test_a_ribs_width_deviation_cancels_in_its_centre_line():
-    from ita.vision import register
-
-    # rib side a (outward normal -y) and side b (+y) both 0.04 out (a wide rib), frame shifted 0.1 in y
-    t_y = 0.1
-    c = register.centreline_constraint("rib", 0.04 - (-1.0) * t_y, 1e-6, 0.04 - t_y, 1e-6, np.array([0.0, -1.0]))
-    reg = register.solve([c], prior_sigma=0.083)
-    assert reg.shift[1] == pytest.approx(t_y, abs=1e-9)
-
-
-
 LIGHTENING = Hole("L1", HoleRole.LIGHTENING, (0.0, 0.0, 2.5), (0.0, 0.0, 1.0), 100.0, 2.5, "P1")
 HD_L = MeasurementSpec("HD-L1", K.HOLE_DIAMETER, "L1", (0.0, 0.0, 2.5), (0.0, 0.0, 1.0), 100.0, -0.5, 0.5)
 
