@@ -2,6 +2,9 @@
 
     python bench/path.py [--problems FILE | --n 200 --seed 1] [--limit 5] [--ompl-seed S] [--out FILE]
 
+A generated set is written beside --out (`path.json` -> `path_problems.json`), so a fresh
+set never overwrites the committed one unless --out is the default.
+
 Same problems, same collision geometry, same validity test, same timing:
 - the problems: `ita.path.problems` (measurement to measurement, rack to measurement and
   back, random free configurations), generated with --n/--seed unless --problems is given;
@@ -19,8 +22,9 @@ Same problems, same collision geometry, same validity test, same timing:
 - timing: both joint paths are timed by the same `smooth.time_parameterize` (blends where
   the motion check proves them free, joint limits and the TCP speed limit), untimed for
   OMPL, included in our planning time;
-- planning time: wall seconds per query (ours: `PathPlanner.plan`, all of it; OMPL: goal
-  states, setup, solve and simplify).  Static precomputation (the visibility graph, the
+- planning time: wall seconds per query (ours: `PathPlanner.plan`, all of it, its sampling
+  fallback included where the two levels gave up: the check "ours_fallbacks" lists those;
+  OMPL: goal states, setup, solve and simplify).  Static precomputation (the visibility graph, the
   numba compilation) is done before timing for ours;
 - every returned trajectory is re-checked between its knots, exact tubes at positions no
   more than 5 mm ("valid_5mm") and 1 mm ("valid_1mm") of any tube's travel apart.
@@ -56,7 +60,6 @@ from ita.workcell import load_workcell
 
 RESULTS = Path(__file__).resolve().parent / "results"
 DEFAULT_OUT = RESULTS / "path.json"
-DEFAULT_PROBLEMS = RESULTS / "path_problems.json"
 CHECKS = {"valid_5mm": 0.005, "valid_1mm": 0.001}   # m of travel between re-checked positions
 
 
@@ -159,10 +162,11 @@ def main() -> None:
 
     cell, part = load_workcell(), load_part(None)
     planner_for = planners_for(cell, part)
+    problems_path = args.problems or args.out.with_name(f"{args.out.stem}_problems.json")
     if args.problems is None:
         problems = generate_problems(cell, read_specs(part.specs_path), args.n, args.seed, planner_for)
-        RESULTS.mkdir(parents=True, exist_ok=True)
-        write_problems(DEFAULT_PROBLEMS, problems, args.seed)
+        problems_path.parent.mkdir(parents=True, exist_ok=True)
+        write_problems(problems_path, problems, args.seed)
     else:
         problems = read_problems(args.problems)
     # static precomputation and compilation, before timing
@@ -180,6 +184,7 @@ def main() -> None:
         r = planner.plan(start, p.goal, tool)
         rows["ours"].append(row_of(p.id, p.kind, p.tool, r.ok, r.seconds, planner, tool,
                                    r.waypoints if r.ok else None))
+        rows["ours"][-1]["fallback"] = r.stats.get("sampled", 0) > 0
         if r.ok:
             rows["ours"][-1]["reason"] = None
         elif r.reason is not None:
@@ -226,6 +231,7 @@ def main() -> None:
         "every_ompl_solve_solved_by_ours": not missed,
         "missed": missed,
         "median_time_not_above_ompl": summary["ours"]["median_ms"] <= summary["ompl"]["median_ms"],
+        "ours_fallbacks": [a["id"] for a in ours if a.get("fallback")],
         "median_duration_ratio_both_solved": ratio,
         "duration_ratio_at_most_0.8": ratio <= 0.8,
         "per_problem_duration_ratio_median": float(np.median([a["duration_s"] / b["duration_s"] for a, b in both])),
@@ -234,7 +240,7 @@ def main() -> None:
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps({
         "machine": platform.platform(), "python": platform.python_version(),
-        "problems": str(args.problems or DEFAULT_PROBLEMS), "count": len(problems), "ompl_seed": args.ompl_seed,
+        "problems": str(problems_path), "count": len(problems), "ompl_seed": args.ompl_seed,
         "summary": summary, "checks": checks, "rows": rows}, indent=1) + "\n", encoding="utf-8")
     print(f"wrote {args.out}")
 

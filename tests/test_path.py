@@ -127,9 +127,31 @@ def test_touching_the_part_is_a_goal_in_collision(planner_for, cell, specs):
 
 def test_effort_bound_gives_no_path_within_effort(wall_scene):
     planner, start, goal = wall_scene
-    strict = PathPlanner(planner.model, planner.tree, planner.checker, PlannerSettings(max_rounds=0))
+    strict = PathPlanner(planner.model, planner.tree, planner.checker,
+                         PlannerSettings(max_rounds=0, fallback_iterations=0))
     r = strict.plan(start, goal)
     assert not r.ok and r.reason is Reason.NO_PATH_WITHIN_EFFORT and "0 subgoal rounds" in r.message
+
+
+def test_no_path_at_all_is_no_path_within_effort_after_the_fallback(cell):
+    # a wall on the waist's zero meridian: at waist 0 the shoulder's tube always reaches
+    # into it, and the waist's limits (+-135 deg) forbid going round the back, so the
+    # start's side and the goal's are not connected; both levels and the fallback give up
+    model = arm_model(cell.arm)
+    tree = RegionTree()
+    tree.add("floor", Regions.boxes([[0.0, 0.0, -0.05]], np.eye(3), [[8.0, 8.0, 0.1]]))
+    tree.add("pedestal", Regions.boxes([[0.0, 0.0, 0.3]], np.eye(3), [[0.9, 0.9, 0.6]]))
+    tree.add("wall", Regions.boxes([[2.66, 0.0, 2.5]], np.eye(3), [[4.68, 0.06, 5.0]]))
+    checker = ArmChecker(tree, model.tube_radii, model.tube_links, mount=["pedestal"])
+    planner = PathPlanner(model, tree, checker, PlannerSettings(seed=3, max_rounds=10, fallback_iterations=1500))
+    start, goal = np.array([-2.2, 0.3, -0.2, 0.0, 0.4, 0.0]), np.array([2.2, 0.3, -0.2, 0.0, 0.4, 0.0])
+    assert planner.config_free(np.vstack([start, goal])).all()
+    waist_zero = np.random.default_rng(0).uniform(model.lower, model.upper, (200, 6))
+    waist_zero[:, 0] = 0.0
+    assert not planner.config_free(waist_zero).any()
+    r = planner.plan(start, goal)
+    assert not r.ok and r.reason is Reason.NO_PATH_WITHIN_EFFORT
+    assert r.stats["sampled"] == 1500 and "1500 sampling iterations" in r.message
 
 
 # ---- paths -----------------------------------------------------------------------------
@@ -202,6 +224,42 @@ def test_path_around_an_obstacle_uses_a_subgoal(wall_scene):
     assert path_free(ctx.config_free, r.waypoints, ctx.lever, 0.005).all()
     assert ctx.motion_free(r.waypoints[:-1], r.waypoints[1:]).all()
     assert trajectory_free(r.trajectory, lambda a, b: segments_free(ctx.config_free, a, b, ctx.lever, 0.005))
+
+
+P081 = (np.array([-0.155, 1.144, -0.661, -1.042, -0.516, -2.866]),   # seed-7 bench set, problem p081
+        np.array([2.122, 0.373, -0.87, -0.317, -1.488, 1.21]))
+
+
+def test_a_swing_the_subgoals_miss_is_found_by_the_fallback(planner_for):
+    # the arm stretched forward into a pocket by the part and the fixture's post, the goal
+    # behind it: every straight joint move hits both, and no subgoal about the joint
+    # midpoint is reachable from the start; RRT-Connect finds the withdraw-then-swing
+    planner, tool = planner_for("us_probe_1")
+    start, goal = P081
+    two_level = PathPlanner(planner.model, planner.tree, planner.checker,
+                            dataclasses.replace(planner.settings, fallback_iterations=0), planner.tubes)
+    alone = two_level.plan(start, goal, tool)
+    assert not alone.ok and alone.reason is Reason.NO_PATH_WITHIN_EFFORT
+    r = planner.plan(start, goal, tool)
+    assert r.ok and r.stats["sampled"] > 0
+    np.testing.assert_allclose(r.waypoints[[0, -1]], [start, goal], atol=1e-12)
+    ctx = planner.context(tool)
+    assert ctx.motion_free(r.waypoints[:-1], r.waypoints[1:]).all()
+    assert trajectory_free(r.trajectory,
+                           lambda a, b: segments_free(ctx.config_free, a, b, ctx.motion_free.bounds, 0.001))
+    assert limit_violations(planner.model, r.trajectory, ctx.tcp)["tool_speed"] <= 1.0 + 1e-6
+
+
+def test_the_fallback_is_deterministic_for_a_seed(wall_scene):
+    planner, start, goal = wall_scene
+    # no subgoal rounds: the sampling fallback alone finds the way round the beam
+    runs = [PathPlanner(planner.model, planner.tree, planner.checker,
+                        PlannerSettings(seed=seed, max_rounds=0)).plan(start, goal) for seed in (5, 5, 6)]
+    assert all(r.ok and r.stats["sampled"] > 0 for r in runs)
+    np.testing.assert_array_equal(runs[0].waypoints, runs[1].waypoints)
+    ctx = planner.context(None)
+    for r in runs:
+        assert ctx.motion_free(r.waypoints[:-1], r.waypoints[1:]).all()
 
 
 def test_pose_goal_takes_the_quickest_free_solution(planner_for, cell, specs):

@@ -3,8 +3,9 @@
 Two levels, as in the 1987 system: the tool point among the regions grown by the tool's
 size (`visibility`: visibility lines and A*), then the whole arm at incremental positions
 along the lifted path, with intermediate subgoals where a link would collide (`lift`);
-then shortening, corners blended over the lookahead queue and a velocity profile within
-every joint's limits (`smooth`).
+where those give up within their effort bound, a bidirectional sampling planner in joint
+space on the same checks (`sampling`: RRT-Connect); then shortening, corners blended
+over the lookahead queue and a velocity profile within every joint's limits (`smooth`).
 
     from ita.path import PathPlanner, workcell_planner
     planner, tool = workcell_planner(load_workcell(), load_part(None), held="us_probe_1")
@@ -12,8 +13,8 @@ every joint's limits (`smooth`).
     result.ok, result.reason, result.trajectory.times, result.trajectory.q
 
 Modules: `visibility`, `lift`, `motion` (configuration and sound motion checks),
-`smooth`, `planner` (the facade), `problems` (problem sets), `render` (pictures),
-`trajectory` (the timed trajectory the controller runs).  The planner
+`sampling` (the fallback), `smooth`, `planner` (the facade), `problems` (problem sets),
+`render` (pictures), `trajectory` (the timed trajectory the controller runs).  The planner
 takes an ArmModel, a RegionTree and an ArmChecker and hands plain callables
 (`config_free`, `motion_free`) to the levels below; no simulator.
 """

@@ -16,6 +16,14 @@ path, then cut it into pieces reshaped for the least estimated duration (`smooth
 every new segment checked); time it with blended corners within the joint limits (`smooth`),
 keeping the reshaped path only if its trajectory is the quicker.
 
+Should the two levels spend their effort bound without a free path (a move that needs a
+large joint-space swing: another arm branch, the wrist turned over, the arm swung out and
+round), a bidirectional sampling planner searches the whole joint space toward every free
+goal solution (`sampling.rrt_connect`: RRT-Connect on the same `config_free` and sound
+`motion_free`, the lever-arm-scaled metric, the query's seed) within its own bound of
+iterations; its path is shortened, reshaped and timed like any other.  Only when that
+fails too is the answer `NO_PATH_WITHIN_EFFORT`.
+
 The held tool is one more collision tube on the flange (`tool_tube`), checked against the
 world and against the arm's links but its own wrist; the tree must not hold the held
 tool's parked copy (`workcell_planner` builds such a tree).  The planner reads the tree
@@ -44,6 +52,7 @@ from ita.kinematics import (
 )
 from ita.path.lift import Effort, Lifter, lever_arms, lift_route
 from ita.path.motion import ConfigChecker, MotionChecker
+from ita.path.sampling import rrt_connect
 from ita.path.smooth import estimate_durations, reshape_path, shortcut, time_parameterize
 from ita.path.trajectory import TimedTrajectory
 from ita.path.visibility import VisibilityGraph, build_graph
@@ -81,9 +90,12 @@ class PlannerSettings:
     reshape_splits: pieces each segment is cut into before the final descent on the
     estimated duration (`smooth.reshape_path`, kept where the timed trajectory is quicker;
     1: none, the corners refined instead);
+    fallback_iterations / fallback_seconds / fallback_step: the sampling fallback's effort
+    bound (RRT-Connect iterations, seconds as a last-resort cap; 0 iterations: no
+    fallback) and its longest edge (fraction of the scaled joint space's diagonal);
     knot_period: s between trajectory knots; blend: corners blended (else rest at every
-    via); seed: random subgoals (each query starts from it: a query's answer does not
-    depend on the queries before it)."""
+    via); seed: random subgoals and samples (each query starts from it: a query's answer
+    does not depend on the queries before it)."""
 
     clearance: float = 0.05
     motion_floor: float = 1e-5
@@ -96,6 +108,9 @@ class PlannerSettings:
     shortcut_rounds: int = 2
     refine_rounds: int = 6
     reshape_splits: int = 2
+    fallback_iterations: int = 10000
+    fallback_seconds: float = 5.0
+    fallback_step: float = 0.1
     knot_period: float = 0.01
     blend: bool = True
     seed: int = 0
@@ -273,7 +288,7 @@ class PathPlanner:
         goals, reason, message = self.goal_configs(start, goal, tool)
         if reason is not None:
             return self._fail(reason, message, t0)
-        goals = goals[: s.goal_candidates]
+        everywhere, goals = goals, goals[: s.goal_candidates]
         graph = self.graph(tool)
         ends = tcp_poses(self.model, np.vstack([start, goals[0]]), ctx.tcp)
         route = graph.route(ends[0, :3, 3], ends[1, :3, 3], -ends[0, :3, 2], -ends[1, :3, 2])
@@ -282,40 +297,17 @@ class PathPlanner:
         lifter = Lifter(self.model, ctx.tcp, ctx.config_free, ctx.motion_free,
                         np.asarray(s.home, dtype=float), np.random.default_rng(s.seed))
         effort = Effort(s.max_rounds, s.max_seconds)
-        stats: dict[str, Any] = {"route_corners": len(route) - 2, "goal_candidates": len(goals), "subgoals": 0}
-        # the direct joint move to every goal candidate and the lifted route, in one batch
-        options = [np.vstack([start, q]) for q in goals]
-        if len(route) > 2:
-            options.append(lift_route(self.model, ctx.tcp, route, start, goals[0]))
-        times = [self._estimate(w, ctx) for w in options]
-        path, order = None, np.argsort(times, kind="stable")
-        for rank, k in enumerate(order):                # the quickest free option wins
-            if lifter.free_segments(options[k][:-1], options[k][1:]).all():
-                path = options[k]
-                break
-        if path is not None and rank > 0:
-            # a quicker goal solution may still be worth a subgoal or two
-            for k in order[:min(rank, 2)]:
-                if times[k] >= s.detour_gain * self._estimate(path, ctx):
-                    break
-                detour = lifter.repair(options[k], Effort(s.detour_rounds, s.max_seconds))
-                if detour is not None and self._estimate(detour, ctx) < self._estimate(path, ctx):
-                    path = detour
-                    stats["subgoals"] = len(detour) - len(options[k])
-        if path is None:
-            # replan colliding stretches through subgoals, the quickest option first
-            for k in np.argsort(times, kind="stable"):
-                path = lifter.repair(options[k], effort)
-                if path is not None:
-                    stats["subgoals"] = len(path) - len(options[k])
-                    break
-                if effort.spent():
-                    break
+        stats: dict[str, Any] = {"route_corners": len(route) - 2, "goal_candidates": len(goals), "subgoals": 0,
+                                 "sampled": 0}
+        path = self._two_level(start, goals, route, lifter, effort, ctx, stats)
         stats.update(rounds=effort.rounds, subgoals_tried=lifter.subgoals_tried, graph_nodes=len(graph.nodes))
         if path is None:
+            path = self._sample(start, everywhere, ctx, stats)
+        if path is None:
             return self._fail(Reason.NO_PATH_WITHIN_EFFORT,
-                              f"no collision-free path within {effort.rounds} subgoal rounds "
-                              f"({time.perf_counter() - effort.started:.2f} s)", t0, route, stats)
+                              f"no collision-free path within {effort.rounds} subgoal rounds and "
+                              f"{stats['sampled']} sampling iterations ({time.perf_counter() - effort.started:.2f} s)",
+                              t0, route, stats)
         path, traj = self._shorten(path, lifter, ctx, tool)
         tool_path = tcp_poses(self.model, traj.q, ctx.tcp)[:, :3, 3]
         stats["waypoints"] = len(path)
@@ -356,6 +348,54 @@ class PathPlanner:
         return results, self.time(np.vstack(path), tool, np.array(rest))
 
     # ---- helpers ---------------------------------------------------------------------
+    def _two_level(self, start: FloatArray, goals: FloatArray, route: FloatArray, lifter: Lifter, effort: Effort,
+                   ctx: _ToolContext, stats: dict[str, Any]) -> FloatArray | None:
+        """The two levels: the direct joint move to each goal candidate and the lifted
+        route, the quickest free one taken (a quicker blocked one given a detour or two);
+        else colliding stretches replanned through subgoals within the effort bound."""
+        s = self.settings
+        options = [np.vstack([start, q]) for q in goals]
+        if len(route) > 2:
+            options.append(lift_route(self.model, ctx.tcp, route, start, goals[0]))
+        times = [self._estimate(w, ctx) for w in options]
+        path, order = None, np.argsort(times, kind="stable")
+        for rank, k in enumerate(order):                # the quickest free option wins
+            if lifter.free_segments(options[k][:-1], options[k][1:]).all():
+                path = options[k]
+                break
+        if path is not None and rank > 0:
+            # a quicker goal solution may still be worth a subgoal or two
+            for k in order[:min(rank, 2)]:
+                if times[k] >= s.detour_gain * self._estimate(path, ctx):
+                    break
+                detour = lifter.repair(options[k], Effort(s.detour_rounds, s.max_seconds))
+                if detour is not None and self._estimate(detour, ctx) < self._estimate(path, ctx):
+                    path = detour
+                    stats["subgoals"] = len(detour) - len(options[k])
+        if path is None:
+            # replan colliding stretches through subgoals, the quickest option first
+            for k in order:
+                path = lifter.repair(options[k], effort)
+                if path is not None:
+                    stats["subgoals"] = len(path) - len(options[k])
+                    break
+                if effort.spent():
+                    break
+        return path
+
+    def _sample(self, start: FloatArray, goals: FloatArray, ctx: _ToolContext, stats: dict[str, Any]
+                ) -> FloatArray | None:
+        """The fallback: a free joint path to any of the free goal solutions by
+        `sampling.rrt_connect` within its own effort bound, or None (0 iterations: none)."""
+        s = self.settings
+        if s.fallback_iterations <= 0:
+            return None
+        found = rrt_connect(start, goals, ctx.config_free, ctx.motion_free, self.model.lower, self.model.upper,
+                            ctx.lever, np.random.default_rng(s.seed), s.fallback_iterations, s.fallback_seconds,
+                            s.fallback_step)
+        stats.update(sampled=found.iterations, sampled_nodes=found.nodes, sampled_seconds=found.seconds)
+        return found.path
+
     def _shorten(self, path: FloatArray, lifter: Lifter, ctx: _ToolContext, tool: ToolSpec | None
                  ) -> tuple[FloatArray, TimedTrajectory]:
         """The free path shortened (`smooth.shortcut`), then reshaped (`smooth.reshape_path`)
