@@ -74,7 +74,7 @@ def _summary_text(summary: Any) -> str:
              f"; wall-clock {summary.wall_s:.1f} s for {summary.measured_now} results"
              + (f" ({d['wall_s_per_measurement'] * 1000:.0f} ms each)" if d["wall_s_per_measurement"] else ""),
              "  breakdown: " + ", ".join(f"{k} {v:.0f} s" for k, v in summary.breakdown.items() if v > 0),
-             f"  exceptions {summary.exceptions}; SLRA frames {summary.frames}"]
+             f"  exceptions {summary.exceptions}; SLRA scans {summary.frames}"]
     if summary.continue_hint:
         lines.append(f"  continue with: {summary.continue_hint}")
     return "\n".join(lines)

@@ -193,7 +193,7 @@ class RunSummary:
                 "counts": dict(self.counts), "simulated_cycle_s": round(self.sim_end_s, 3),
                 "simulated_this_session_s": round(self.cycle_s, 3), "wall_s": round(self.wall_s, 3),
                 "wall_s_per_measurement": round(self.wall_s / self.measured_now, 4) if self.measured_now else None,
-                "recorded_now": self.measured_now, "exceptions": self.exceptions, "slra_frames": self.frames,
+                "recorded_now": self.measured_now, "exceptions": self.exceptions, "slra_scans": self.frames,
                 "breakdown_s": {k: round(v, 2) for k, v in self.breakdown.items()},
                 "devices": {k: round(v, 3) for k, v in self.devices.items()},
                 "continue": self.continue_hint}
