@@ -168,18 +168,27 @@ def _coverage(xy: FloatArray, c: FloatArray) -> float:
     return float(2 * np.pi - gaps.max()) if len(ang) > 1 else 0.0
 
 
-def _circle_gauss_newton(q: FloatArray, c: FloatArray, r: float, iterations: int) -> tuple[FloatArray, float]:
+def _circle_gauss_newton(q: FloatArray, c: FloatArray, r: float, iterations: int,
+                         fixed_radius: bool = False) -> tuple[FloatArray, float]:
     """Geometric circle fit to points q (n, 2) from the start (c, r): Gauss-Newton on the
-    radial residuals |p - c| - r."""
+    radial residuals |p - c| - r (the centre only when `fixed_radius`)."""
     for _ in range(iterations):
         v = q - c
         dist = np.linalg.norm(v, axis=1)
-        jac = np.column_stack([-v / dist[:, None], -np.ones(len(q))])
+        jac = _circle_jacobian(v, dist, fixed_radius)
         step, *_ = np.linalg.lstsq(jac, -(dist - r), rcond=None)
-        c, r = c + step[:2], r + step[2]
+        c = c + step[:2]
+        if not fixed_radius:
+            r = r + step[2]
         if np.abs(step).max() < 1e-10:
             break
     return c, float(r)
+
+
+def _circle_jacobian(v: FloatArray, dist: FloatArray, fixed_radius: bool) -> FloatArray:
+    """d(|p - c| - r) / d(cx, cy[, r]) for offsets v = p - c (n, 2) of length dist (n,)."""
+    jc = -v / dist[:, None]
+    return jc if fixed_radius else np.column_stack([jc, -np.ones(len(v))])
 
 
 def _concentrate(q: FloatArray, c: FloatArray, r: float, h: int, iterations: int) -> tuple[FloatArray, float, float]:
@@ -249,39 +258,7 @@ def fit_circle_fixed_radius(xy: FloatArray, radius: float, clip: float = 3.5, ro
     c = np.asarray(start.center, dtype=float)
     keep = finite.copy()
     keep[finite] = np.abs(np.linalg.norm(xy[finite] - c, axis=1) - start.radius) < clip * max(start.rms, 1e-9)
-    fit = None
-    for _ in range(rounds):
-        q = xy[keep]
-        if len(q) < 4:
-            return fit
-        for _ in range(iterations):
-            v = q - c
-            dist = np.linalg.norm(v, axis=1)
-            jac = -v / dist[:, None]
-            step, *_ = np.linalg.lstsq(jac, -(dist - radius), rcond=None)
-            c = c + step
-            if np.abs(step).max() < 1e-10:
-                break
-        v = q - c
-        dist = np.linalg.norm(v, axis=1)
-        res = dist - radius
-        jac = -v / dist[:, None]
-        s2 = float(res @ res) / max(len(q) - 2, 1)
-        try:
-            cov2 = s2 * np.linalg.inv(jac.T @ jac)
-        except np.linalg.LinAlgError:
-            return fit
-        cov = np.zeros((3, 3))
-        cov[:2, :2] = cov2
-        fit = CircleFit((float(c[0]), float(c[1])), float(radius), cov, float(np.sqrt(np.mean(res ** 2))),
-                        len(q), _coverage(q, c))
-        full = np.full(len(xy), np.inf)
-        full[finite] = np.linalg.norm(xy[finite] - c, axis=1) - radius
-        new = np.abs(full) < clip * max(_robust_sigma(res), 1e-9)
-        if np.array_equal(new, keep):
-            break
-        keep = new
-    return fit
+    return _clipped_circle(xy, finite, c, float(radius), clip, rounds, iterations, keep=keep, fixed_radius=True)
 
 
 def _apart(a: CircleFit, b: CircleFit, k: float = 4.0) -> bool:
@@ -293,28 +270,35 @@ def _apart(a: CircleFit, b: CircleFit, k: float = 4.0) -> bool:
 
 
 def _clipped_circle(xy: FloatArray, finite: NDArray[np.bool_], c: FloatArray, r: float, clip: float, rounds: int,
-                    iterations: int, trim_first: bool = True) -> CircleFit | None:
+                    iterations: int, trim_first: bool = True, keep: NDArray[np.bool_] | None = None,
+                    fixed_radius: bool = False) -> CircleFit | None:
     """Rounds of Gauss-Newton from (c, r) on the points of xy (n, 2) within `clip` robust
-    sigmas of the current circle (in the first round: of (c, r) when `trim_first`, else
-    all finite points)."""
+    sigmas of the current circle (in the first round: the points `keep` if given, else
+    those within `clip` robust sigmas of (c, r) when `trim_first`, else all finite points).
+    With `fixed_radius` only the centre moves (at least 4 points; the covariance's radius
+    row and column zero), else at least 5 points."""
+    n_par = 2 if fixed_radius else 3
     full = np.full(len(xy), np.inf)
     full[finite] = np.linalg.norm(xy[finite] - c, axis=1) - r
-    keep = np.abs(full) < clip * max(_robust_sigma(full[finite]), 1e-9) if trim_first else finite.copy()
+    if keep is None:
+        keep = np.abs(full) < clip * max(_robust_sigma(full[finite]), 1e-9) if trim_first else finite.copy()
     fit = None
     for _ in range(rounds):
         q = xy[keep]
-        if len(q) < 5:
+        if len(q) < n_par + 2:
             return fit
-        c, r = _circle_gauss_newton(q, c, r, iterations)
+        c, r = _circle_gauss_newton(q, c, r, iterations, fixed_radius)
         v = q - c
         dist = np.linalg.norm(v, axis=1)
         res = dist - r
-        jac = np.column_stack([-v / dist[:, None], -np.ones(len(q))])
-        s2 = float(res @ res) / max(len(q) - 3, 1)
+        jac = _circle_jacobian(v, dist, fixed_radius)
+        s2 = float(res @ res) / max(len(q) - n_par, 1)
         try:
-            cov = s2 * np.linalg.inv(jac.T @ jac)
+            inv = s2 * np.linalg.inv(jac.T @ jac)
         except np.linalg.LinAlgError:
             return fit
+        cov = np.zeros((3, 3))
+        cov[:n_par, :n_par] = inv
         fit = CircleFit((float(c[0]), float(c[1])), float(r), cov, float(np.sqrt(np.mean(res ** 2))),
                         len(q), _coverage(q, c))
         full[finite] = np.linalg.norm(xy[finite] - c, axis=1) - r
