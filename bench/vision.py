@@ -1,7 +1,7 @@
 """Benchmark SLRA measurement over the bulkhead's specs against the as-built truth.
 
     python bench/vision.py [--kinds hole_diameter,edge_distance] [--match -LH-] [--limit N]
-                           [--repeats 3] [--seed 0] [--out FILE] [--render DIR]
+                           [--repeats 3] [--seed 0] [--out FILE] [--render DIR] [--pixels N]
 
 For every SLRA spec (or the first N of each kind): the sensor is put at the spec's viewing
 pose (roll 0, nominal standoff) plus a random pose error of the arm's repeatability
@@ -30,6 +30,7 @@ import math
 import platform
 import time
 from collections import Counter, defaultdict
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -66,7 +67,7 @@ def decide(value: float, big_u: float, low: float, high: float) -> str:
     return "uncertain"
 
 
-def run(kinds, limit, repeats, seed, render_dir=None, match=""):
+def run(kinds, limit, repeats, seed, render_dir=None, match="", pixels=None):
     part = load_part(None)
     wc = load_workcell()
     specs = read_specs(part.specs_path)
@@ -75,6 +76,8 @@ def run(kinds, limit, repeats, seed, render_dir=None, match=""):
     scene = SlraScene.from_truth(part.directory, wc)
     scene_s = time.perf_counter() - t0
     ctx = VisionContext.from_part(part, wc, specs=specs)
+    if pixels is not None:
+        ctx = replace(ctx, shape=(pixels, pixels))
     tool = wc.tool("slra_1")
     params = SlraParams()
     rng = np.random.default_rng(seed)
@@ -201,9 +204,11 @@ def main() -> None:
     ap.add_argument("--out", type=Path, default=DEFAULT_OUT)
     ap.add_argument("--match", default="", help="only specs whose id contains this (e.g. -LH-)")
     ap.add_argument("--render", type=Path, default=None, help="write a PNG per spec (first repeat) here")
+    ap.add_argument("--pixels", type=int, default=None,
+                    help="override VisionContext.shape with (N, N) (scan_for may still ask for more)")
     args = ap.parse_args()
     kinds = [K.parse(k) for k in args.kinds.split(",") if k.strip()]
-    rows, timing = run(kinds, args.limit, args.repeats, args.seed, args.render, args.match)
+    rows, timing = run(kinds, args.limit, args.repeats, args.seed, args.render, args.match, args.pixels)
     table = summarize(rows)
     print_table(table, timing)
     args.out.parent.mkdir(parents=True, exist_ok=True)
@@ -214,7 +219,8 @@ def main() -> None:
     summary_t.update({f"{k}_{shape}": stats(v) for k in ("sim_s", "measure_s") for shape, v in timing[k].items()})
     args.out.write_text(json.dumps({
         "machine": platform.platform(), "python": platform.python_version(),
-        "args": {"kinds": args.kinds, "match": args.match, "limit": args.limit, "repeats": args.repeats, "seed": args.seed},
+        "args": {"kinds": args.kinds, "match": args.match, "limit": args.limit, "repeats": args.repeats, "seed": args.seed,
+                 "pixels": args.pixels},
         "table": table, "timing": {**summary_t, "scene_build_s": timing["scene_build_s"]},
         "rows": rows}, indent=1))
     print(f"wrote {args.out}")

@@ -104,6 +104,25 @@ def test_slra_view_groups_share_one_frame(prepared, builtin_part) -> None:
             assert width_mm(g.fov_deg[0], mkb.entry(g.anchor).standoff_m) <= GROUP_GROWTH * own * 1.001
 
 
+def test_view_group_pixels_are_the_most_a_member_asks_for(prepared, builtin_part) -> None:
+    """Every group's frame has, per axis, the most pixels any member's `scan_for` asks for;
+    the bulkhead's small fastener holes (5 mm) get finer position frames than ctx.shape."""
+    from ita.geometry.reasoner import group_pixels
+    from ita.vision.measure import VisionContext, scan_for
+
+    assert group_pixels([(256, 256), (384, 256), (128, 512)]) == (384, 512)
+    ctx, _, mkb, _ = prepared
+    vctx = VisionContext.from_part(builtin_part, ctx.workcell, specs=list(ctx.specs))
+    finer = 0
+    for g in mkb.groups.values():
+        asked = [scan_for(ctx.spec(m), vctx).shape for m in g.members]
+        assert tuple(g.pixels) == (max(a[0] for a in asked), max(a[1] for a in asked)), g.id
+        for m in g.members:
+            assert mkb.entry(m).pixels == g.pixels
+        finer += min(g.pixels) > min(vctx.shape)
+    assert finer > 0
+
+
 def test_view_group_rule() -> None:
     from ita.specs.model import MeasurementKind, MeasurementSpec
 

@@ -16,7 +16,16 @@ from ita.sim.slra import SlraParams, SlraScene, pose_error, simulate_frame
 from ita.specs.model import MeasurementKind as K
 from ita.specs.model import MeasurementSpec
 from ita.vision.fit import fit_circle, fit_circle_fixed_radius
-from ita.vision.measure import VisionContext, VisionException, _rib_beneath, frames_for, measure_frames, scan_for
+from ita.vision.measure import (
+    MIN_HOLE_PIXELS,
+    RASTER_STEP,
+    VisionContext,
+    VisionException,
+    _rib_beneath,
+    frames_for,
+    measure_frames,
+    scan_for,
+)
 from ita.vision.patches import View
 from tests.test_slra import PLACEMENT, looking_down
 from tests.test_vision import _box, _mesh
@@ -103,6 +112,25 @@ def test_lightening_position_averages_re_approaches(big_scene):
     assert averaged.diagnostics["u_random"] < 0.5 * single.diagnostics["u_random"]
     assert averaged.uncertainty <= single.uncertainty
     assert single.diagnostics["datum"] == "pose"
+
+
+def test_a_small_hole_s_position_frame_is_finer():
+    """A fastener position's raster follows the pixels across the hole's diameter: the row of
+    6.35 mm holes keeps ctx.shape, the same row of 3 mm holes gets the first raster step
+    that puts MIN_HOLE_PIXELS across one; the small hole's diameter frame (a narrow window)
+    does not need it."""
+    ctx = VisionContext({h.id: h for h in ROW}, PLACEMENT)
+    assert scan_for(HP_ROW, ctx).shape == ctx.shape
+    small = [replace(h, diameter=3.0) for h in ROW]
+    sctx = VisionContext({h.id: h for h in small}, PLACEMENT)
+    fine = scan_for(HP_ROW, sctx)
+    assert fine.fov_deg == pytest.approx(scan_for(HP_ROW, ctx).fov_deg, rel=0.05)
+    assert fine.shape[0] > ctx.shape[0] and fine.shape[1] > ctx.shape[1]
+    window_mm = 2 * sctx.standoff_m * 1000 * math.tan(math.radians(fine.fov_deg[0]) / 2)
+    assert 3.0 * fine.shape[1] / window_mm >= MIN_HOLE_PIXELS
+    assert 3.0 * (fine.shape[1] - RASTER_STEP) / window_mm < MIN_HOLE_PIXELS
+    hd = MeasurementSpec("HD-H0", K.HOLE_DIAMETER, "H0", (0.0, 0.0, 3.0), (0.0, 0.0, 1.0), 3.0, -0.076, 0.076)
+    assert scan_for(hd, sctx).shape == sctx.shape
 
 
 def test_mostly_failed_frames_are_an_exception_not_a_value(big_scene):

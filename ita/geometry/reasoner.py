@@ -90,10 +90,13 @@ class Target:
 
 
 def mkb_digest(specs_digest: str, cell: Workcell) -> str:
-    """Digest of what an MKB depends on: the specs (their file's digest) and the workcell."""
+    """Digest of what an MKB depends on: the specs (their file's digest), the workcell and
+    Vision's rule for a frame's pixels (its view groups' rasters)."""
     from ita.geometry.mkb import MKB_VERSION
+    from ita.vision.measure import MAX_RASTER, MIN_HOLE_PIXELS, RASTER_STEP
 
-    text = f"{MKB_VERSION}|{PRESS_M}|{GROUP_GROWTH}|{specs_digest}|{cell!r}"
+    raster = f"{MIN_HOLE_PIXELS},{RASTER_STEP},{MAX_RASTER}"
+    text = f"{MKB_VERSION}|{PRESS_M}|{GROUP_GROWTH}|{raster}|{specs_digest}|{cell!r}"
     return hashlib.sha256(text.encode()).hexdigest()
 
 
@@ -238,6 +241,21 @@ def _window_mm(spec: MeasurementSpec, vctx: Any) -> float:
     return 2.0 * vctx.standoff_m * 1000.0 * math.tan(math.radians(ang) / 2.0)
 
 
+def _rasters(specs: Sequence[MeasurementSpec], vctx: Any) -> dict[str, tuple[int, int]]:
+    """Spec id -> the pixels (rows, cols) Vision asks for its frame (`scan_for`)."""
+    from ita.vision.measure import scan_for
+
+    return {s.id: scan_for(s, vctx).shape for s in specs}
+
+
+def group_pixels(rasters: Sequence[tuple[int, int]]) -> tuple[int, int]:
+    """The pixels (rows, cols) of a view group's frame: per axis the most any member's
+    `scan_for` asks for.  The group's window is at most :data:`GROUP_GROWTH` times a
+    member's own (see :func:`view_groups`), so no member's pixels are more than that
+    coarser than it asked for."""
+    return max(r[0] for r in rasters), max(r[1] for r in rasters)
+
+
 def view_groups(specs: Sequence[MeasurementSpec], windows: Mapping[str, float], max_window_mm: float,
                 growth: float = GROUP_GROWTH) -> list[tuple[str, tuple[str, ...], float]]:
     """Group SLRA specs into shared frames: (anchor id, member ids, window mm) each.
@@ -330,6 +348,7 @@ def _slra_entries(cell: Workcell, tool: ToolSpec, specs: Sequence[MeasurementSpe
     index = {s.id: i for i, s in enumerate(specs)}
     placed = [s for i, s in enumerate(specs) if found[i]]
     windows = {s.id: _window_mm(s, vctx) for s in placed}
+    rasters = _rasters(placed, vctx)
     max_window = 2.0 * vctx.standoff_m * 1000.0 * math.tan(math.radians(min(vctx.max_fov_deg)) / 2.0)
     groups: list[ViewGroup] = []
     group_of: dict[str, str] = {}
@@ -338,7 +357,7 @@ def _slra_entries(cell: Workcell, tool: ToolSpec, specs: Sequence[MeasurementSpe
         ang = math.degrees(2.0 * math.atan(window / 2.0 / d_mm))
         fov = (min(ang, vctx.max_fov_deg[0]), min(ang, vctx.max_fov_deg[1]))
         gid = f"view-{anchor}"
-        groups.append(ViewGroup(gid, anchor, members, fov, tuple(vctx.shape)))
+        groups.append(ViewGroup(gid, anchor, members, fov, group_pixels([rasters[m] for m in members])))
         group_of.update(dict.fromkeys(members, gid))
     by_id = {g.id: g for g in groups}
     out: list[MkbEntry] = []

@@ -38,6 +38,10 @@ two things in the same image:
   arm's error at a taught pose is repeatability only (the simulated arm has no absolute
   accuracy error); a calibrated arm's residual accuracy would be one more systematic term.
 
+Pixels.  A frame has ctx.shape pixels, except a fastener hole's position: its window holds
+two neighbours, and where that would put fewer than MIN_HOLE_PIXELS across the hole's
+diameter, `scan_for` asks for a finer raster (see :func:`_raster_for`).
+
 Rims of large holes.  What lies beyond a rim may differ round it (a fixture under part of a
 lightening hole, the far floor under the rest): each edge pixel's far share comes from the
 surface on its own radius, from the range where that surface mixes in phase and from the
@@ -105,6 +109,9 @@ DIAMETER_TOLERANCE = 0.076  # +/- of a hole's diameter when its spec does not sa
 MAX_DATUM_HOLES = 6      # a fastener hole registers on at most this many neighbours in view
 POSE_DATUM_FRAMES = 16   # re-approaches averaged for a position whose only datum is the pose
 REAPPROACH_SHAPE = (128, 128)  # pixels of each re-approach frame (a rim fit needs no more)
+MIN_HOLE_PIXELS = 11     # a fastener hole's position frame spans the hole's diameter with at least this many pixels
+RASTER_STEP = 128        # a finer raster than ctx.shape grows in steps of this many pixels a side
+MAX_RASTER = 1024        # and to at most this many
 
 
 class Reason(str, Enum):
@@ -225,9 +232,31 @@ def _window_mm(spec: MeasurementSpec, ctx: VisionContext) -> float:
 
 
 def scan_for(spec: MeasurementSpec, ctx: VisionContext) -> ScanGeometry:
-    """The scan window Vision asks of the SLRA for `spec` (from the nominal standoff)."""
+    """The scan window and raster Vision asks of the SLRA for `spec` (from the nominal
+    standoff): ctx.shape pixels, or more where :func:`_raster_for` needs them."""
     ang = math.degrees(2 * math.atan(_window_mm(spec, ctx) / 2 / (ctx.standoff_m * 1000)))
-    return ScanGeometry(ctx.shape, (min(ang, ctx.max_fov_deg[0]), min(ang, ctx.max_fov_deg[1])))
+    fov = (min(ang, ctx.max_fov_deg[0]), min(ang, ctx.max_fov_deg[1]))
+    return ScanGeometry(_raster_for(spec, ctx, fov), fov)
+
+
+def _raster_for(spec: MeasurementSpec, ctx: VisionContext, fov_deg: tuple[float, float]) -> tuple[int, int]:
+    """Pixels (rows, cols) of `spec`'s frame over a window of `fov_deg` (horizontal, vertical).
+
+    A fastener hole's position is fitted on its own rim and its neighbours' half-rims, whose
+    edge points grow with the pixels across a hole: where the window (wide enough for two
+    neighbours) would put fewer than :data:`MIN_HOLE_PIXELS` across the hole's diameter at
+    the nominal standoff, that axis gets the first multiple of :data:`RASTER_STEP` that puts
+    that many (at most :data:`MAX_RASTER`).  Everything else: ctx.shape.
+    """
+    f = ctx.features.get(spec.feature)
+    if not (spec.kind is K.HOLE_POSITION and isinstance(f, Hole) and f.role is HoleRole.FASTENER):
+        return ctx.shape
+    out = []
+    for n, deg in zip(ctx.shape, (fov_deg[1], fov_deg[0])):     # rows span the vertical window
+        window_mm = 2 * ctx.standoff_m * 1000 * math.tan(math.radians(deg) / 2)
+        need = MIN_HOLE_PIXELS * window_mm / f.diameter
+        out.append(n if need <= n else max(n, min(MAX_RASTER, RASTER_STEP * math.ceil(need / RASTER_STEP))))
+    return out[0], out[1]
 
 
 @dataclass(frozen=True)
