@@ -65,16 +65,20 @@ def main(argv: list[str] | None = None) -> int:
         "fact": per_call(lambda: kb.once("world", "type", "slra_1", Var("T")), n),
         "list_50": per_call(lambda: kb.once("lists", "append", numbers, [], Var("L")), n),
     }
-    specs = read_specs(load_part(None).specs_path)
+    from ita.sequence.plan import partition_only, planning_context
+
+    chosen = partition_only(planning_context(None, kb=kb)).selections
+    specs = [s for s in read_specs(load_part(None).specs_path) if chosen[s.id].tool is not None]
+    tools = [chosen[s.id].tool for s in specs]
     with tempfile.TemporaryDirectory() as tmp, OperationPlanner(kb, Path(tmp) / "m.pl") as planner:
         states, state = [], WorldState()
-        for spec in specs:  # the learning pass: the executive's chain of states
+        for spec, tool in zip(specs, tools):  # the learning pass: the executive's chain of states
             states.append(state)
-            state = planner.plan_measurement(spec, state).final_state
+            state = planner.plan_measurement(spec, state, tool).final_state
         picks = range(0, len(specs), max(1, len(specs) // 20))
-        lookup = [per_call(lambda i=i: planner.plan_measurement(specs[i], states[i]), max(1, n // 20))
+        lookup = [per_call(lambda i=i: planner.plan_measurement(specs[i], states[i], tools[i]), max(1, n // 20))
                   for i in picks]
-        scratch = [per_call(lambda i=i: planner.plan_measurement(specs[i], states[i], from_scratch=True),
+        scratch = [per_call(lambda i=i: planner.plan_measurement(specs[i], states[i], tools[i], from_scratch=True),
                             max(1, n // 100)) for i in picks]
     reply = "[[[macrop,0,kb(measured),[t3,'WT-P04-4','WT-P05-1',us_probe_1]]]]"
     figures["read_lookup_reply"] = per_call(lambda: read_term(reply), n)

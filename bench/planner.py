@@ -190,10 +190,10 @@ def percentile(values: list[float], q: float) -> float:
     return ordered[min(len(ordered) - 1, max(0, round(q * len(ordered) + 0.5) - 1))]
 
 
-def _chain(planner, specs, states, from_scratch: bool) -> tuple[list, float]:
-    """Plan every measurement from its state; the plans and the wall time of the pass."""
+def _chain(planner, specs, states, tools, from_scratch: bool) -> tuple[list, float]:
+    """Plan every measurement from its state with its tool; the plans and the wall time of the pass."""
     start = time.perf_counter()
-    plans = [planner.plan_measurement(s, st, from_scratch=from_scratch) for s, st in zip(specs, states)]
+    plans = [planner.plan_measurement(s, st, t, from_scratch=from_scratch) for s, st, t in zip(specs, states, tools)]
     return plans, time.perf_counter() - start
 
 
@@ -204,8 +204,12 @@ def run_operation(args: argparse.Namespace) -> int:
     from ita.planning import OperationPlanner, WorldState
     from ita.specs.io import read_specs
 
+    from ita.sequence.plan import partition_only, planning_context
+
     kb = KnowledgeBase()
-    specs = read_specs(load_part(None).specs_path)
+    chosen = partition_only(planning_context(None, kb=kb)).selections   # the Sequence Planner's tools
+    specs = [s for s in read_specs(load_part(None).specs_path) if chosen[s.id].tool is not None]
+    tools = [chosen[s.id].tool for s in specs]
     bridge = []
     for _ in range(2000):
         t0 = time.perf_counter()
@@ -214,18 +218,18 @@ def run_operation(args: argparse.Namespace) -> int:
     with tempfile.TemporaryDirectory() as tmp, OperationPlanner(kb, Path(tmp) / "macrops.pl") as planner:
         states, state, learned = [], WorldState(), []
         start = time.perf_counter()
-        for spec in specs:                               # learning pass: the executive's chain
+        for spec, tool in zip(specs, tools):             # learning pass: the executive's chain
             states.append(state)
-            plan = planner.plan_measurement(spec, state)
+            plan = planner.plan_measurement(spec, state, tool)
             learned.append(plan)
             state = plan.final_state
         learn_seconds = time.perf_counter() - start
         lookups, scratches, lookup_walls, scratch_walls = [], [], [], []
         for _ in range(args.repeat):
-            plans, wall = _chain(planner, specs, states, from_scratch=False)
+            plans, wall = _chain(planner, specs, states, tools, from_scratch=False)
             lookups.append(plans)
             lookup_walls.append(wall)
-            plans, wall = _chain(planner, specs, states, from_scratch=True)
+            plans, wall = _chain(planner, specs, states, tools, from_scratch=True)
             scratches.append(plans)
             scratch_walls.append(wall)
         macrops = planner.macrops()

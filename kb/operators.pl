@@ -4,8 +4,7 @@
             operator_field/3,           % ?NameAndFormat, ?Field, ?Value
             criticality/2,              % ?Goal, ?Weight
             domain_fact/1,              % ?Fact
-            kind_tool_type/2,           % ?Kind, ?ToolType
-            measurement_goal/4,         % +Id, +Kind, -Goal, -Constraints
+            measurement_goal/5,         % +Id, +Kind, ?Tool, -Goal, -Constraints
             world_state/3,              % +Arm, +Pose, -State
             planning_state/4,           % +Arm, +Pose, +Holding, -State
             must_be_planning_state/3,   % +Arm, +Pose, +Holding
@@ -66,6 +65,7 @@ model, kb/world.pl, through domain_fact/1.
 :- use_module(library(error)).
 :- use_module(library(lists)).
 :- use_module(world, []).
+:- use_module(tools, []).
 
 
                  /*******************************
@@ -355,7 +355,9 @@ criticality(at(_, _), 1).
 %!  domain_fact(?Fact) is nondet.
 %
 %   Fact is a static fact of the workcell that unary and n-ary constraints are checked
-%   against: type/2, weight/2 and can_lift/2 of the world model (kb/world.pl).
+%   against: type/2, weight/2 and can_lift/2 of the world model (kb/world.pl), and
+%   can_measure(Tool, Kind), a tool whose type some tool rule of kb/tools.pl lets
+%   measure Kind.
 
 domain_fact(type(Object, Type)) :-
     world:type(Object, Type).
@@ -363,36 +365,38 @@ domain_fact(weight(Tool, Kg)) :-
     world:weight(Tool, Kg).
 domain_fact(can_lift(Arm, Kg)) :-
     world:can_lift(Arm, Kg).
+domain_fact(can_measure(Tool, Kind)) :-
+    world:tool(Tool),
+    world:type(Tool, ToolType),
+    tools:tool_type_measures(ToolType, Kind).
 
-%!  kind_tool_type(?Kind, ?ToolType) is nondet.
-%
-%   Measurements of Kind are taken with a tool of ToolType.
-
-kind_tool_type(web_thickness, us_tool).
-kind_tool_type(flange_thickness, us_tool).
-kind_tool_type(hole_diameter, slra_tool).
-kind_tool_type(hole_position, slra_tool).
-kind_tool_type(flange_height, slra_tool).
-kind_tool_type(flange_width, slra_tool).
-kind_tool_type(stiffener_height, slra_tool).
-kind_tool_type(stiffener_width, slra_tool).
-kind_tool_type(edge_distance, slra_tool).
-
-%!  measurement_goal(+Id, +Kind, -Goal, -Constraints:list) is det.
+%!  measurement_goal(+Id, +Kind, ?Tool, -Goal, -Constraints:list) is det.
 %
 %   Goal is the planning goal `measured(Tool, Arm, meas(Id))` for measurement Id of
-%   Kind, and Constraints the goal constraints that choose the right kind of tool.
+%   Kind, and Constraints the goal constraints on its variables: Arm an arm, Tool a tool
+%   that can take measurements of Kind (can_measure/2 of domain_fact/1, from the tool
+%   rules of kb/tools.pl).  Tool is the Sequence Planner's choice, bound, when the
+%   Operation Planner plans a measurement of the run; unbound, the planner chooses.
 %
 %   @error domain_error(measurement_kind, Kind) for an unknown kind
+%   @error existence_error(tool, Tool) for a bound Tool that is not a tool
+%   @error domain_error(tool_for(Kind), Tool) for a tool whose type cannot measure Kind
 
-measurement_goal(Id, Kind, measured(Tool, Arm, meas(Id)), [type(Tool, ToolType), type(Arm, arm)]) :-
-    (   atomic(Id),
-        atom(Kind),
-        kind_tool_type(Kind, ToolType0)
-    ->  ToolType = ToolType0
-    ;   must_be(atomic, Id),
-        must_be(atom, Kind),
-        domain_error(measurement_kind, Kind)
+measurement_goal(Id, Kind, Tool, measured(Tool, Arm, meas(Id)), [can_measure(Tool, Kind), type(Arm, arm)]) :-
+    must_be(atomic, Id),
+    must_be(atom, Kind),
+    (   tools:measurement_kind(Kind)
+    ->  true
+    ;   domain_error(measurement_kind, Kind)
+    ),
+    (   var(Tool)
+    ->  true
+    ;   \+ world:tool(Tool)
+    ->  must_be(atom, Tool),
+        existence_error(tool, Tool)
+    ;   domain_fact(can_measure(Tool, Kind))
+    ->  true
+    ;   domain_error(tool_for(Kind), Tool)
     ).
 
 %!  world_state(+Arm, +Pose, -State:list) is det.

@@ -48,15 +48,24 @@ test(picking_up_denies_rack_and_other_tools,
      true(Denied =@= [location(us_probe_1, in_rack(_)), holding(t3, neq(us_probe_1))])) :-
     deductive_operator(holding(t3, us_probe_1), [denied(Denied)]).
 
-test(every_kind_has_a_tool_type, true(N == 9)) :-
-    aggregate_all(count, kind_tool_type(_, _), N).
+test(every_kind_has_a_tool, true(Kinds == [])) :-
+    findall(K, ( tools:measurement_kind(K), \+ domain_fact(can_measure(_, K)) ), Kinds).
 
-test(measurement_goal_for_us_kind,
-     true(G-C =@= measured(T, A, meas(p7))-[type(T, us_tool), type(A, arm)])) :-
-    measurement_goal(p7, web_thickness, G, C).
+test(measurement_goal_with_the_chosen_tool,
+     true(G-C =@= measured(us_probe_2, A, meas(p7))-[can_measure(us_probe_2, web_thickness), type(A, arm)])) :-
+    measurement_goal(p7, web_thickness, us_probe_2, G, C).
+
+test(rib_width_by_either_tool_type, true(Tools == [slra_1, slra_2, us_probe_1, us_probe_2])) :-
+    setof(T, domain_fact(can_measure(T, stiffener_width)), Tools).
+
+test(hole_only_by_the_slra, true(Tools == [slra_1, slra_2])) :-
+    setof(T, domain_fact(can_measure(T, hole_diameter)), Tools).
 
 test(measurement_goal_unknown_kind, error(domain_error(measurement_kind, color))) :-
-    measurement_goal(p7, color, _, _).
+    measurement_goal(p7, color, _, _, _).
+
+test(measurement_goal_tool_that_cannot, error(domain_error(tool_for(hole_position), us_probe_1))) :-
+    measurement_goal(p7, hole_position, us_probe_1, _, _).
 
 test(constraints_come_from_the_world_model, true(W == 1.5)) :-
     domain_fact(weight(us_probe_1, W)).

@@ -2,9 +2,12 @@
           [ measurement_kind/1,         % ?Kind
             feature_kind/1,             % ?FeatureKind
             tool_rule/5,                % ?Rule, ?ToolType, ?Kind, ?FeatureKind, ?Conditions
+            tool_type_measures/2,       % ?ToolType, ?Kind
+            preferred_tool_type/2,      % +Kind, -ToolType
             prefer/2,                   % ?BetterRule, ?WorseRule
             prefer_tool/2,              % ?BetterHow, ?WorseHow
             candidate_rules/3,          % +Kind, +FeatureKind, -Rules
+            candidate_tool_types/3,     % +Kind, +FeatureKind, -ToolTypes
             condition_fails/3,          % +Condition, +Facts, -Reason
             rule_applies/3,             % +Rule, +Facts, -Reason
             tool_of_type/3,             % +ToolType, -Tool, -How
@@ -120,6 +123,28 @@ tool_rule(slra_flange_width,   slra_tool, flange_width,     flange,    [slra_can
 tool_rule(slra_rib_height,     slra_tool, stiffener_height, stiffener, [slra_can_view]).
 
 
+%!  tool_type_measures(?ToolType, ?Kind) is nondet.
+%
+%   Some rule lets a tool of ToolType take measurements of Kind (on some feature).
+%   Each pair once.
+
+tool_type_measures(ToolType, Kind) :-
+    setof(T-K, R^F^C^tool_rule(R, T, K, F, C), Pairs),
+    member(ToolType-Kind, Pairs).
+
+%!  preferred_tool_type(+Kind, -ToolType) is semidet.
+%
+%   ToolType is the tool type of the most preferred rule for measurements of Kind on a
+%   feature of any kind (candidate_rules/3 with `unknown`): the tool a reach test of
+%   Kind should assume.  Fails when no rule measures Kind.
+%
+%   @error domain_error(measurement_kind, Kind) for an unknown kind
+
+preferred_tool_type(Kind, ToolType) :-
+    candidate_rules(Kind, unknown, [Rule|_]),
+    tool_rule(Rule, ToolType, _, _, _).
+
+
                  /*******************************
                  *    META-LEVEL PREFERENCES    *
                  *******************************/
@@ -230,6 +255,20 @@ by_preference(Rules, [Best|Rest]) :-
     ;   Rules = [Best|Others]               % a preference cycle: keep the base's order
     ),
     by_preference(Others, Rest).
+
+%!  candidate_tool_types(+Kind, +FeatureKind, -ToolTypes:list) is det.
+%
+%   ToolTypes are the tool types of the candidate rules (candidate_rules/3) for
+%   measurements of Kind on a feature of FeatureKind, most preferred first, each once:
+%   every type a resequencing may move such a measurement to.
+%
+%   @error domain_error(measurement_kind, Kind) for an unknown kind
+%   @error domain_error(feature_kind, FeatureKind) for an unknown feature kind
+
+candidate_tool_types(Kind, FeatureKind, ToolTypes) :-
+    candidate_rules(Kind, FeatureKind, Rules),
+    findall(T, ( member(R, Rules), tool_rule(R, T, _, _, _) ), Types0),
+    list_to_set(Types0, ToolTypes).
 
 %!  tool_of_type(+ToolType, -Tool, -How) is semidet.
 %

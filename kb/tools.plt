@@ -122,6 +122,21 @@ test(select_tools_batch,
 test(select_tools_empty, true(Cs == [])) :-
     select_tools([], Cs).
 
+% --- tool types per kind ------------------------------------------------------------
+
+test(rib_width_by_both_types, true(Ts == [slra_tool, us_tool])) :-
+    setof(T, tool_type_measures(T, stiffener_width), Ts).
+test(preferred_type_of_rib_width, true(T == slra_tool)) :-
+    preferred_tool_type(stiffener_width, T).
+test(preferred_type_of_thickness, true(T == us_tool)) :-
+    preferred_tool_type(web_thickness, T).
+test(candidate_types_of_rib_width, true(Ts == [slra_tool, us_tool])) :-
+    candidate_tool_types(stiffener_width, stiffener, Ts).
+test(candidate_types_of_hole, true(Ts == [slra_tool])) :-
+    candidate_tool_types(hole_position, hole, Ts).
+test(preferred_type_of_unknown_kind, error(domain_error(measurement_kind, depth))) :-
+    preferred_tool_type(depth, _).
+
 % --- bad input ---------------------------------------------------------------------
 
 test(unknown_kind, error(domain_error(measurement_kind, depth))) :-

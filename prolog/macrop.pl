@@ -10,7 +10,7 @@
             clear_store/1,              % +File
             lookup/5,                   % +File, +Goals, +State, +Options, -Plan
             operation_plan/5,           % +File, +Goals, +State, +Options, -Result
-            measurement_plan/8,         % +File, +Id, +Kind, +Arm, +Pose, +Holding, +Mode, -Reply
+            measurement_plan/9,         % +File, +Id, +Kind, +Tool, +Arm, +Pose, +Holding, +Mode, -Reply
             macrop_template/3,          % +File, +Id, -Template
             macrop_rows/2,              % +File, -Rows
             macrop_text/3               % +File, +Id, -Text
@@ -58,7 +58,7 @@ indexed on them), its other preconditions are matched against only the facts of
 their kind, its constraints are calls to the static facts.  A lookup bumps one
 counter, a flag.
 
-*The facade's entry point.*  measurement_plan/8 is the Operation Planner for one
+*The facade's entry point.*  measurement_plan/9 is the Operation Planner for one
 measurement in a single call with a compact reply: the MACROP's number and the values
 of its variables rather than the plan, which the caller plugs into the MACROP's plan
 (macrop_template/3), as the seed's lookup "plugs the MACROP with the bindings found".
@@ -78,7 +78,7 @@ constraints that the bindings must satisfy.
 
 :- use_module(library(aggregate)).
 :- use_module('../kb/operators',
-              [ measurement_goal/4,
+              [ measurement_goal/5,
                 planning_state/4,
                 must_be_planning_state/3,
                 planning_state_facts/3
@@ -94,7 +94,7 @@ constraints that the bindings must satisfy.
 % The lookup index of a store, in lookup order (fewest steps first, learned first):
 :- dynamic candidate/6.         % candidate(File, Id, Purpose, Pre, Constraints, Vars)
 :- dynamic candidate_plan/5.    % candidate_plan(File, Id, Vars, Steps, Adders)
-% ... and each MACROP's applicability compiled into a clause, for measurement_plan/8:
+% ... and each MACROP's applicability compiled into a clause, for measurement_plan/9:
 :- dynamic state_candidate/9.   % state_candidate(File, Goal, Arm, Pose, Holding,
                                 %                 GoalConstraints, Id, HitKey, Vars)
 
@@ -700,17 +700,19 @@ operation_plan(File, Goals, State, Options, Result) :-
                  *      THE FACADE'S ENTRY      *
                  *******************************/
 
-%!  measurement_plan(+File, +Id, +Kind, +Arm, +Pose, +Holding, +Mode, -Reply) is det.
+%!  measurement_plan(+File, +Id, +Kind, +Tool, +Arm, +Pose, +Holding, +Mode, -Reply) is det.
 %
 %   Pose is a pose term or, flat, `[PoseKind, Place]` or `[PoseKind, PlaceName, Arg]`
 %   (e.g. `[in_contact_point, meas, 'WT-1']`).
 %
-%   The Operation Planner for measurement Id of Kind (operators:measurement_goal/4)
-%   from the state of Arm at Pose holding Holding (operators:planning_state/4), with
-%   the MACROPs of the open store File.  The lookup finds what lookup/5 finds in that
-%   state, through the compiled clauses of the index, without deriving the state.  Mode is `lookup_first` (MACROP lookup; when
-%   none applies, plan from scratch, generalize and store) or `from_scratch` (no
-%   lookup: plan, generalize and store).  Reply is
+%   The Operation Planner for measurement Id of Kind with Tool, the tool the Sequence
+%   Planner chose for it (operators:measurement_goal/5: the goal is
+%   `measured(Tool, Arm, meas(Id))`, so every plan and MACROP found uses Tool), from
+%   the state of Arm at Pose holding Holding (operators:planning_state/4), with the
+%   MACROPs of the open store File.  The lookup finds what lookup/5 finds in that
+%   state, through the compiled clauses of the index, without deriving the state.  Mode
+%   is `lookup_first` (MACROP lookup; when none applies, plan from scratch, generalize
+%   and store) or `from_scratch` (no lookup: plan, generalize and store).  Reply is
 %
 %     - `[macrop, Generation, MacropId, Bindings]`: a MACROP applies
 %     - `[scratch, Generation, MacropId, Bindings]`: planned, stored as MacropId
@@ -725,15 +727,18 @@ operation_plan(File, Goals, State, Options, Result) :-
 %
 %   @error existence_error(macrop_store, File) if File is not open
 %   @error domain_error(measurement_kind, Kind) for an unknown kind
+%   @error existence_error(tool, Tool) if Tool is not a tool of the world model
+%   @error domain_error(tool_for(Kind), Tool) if no tool rule lets Tool measure Kind
 
-measurement_plan(File, Id, Kind, Arm, PoseSpec, Holding, Mode, Reply) :-
+measurement_plan(File, Id, Kind, Tool, Arm, PoseSpec, Holding, Mode, Reply) :-
     must_be_open(File),
     (   ( Mode == lookup_first ; Mode == from_scratch )
     ->  true
     ;   must_be(oneof([lookup_first, from_scratch]), Mode)
     ),
+    must_be(atom, Tool),
     pose_term(PoseSpec, Pose),
-    measurement_goal(Id, Kind, Goal, Constraints),
+    measurement_goal(Id, Kind, Tool, Goal, Constraints),
     must_be_planning_state(Arm, Pose, Holding),
     generation(File, Gen),
     (   Mode == lookup_first,
@@ -831,7 +836,7 @@ operators_generation(Generation) :-
 %
 %   Template is `template(NVars, Steps, Adders)`: the plan and overall adders of MACROP
 %   Id of the open store File with its variables numbered `'$VAR'(0)` to
-%   `'$VAR'(NVars-1)` in the order of the Bindings of measurement_plan/8.
+%   `'$VAR'(NVars-1)` in the order of the Bindings of measurement_plan/9.
 %
 %   @error existence_error(macrop, Id) if the store has no MACROP Id
 

@@ -1,6 +1,6 @@
 :- use_module(macrop).
 :- use_module(planner).
-:- use_module('../kb/operators', [measurement_goal/4, planning_state/4]).
+:- use_module('../kb/operators', [measurement_goal/5, planning_state/4]).
 
 /*  Tests of plan generalization, MACROP lookup and the MACROP store.  */
 
@@ -179,11 +179,12 @@ test(unopened_store_is_an_error, error(existence_error(macrop_store, '/nonexiste
 
 :- begin_tests(measurement_lookup).
 
-%   The compiled lookup of measurement_plan/8 finds what lookup/5 finds in the whole
+%   The compiled lookup of measurement_plan/9 finds what lookup/5 finds in the whole
 %   planning state, and counts what it finds.
 
-grid_state(Kind, Pose, Holding) :-
-    member(Kind, [web_thickness, stiffener_height]),
+grid_state(Kind-Tool, Pose, Holding) :-
+    member(Kind-Tool, [web_thickness-us_probe_1, web_thickness-us_probe_2,
+                       stiffener_height-slra_1, stiffener_width-us_probe_1]),
     member(Pose, [[approach_point, home], [approach_point, meas, a],
                   [in_contact_point, meas, a], [viewing_pose, meas, a],
                   [approach_point, rack, slot_2]]),
@@ -194,19 +195,19 @@ grid_state(Kind, Pose, Holding) :-
 learned_store(File) :-
     store_file(File),
     open_store(File),
-    forall(grid_state(Kind, Pose, Holding),
-           measurement_plan(File, b, Kind, t3, Pose, Holding, lookup_first, _)).
+    forall(grid_state(Kind-Tool, Pose, Holding),
+           measurement_plan(File, b, Kind, Tool, t3, Pose, Holding, lookup_first, _)).
 
-%   lookup_agrees(+File, +Kind, +Pose, +Holding) is semidet.
+%   lookup_agrees(+File, +Kind-Tool, +Pose, +Holding) is semidet.
 %
-%   measurement_plan/8 and lookup/5 on the planning state find the same MACROP and plan.
+%   measurement_plan/9 and lookup/5 on the planning state find the same MACROP and plan.
 
-lookup_agrees(File, Kind, PoseSpec, Holding) :-
+lookup_agrees(File, Kind-Tool, PoseSpec, Holding) :-
     macrop:pose_term(PoseSpec, Pose),
-    measurement_goal(c, Kind, Goal, Constraints),
+    measurement_goal(c, Kind, Tool, Goal, Constraints),
     planning_state(t3, Pose, Holding, State),
     lookup(File, [Goal], State, [constraints(Constraints)], Found),
-    measurement_plan(File, c, Kind, t3, PoseSpec, Holding, lookup_first, Reply),
+    measurement_plan(File, c, Kind, Tool, t3, PoseSpec, Holding, lookup_first, Reply),
     (   Found = found(Id, Plan)
     ->  Reply = [macrop, _, Id, Vars],
         macrop:candidate_plan(File, Id, Vars, Plan, _)
@@ -229,9 +230,9 @@ test(rack_macrop_takes_a_tool_from_the_rack,
      true(Reply-Tool == [macrop, 1, [t3, home, slot_1, us_probe_1, c]]-us_probe_1)) :-
     store_file(File),
     open_store(File),
-    measurement_plan(File, b, web_thickness, t3, [approach_point, home], none,
+    measurement_plan(File, b, web_thickness, us_probe_1, t3, [approach_point, home], none,
                      lookup_first, [scratch, _, 1, _]),
-    measurement_plan(File, c, web_thickness, t3, [approach_point, home], none,
+    measurement_plan(File, c, web_thickness, us_probe_1, t3, [approach_point, home], none,
                      lookup_first, [Source, _, Id, Vars]),
     close_store(File),
     Reply = [Source, Id, Vars],
@@ -241,9 +242,9 @@ test(lookups_are_counted_and_saved, true(X == [c(3, 2, 1), c(3, 2, 1), 2])) :-
     store_file(File),
     open_store(File),
     Contact = [in_contact_point, meas, a],
-    measurement_plan(File, b, web_thickness, t3, Contact, us_probe_1, lookup_first, _),
-    measurement_plan(File, c, web_thickness, t3, Contact, us_probe_1, lookup_first, _),
-    measurement_plan(File, d, stiffener_height, t3, [approach_point, home], none,
+    measurement_plan(File, b, web_thickness, us_probe_1, t3, Contact, us_probe_1, lookup_first, _),
+    measurement_plan(File, c, web_thickness, us_probe_1, t3, Contact, us_probe_1, lookup_first, _),
+    measurement_plan(File, d, stiffener_height, slra_1, t3, [approach_point, home], none,
                      lookup_first, _),
     store_counts(File, L1, H1, M1),
     save_store(File),
@@ -260,14 +261,14 @@ test(counts_add_to_the_saved_ones, true(C == c(4, 3, 1))) :-
     store_file(File),
     open_store(File),
     Contact = [in_contact_point, meas, a],
-    measurement_plan(File, b, web_thickness, t3, Contact, us_probe_1, lookup_first, _),
-    measurement_plan(File, d, stiffener_height, t3, [approach_point, home], none,
+    measurement_plan(File, b, web_thickness, us_probe_1, t3, Contact, us_probe_1, lookup_first, _),
+    measurement_plan(File, d, stiffener_height, slra_1, t3, [approach_point, home], none,
                      lookup_first, _),
-    measurement_plan(File, c, web_thickness, t3, Contact, us_probe_1, lookup_first, _),
+    measurement_plan(File, c, web_thickness, us_probe_1, t3, Contact, us_probe_1, lookup_first, _),
     save_store(File),
     close_store(File),
     open_store(File),
-    measurement_plan(File, e, web_thickness, t3, Contact, us_probe_1, lookup_first, _),
+    measurement_plan(File, e, web_thickness, us_probe_1, t3, Contact, us_probe_1, lookup_first, _),
     store_counts(File, L, H, M),
     close_store(File),
     delete_file(File),
@@ -276,7 +277,7 @@ test(counts_add_to_the_saved_ones, true(C == c(4, 3, 1))) :-
 test(clear_store_zeroes_the_counts, true(C-Rows == c(0, 0, 0)-[0])) :-
     store_file(File),
     open_store(File),
-    measurement_plan(File, b, web_thickness, t3, [in_contact_point, meas, a],
+    measurement_plan(File, b, web_thickness, us_probe_1, t3, [in_contact_point, meas, a],
                      us_probe_1, lookup_first, _),
     clear_store(File),
     store_counts(File, L, H, M),
@@ -288,14 +289,52 @@ test(clear_store_zeroes_the_counts, true(C-Rows == c(0, 0, 0)-[0])) :-
 test(unknown_tool_in_hand, error(existence_error(tool, spanner))) :-
     store_file(File),
     open_store(File),
-    call_cleanup(measurement_plan(File, b, web_thickness, t3, [approach_point, home],
+    call_cleanup(measurement_plan(File, b, web_thickness, us_probe_1, t3, [approach_point, home],
                                   spanner, lookup_first, _),
                  close_store(File)).
 
 test(malformed_pose, error(type_error(atomic, f(7)))) :-
     store_file(File),
     open_store(File),
-    call_cleanup(measurement_plan(File, b, web_thickness, t3, [approach_point, meas, f(7)],
+    call_cleanup(measurement_plan(File, b, web_thickness, us_probe_1, t3, [approach_point, meas, f(7)],
+                                  none, lookup_first, _),
+                 close_store(File)).
+
+test(the_tool_given_is_the_tool_used, true(Tools == [us_probe_2, us_probe_2])) :-
+    store_file(File),
+    open_store(File),
+    Contact = [in_contact_point, meas, a],
+    % learned with probe 1 in hand: a MACROP that measures with the held tool
+    measurement_plan(File, b, web_thickness, us_probe_1, t3, Contact, us_probe_1, lookup_first, _),
+    measurement_plan(File, c, web_thickness, us_probe_2, t3, Contact, us_probe_1, lookup_first,
+                     [_, _, Id1, Vars1]),
+    measurement_plan(File, d, web_thickness, us_probe_2, t3, Contact, us_probe_1, lookup_first,
+                     [macrop, _, Id2, Vars2]),
+    findall(T, ( member(Id-Vars, [Id1-Vars1, Id2-Vars2]),
+                 macrop:candidate_plan(File, Id, Vars, Steps, _),
+                 last(Steps, step(_, us_measure(T, _, _), _)) ), Tools),
+    close_store(File).
+
+test(rib_width_with_the_probe, true(Last = us_measure(us_probe_1, t3, b))) :-
+    store_file(File),
+    open_store(File),
+    measurement_plan(File, b, stiffener_width, us_probe_1, t3, [approach_point, home], none,
+                     lookup_first, [_, _, Id, Vars]),
+    macrop:candidate_plan(File, Id, Vars, Steps, _),
+    last(Steps, step(_, Last, _)),
+    close_store(File).
+
+test(tool_that_cannot_measure_the_kind, error(domain_error(tool_for(hole_diameter), us_probe_1))) :-
+    store_file(File),
+    open_store(File),
+    call_cleanup(measurement_plan(File, b, hole_diameter, us_probe_1, t3, [approach_point, home],
+                                  none, lookup_first, _),
+                 close_store(File)).
+
+test(unknown_tool_to_measure_with, error(existence_error(tool, spanner))) :-
+    store_file(File),
+    open_store(File),
+    call_cleanup(measurement_plan(File, b, web_thickness, spanner, t3, [approach_point, home],
                                   none, lookup_first, _),
                  close_store(File)).
 

@@ -150,7 +150,8 @@ home(slra_1, slot_3).
 home(slra_2, slot_4).
 
 kind_plan(Kind, State, Actions) :-
-    measurement_goal(b, Kind, Goal, Constraints),
+    kind_tool(Kind, Tool),
+    measurement_goal(b, Kind, Tool, Goal, Constraints),
     plan_linear([Goal], State, [constraints(Constraints)], Actions).
 
 us_in_hand([ move_retract(t3, a), move(t3, meas(a), meas(b)), apply_couplant(t3, b),
@@ -167,6 +168,9 @@ slra_after_us([ move_retract(t3, a), move(t3, meas(a), rack(slot_1)),
                 put_down(t3, us_probe_1, slot_1), move(t3, rack(slot_1), rack(slot_3)),
                 pick_up(t3, slra_1, slot_3), move(t3, rack(slot_3), meas(b)),
                 move_view(t3, b), slra_scan(slra_1, t3, b), slra_measure(slra_1, t3, b) ]).
+
+kind_tool(Kind, us_probe_1) :- us_kind(Kind), !.
+kind_tool(Kind, slra_1) :- slra_kind(Kind).
 
 us_kind(web_thickness).
 us_kind(flange_thickness).
@@ -201,9 +205,14 @@ test(slra_kinds_with_probe_in_hand_change_tools, [forall(slra_kind(K)), true(A =
 test(broken_probe_replaced_by_spare, true(Tool == us_probe_2)) :-
     empty_hand(S0),
     selectchk(tool_condition(us_probe_1, ok), S0, S),
-    measurement_goal(b, web_thickness, Goal, Constraints),
+    measurement_goal(b, web_thickness, _, Goal, Constraints),
     plan([Goal], S, [constraints(Constraints)], _),
     Goal = measured(Tool, _, _).
+
+test(rib_width_with_the_probe_it_is_given, true(A == Expected)) :-
+    us_from_rack(Expected), empty_hand(S),
+    measurement_goal(b, stiffener_width, us_probe_1, Goal, Constraints),
+    plan_linear([Goal], S, [constraints(Constraints)], A).
 
 test(slra_measure_leaves_arm_free_for_next_scan,
      true(Plan == [ step(1, move_view(t3, b), []),

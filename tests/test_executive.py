@@ -4,13 +4,14 @@ from __future__ import annotations
 
 import pytest
 
+from doubles import FakeDevice
+
 from ita.errors import PrologError
 from ita.executive import (
     Command,
     EventKind,
     ExecutiveError,
     FailureKind,
-    FakeDevice,
     PlanExecutive,
     ReplyKind,
     StreamId,
@@ -46,14 +47,14 @@ def planner(knowledge_base, tmp_path):
 def figure_4_plan(planner):
     """The Figure 4 plan: ultrasonic measurement b, probe in hand, in contact at a."""
     return planner.plan_measurement(spec("b", MeasurementKind.WEB_THICKNESS),
-                                    WorldState(pose=AT_A, holding="us_probe_1"))
+                                    WorldState(pose=AT_A, holding="us_probe_1"), "us_probe_1")
 
 
 @pytest.fixture
 def slra_plan(planner):
     """retract, move, move_view (arm); slra_scan, slra_measure (vision)."""
     return planner.plan_measurement(spec("b", MeasurementKind.HOLE_DIAMETER),
-                                    WorldState(pose=AT_A, holding="slra_1"))
+                                    WorldState(pose=AT_A, holding="slra_1"), "slra_1")
 
 
 # A hand-made plan where the arm leaves the view pose once the scan is taken, while

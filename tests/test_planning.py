@@ -33,6 +33,11 @@ def spec(mid: str, kind: MeasurementKind) -> MeasurementSpec:
     return MeasurementSpec(mid, kind, "f1", (0.0, 0.0, 0.0), (0.0, 0.0, 1.0), 2.5, -0.1, 0.1)
 
 
+def tool(kind: MeasurementKind) -> str:
+    """The tool the Sequence Planner chooses for a kind with every tool working."""
+    return "us_probe_1" if kind in US_KINDS else "slra_1"
+
+
 AT_A = Pose(PoseKind.CONTACT, Place.meas("a"))
 EMPTY = WorldState()
 PROBE_AT_A = WorldState(pose=AT_A, holding="us_probe_1")
@@ -87,9 +92,9 @@ def actions(plan) -> list[tuple[str, tuple]]:
 @pytest.mark.parametrize("kind,state,expected", CASES,
                          ids=[f"{k.value}-{s.holding or 'empty'}" for k, s, _ in CASES])
 def test_plan_per_kind_scratch_then_macrop(planner, kind, state, expected):
-    first = planner.plan_measurement(spec("b", kind), state)
-    again = planner.plan_measurement(spec("b", kind), state)
-    from_scratch = planner.plan_measurement(spec("b", kind), state, from_scratch=True)
+    first = planner.plan_measurement(spec("b", kind), state, tool(kind))
+    again = planner.plan_measurement(spec("b", kind), state, tool(kind))
+    from_scratch = planner.plan_measurement(spec("b", kind), state, tool(kind), from_scratch=True)
     assert actions(first) == expected
     assert actions(again) == expected
     assert actions(from_scratch) == expected
@@ -98,14 +103,14 @@ def test_plan_per_kind_scratch_then_macrop(planner, kind, state, expected):
 
 
 def test_figure_4_case_uses_the_hand_written_macrop(planner):
-    plan = planner.plan_measurement(spec("b", MeasurementKind.WEB_THICKNESS), PROBE_AT_A)
+    plan = planner.plan_measurement(spec("b", MeasurementKind.WEB_THICKNESS), PROBE_AT_A, "us_probe_1")
     assert plan.source is PlanSource.MACROP and plan.macrop_name == "kb:measured"
     assert [s.predecessors for s in plan.steps] == [(), (1,), (2,), (3,), (4,)]
 
 
 def test_first_plan_from_rack_is_learned_then_reused_for_another_point(planner):
-    first = planner.plan_measurement(spec("b", MeasurementKind.HOLE_DIAMETER), EMPTY)
-    other = planner.plan_measurement(spec("c", MeasurementKind.EDGE_DISTANCE), EMPTY)
+    first = planner.plan_measurement(spec("b", MeasurementKind.HOLE_DIAMETER), EMPTY, "slra_1")
+    other = planner.plan_measurement(spec("c", MeasurementKind.EDGE_DISTANCE), EMPTY, "slra_1")
     assert first.source is PlanSource.SCRATCH and first.macrop_name == "m1"
     assert other.source is PlanSource.MACROP and other.macrop_name == "m1"
     assert other.steps[-1].args == ("slra_1", "t3", "c")
@@ -113,17 +118,17 @@ def test_first_plan_from_rack_is_learned_then_reused_for_another_point(planner):
 
 
 def test_goal_constraint_keeps_an_ultrasonic_macrop_from_an_slra_measurement(planner):
-    planner.plan_measurement(spec("b", MeasurementKind.WEB_THICKNESS), EMPTY)
-    slra = planner.plan_measurement(spec("c", MeasurementKind.HOLE_POSITION), EMPTY)
+    planner.plan_measurement(spec("b", MeasurementKind.WEB_THICKNESS), EMPTY, "us_probe_1")
+    slra = planner.plan_measurement(spec("c", MeasurementKind.HOLE_POSITION), EMPTY, "slra_1")
     assert slra.source is PlanSource.SCRATCH
     assert slra.steps[1].args[1] == "slra_1"
 
 
 def test_final_state_chains_measurements(planner):
-    first = planner.plan_measurement(spec("b", MeasurementKind.WEB_THICKNESS), EMPTY)
+    first = planner.plan_measurement(spec("b", MeasurementKind.WEB_THICKNESS), EMPTY, "us_probe_1")
     assert first.final_state == WorldState(pose=Pose(PoseKind.CONTACT, Place.meas("b")),
                                            holding="us_probe_1")
-    second = planner.plan_measurement(spec("c", MeasurementKind.HOLE_DIAMETER), first.final_state)
+    second = planner.plan_measurement(spec("c", MeasurementKind.HOLE_DIAMETER), first.final_state, "slra_1")
     assert second.final_state == WorldState(pose=Pose(PoseKind.VIEWING, Place.meas("c")), holding="slra_1")
     assert ("put_down", ("t3", "us_probe_1", "slot_1")) in actions(second)
 
@@ -131,12 +136,12 @@ def test_final_state_chains_measurements(planner):
 def test_store_persists_with_counts_between_planners(kb, tmp_path):
     path = tmp_path / "store.pl"
     with OperationPlanner(kb, path) as p:
-        p.plan_measurement(spec("b", MeasurementKind.STIFFENER_HEIGHT), EMPTY)
-        p.plan_measurement(spec("c", MeasurementKind.STIFFENER_WIDTH), EMPTY)
+        p.plan_measurement(spec("b", MeasurementKind.STIFFENER_HEIGHT), EMPTY, "slra_1")
+        p.plan_measurement(spec("c", MeasurementKind.STIFFENER_WIDTH), EMPTY, "slra_1")
     text = path.read_text()
     assert "store_counts(2, 1, 1)" in text and "macrop(1," in text
     with OperationPlanner(kb, path) as p:
-        plan = p.plan_measurement(spec("d", MeasurementKind.FLANGE_WIDTH), EMPTY)
+        plan = p.plan_measurement(spec("d", MeasurementKind.FLANGE_WIDTH), EMPTY, "slra_1")
         assert plan.source is PlanSource.MACROP and plan.macrop_name == "m1"
         assert p.counts().lookups == 3
         learned = [m for m in p.macrops() if m.learned]
@@ -144,15 +149,15 @@ def test_store_persists_with_counts_between_planners(kb, tmp_path):
 
 
 def test_clear_forgets_learned_macrops(planner):
-    planner.plan_measurement(spec("b", MeasurementKind.WEB_THICKNESS), EMPTY)
+    planner.plan_measurement(spec("b", MeasurementKind.WEB_THICKNESS), EMPTY, "us_probe_1")
     assert planner.clear() == 1
     assert [m.name for m in planner.macrops()] == ["kb:measured"]
-    plan = planner.plan_measurement(spec("c", MeasurementKind.WEB_THICKNESS), EMPTY)
+    plan = planner.plan_measurement(spec("c", MeasurementKind.WEB_THICKNESS), EMPTY, "us_probe_1")
     assert plan.source is PlanSource.SCRATCH and plan.macrop_name == "m1"
 
 
 def test_macrop_text_reads_like_figure_4(planner):
-    planner.plan_measurement(spec("b", MeasurementKind.WEB_THICKNESS), EMPTY)
+    planner.plan_measurement(spec("b", MeasurementKind.WEB_THICKNESS), EMPTY, "us_probe_1")
     text = planner.macrop_text("m1")
     for keyword in ("purpose(", "preconditions(", "adders(", "unary_constraints(",
                     "n_ary_constraints(", "resources(", "plan("):
@@ -168,19 +173,35 @@ def test_no_plan_when_every_tool_of_the_kind_is_broken(kb, planner):
     kb.once("world", "set_tool_condition", "us_probe_2", "broken")
     try:
         with pytest.raises(NoPlanError) as info:
-            planner.plan_measurement(spec("b", MeasurementKind.WEB_THICKNESS), EMPTY)
+            planner.plan_measurement(spec("b", MeasurementKind.WEB_THICKNESS), EMPTY, "us_probe_1")
         assert info.value.exit_code == 1
     finally:
         kb.once("world", "reset_world")
 
 
-def test_broken_probe_is_replaced_by_its_spare(kb, planner):
+def test_the_sequence_planners_tool_is_the_one_planned(kb, planner):
+    """With probe 1 broken the Sequence Planner hands out its spare: the plan uses it."""
     kb.once("world", "set_tool_condition", "us_probe_1", "broken")
     try:
-        plan = planner.plan_measurement(spec("b", MeasurementKind.WEB_THICKNESS), EMPTY)
+        plan = planner.plan_measurement(spec("b", MeasurementKind.WEB_THICKNESS), EMPTY, "us_probe_2")
+        with pytest.raises(NoPlanError):
+            planner.plan_measurement(spec("c", MeasurementKind.WEB_THICKNESS), EMPTY, "us_probe_1")
     finally:
         kb.once("world", "reset_world")
     assert plan.steps[-1].args[0] == "us_probe_2"
+    assert ("pick_up", ("t3", "us_probe_2", "slot_2")) in actions(plan)
+
+
+def test_a_rib_width_given_the_probe_is_planned_with_the_probe(planner):
+    plan = planner.plan_measurement(spec("b", MeasurementKind.STIFFENER_WIDTH), EMPTY, "us_probe_1")
+    assert actions(plan) == US_FROM_RACK
+
+
+def test_a_tool_that_cannot_take_the_kind_is_refused(planner):
+    from ita.errors import PrologError
+
+    with pytest.raises(PrologError, match="tool_for"):
+        planner.plan_measurement(spec("b", MeasurementKind.HOLE_DIAMETER), EMPTY, "us_probe_1")
 
 
 def test_store_path_is_under_ita_home(monkeypatch, tmp_path):

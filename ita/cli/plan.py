@@ -23,6 +23,16 @@ if TYPE_CHECKING:
     from ita.planning import OperationPlan, OperationPlanner
 
 
+def _tool_for(part_dir: Path | None, kb: object, meas_id: str) -> str:
+    """The tool the Sequence Planner's rules choose for `meas_id` now; InputError when none can."""
+    from ita.sequence.plan import choose_tool, planning_context
+
+    chosen = choose_tool(planning_context(part_dir, kb=kb), meas_id)  # type: ignore[arg-type]
+    if chosen.tool is None:
+        raise InputError([(Location(meas_id), f"no tool can take it: {chosen.reason}")])
+    return chosen.tool
+
+
 def _planner(part_dir: Path | None) -> tuple["OperationPlanner", object]:
     """The part and an Operation Planner on its MACROP store (slow imports here)."""
     from ita.logic.bridge import KnowledgeBase
@@ -65,12 +75,15 @@ def format_plan(plan: "OperationPlan", kind: str) -> str:
               help="Start with TOOL in hand (default: an empty hand).")
 @click.option("--after", "after", default=None, metavar="MEAS_ID",
               help="Start where the plan of measurement MEAS_ID leaves the arm.")
+@click.option("--tool", "tool", default=None, metavar="TOOL",
+              help="Measure with TOOL (default: the tool the Sequence Planner's rules choose now).")
 @click.option("--json", "as_json", is_flag=True, help="Print the plan as JSON.")
 @part_option
 @reports_errors
-def plan(meas_id: str, from_scratch: bool, holding: str | None, after: str | None,
+def plan(meas_id: str, from_scratch: bool, holding: str | None, after: str | None, tool: str | None,
          as_json: bool, part_dir: Path | None) -> None:
-    """Plan measurement MEAS_ID: MACROP lookup first, else plan from scratch and learn."""
+    """Plan measurement MEAS_ID with the tool the Sequence Planner chooses: MACROP lookup
+    first, else plan from scratch and learn."""
     from ita.planning import NoPlanError, WorldState
     from ita.specs.io import read_specs
 
@@ -81,10 +94,12 @@ def plan(meas_id: str, from_scratch: bool, holding: str | None, after: str | Non
             if wanted is not None and wanted not in specs:
                 raise InputError([(Location(str(part.specs_path)), f"no measurement {wanted!r}")])
         state = WorldState(holding=holding)
+        tool = tool or _tool_for(part_dir, planner.kb, meas_id)
         try:
             if after is not None:
-                state = planner.plan_measurement(specs[after], state).final_state
-            result = planner.plan_measurement(specs[meas_id], state, from_scratch=from_scratch)
+                state = planner.plan_measurement(specs[after], state, _tool_for(part_dir, planner.kb, after)
+                                                 ).final_state
+            result = planner.plan_measurement(specs[meas_id], state, tool, from_scratch=from_scratch)
         except NoPlanError as exc:
             if as_json:
                 click.echo(json.dumps({"measurement": meas_id, "source": None, "reason": exc.reason}))
@@ -93,6 +108,7 @@ def plan(meas_id: str, from_scratch: bool, holding: str | None, after: str | Non
     if as_json:
         data = result.to_dict()
         data["kind"] = specs[meas_id].kind.value
+        data["tool"] = tool
         click.echo(json.dumps(data, indent=2))
     else:
         click.echo(format_plan(result, specs[meas_id].kind.value))

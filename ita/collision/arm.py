@@ -41,16 +41,13 @@ from numpy.typing import ArrayLike, NDArray
 from ita.collision import kernels
 from ita.collision.tree import RegionTree
 from ita.workcell.frames import rpy_to_matrix
-from ita.workcell.model import ToolSpec
+from ita.workcell.model import TIP_CLEARANCE, ToolSpec
 
 FREE, WORLD, SELF = 0, 1, 2
 
-# The held tools' shapes, as the simulator has them (ita.sim.world.tool_shapes; the test
-# suite checks that these tubes enclose those shapes).
-PROBE_HOLDER_RADIUS = 0.03   # m: a contact probe's holder, a cylinder along the flange axis
-PROBE_SHAFT_RADIUS = 0.008   # m: its shaft, a capsule along the tip axis from the bend
-TOOL_GAP = 0.002             # m: tool shapes start this far off the flange face
-TIP_CLEARANCE = 0.008        # m: the simulator's shaft stops this far short of the tip
+# The held tools' shapes are the workcell model's (ToolSpec.probe_shape, the body box),
+# as the simulator has them (ita.sim.world.tool_shapes; the test suite checks that these
+# tubes enclose those shapes).
 BOX_CLIP = 0.5               # a box tool's tubes end this fraction of their cell's half diagonal inside it
 CYLINDER_PAD = 0.0015        # m: a cylinder's self-check shape grown this much all round (the simulator's
                              # cylinders, convex hulls with a collision margin, reach up to 1 mm past it)
@@ -107,16 +104,16 @@ def urdf_tubes(urdf: Path, link_names: Sequence[str]) -> tuple[np.ndarray, np.nd
 def tool_tubes(tool: ToolSpec, tip_clearance: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
     """Tubes enclosing the tool's real shape: ends (k, 2, 3) in the flange frame, radii (k,).
 
-    A contact probe (no stand-off): its holder, the cylinder of PROBE_HOLDER_RADIUS along
-    the flange axis from TOOL_GAP up to the bend (as the capsule on that axis; the first
-    tube), and its
-    shaft, the capsule of PROBE_SHAFT_RADIUS along the tip axis from the bend to
+    A contact probe (ToolSpec.probe_shape): its holder, the cylinder along the flange axis
+    up to the bend (as the capsule on that axis; the first tube), and its shaft, the
+    capsule along the tip axis from the bend to
     `tip_clearance` short of the tip (0: the whole probe, for free-space checks;
     TIP_CLEARANCE: the simulator's shaft, which leaves the spring-loaded tip free to touch
     the part).  Any other tool: its body box as 2 x 2 tubes along the box's longest side,
     each enclosing a quarter of the box (its cell's half diagonal, the ends clipped
     BOX_CLIP of it inside the box and the radius grown to match)."""
-    if tool.standoff_nominal > 0.0 or tool.tcp_length <= TOOL_GAP:
+    shape = tool.probe_shape()
+    if shape is None:
         c, size = np.asarray(tool.body_center, dtype=float), np.asarray(tool.body_size, dtype=float)
         axis = int(np.argmax(size))
         u, v = [k for k in range(3) if k != axis]
@@ -134,19 +131,14 @@ def tool_tubes(tool: ToolSpec, tip_clearance: float = 0.0) -> tuple[np.ndarray, 
                 ends.append([a, b])
                 radii.append(float(np.hypot(cell, clip)))
         return np.asarray(ends), np.asarray(radii)
-    tip = np.asarray(tool.tcp.position, dtype=float)
-    axis = tool.tcp.rotation()[:, 2]
-    xy = axis[:2] @ axis[:2]
-    s = float(tip[:2] @ axis[:2] / xy) if xy > 1e-12 else 0.5 * tip[2]
-    bend = tip - s * axis
-    bend[:2] = 0.0
-    ends = [[np.array([0.0, 0.0, TOOL_GAP]), np.array([0.0, 0.0, bend[2]])]]
-    radii = [PROBE_HOLDER_RADIUS]
-    end = tip - (tip_clearance + PROBE_SHAFT_RADIUS) * axis
+    bend = np.asarray(shape.bend)
+    tube_ends = [[np.asarray(shape.holder_start), bend]]
+    radii = [shape.holder_radius]
+    end = shape.shaft_end(tip_clearance)
     if np.linalg.norm(end - bend) > 1e-6:
-        ends.append([bend, end])
-        radii.append(PROBE_SHAFT_RADIUS)
-    return np.asarray(ends), np.asarray(radii, dtype=float)
+        tube_ends.append([bend, end])
+        radii.append(shape.shaft_radius)
+    return np.asarray(tube_ends), np.asarray(radii, dtype=float)
 
 
 @dataclass(frozen=True, eq=False)
@@ -185,8 +177,9 @@ class ArmTubes:
         ends, radii = tool_tubes(tool, tip_clearance)
         k = len(radii)
         world, self_, cylinder = np.ones(k, bool), np.ones(k, bool), np.zeros(k)
-        if not (tool.standoff_nominal > 0.0 or tool.tcp_length <= TOOL_GAP):
-            pad_ends, pad_r = cylinder_tube(ends[0], PROBE_HOLDER_RADIUS)
+        shape = tool.probe_shape()
+        if shape is not None:
+            pad_ends, pad_r = cylinder_tube(ends[0], shape.holder_radius)
             ends, radii = np.concatenate([ends, pad_ends[None]]), np.append(radii, pad_r)
             world, self_, cylinder = np.append(world, False), np.append(self_, True), np.append(cylinder, pad_r)
             self_[0] = False

@@ -19,7 +19,6 @@
 from ita.executive.adapters import (
     Completion,
     DeviceAdapter,
-    FakeDevice,
     PoseResolver,
     qualitative_parameters,
 )
@@ -57,7 +56,6 @@ __all__ = [
     "ExecutionReport",
     "ExecutiveError",
     "FailureKind",
-    "FakeDevice",
     "PlanExecutive",
     "PoseResolver",
     "Reply",

@@ -151,21 +151,24 @@ class Reply:
 
     payload: the reply term (``DONE``, ``VALUE(2.51)``; for an exception e.g.
     ``BUMP(link_3, bulkhead)``), None for a time-out; text: one line for people;
-    details: what the device adds for diagnosis (joint angles, contacts...), values only.
+    details: what the device adds for diagnosis (joint angles, contacts...), values only;
+    data: what the command produced beyond the reply term, for whoever reads the
+    execution report (a gauge reading, range frames, Vision's values: ita.devices.data).
     """
 
     kind: ReplyKind
     payload: Any = None
     text: str = ""
     details: Mapping[str, Any] = field(default_factory=lambda: MappingProxyType({}))
+    data: Any = None
 
     @classmethod
-    def normal(cls, payload: Any, text: str = "") -> Reply:
-        return cls(ReplyKind.NORMAL, payload, text)
+    def normal(cls, payload: Any, text: str = "", *, data: Any = None) -> Reply:
+        return cls(ReplyKind.NORMAL, payload, text, data=data)
 
     @classmethod
-    def exception(cls, payload: Any, text: str = "", **details: Any) -> Reply:
-        return cls(ReplyKind.EXCEPTION, payload, text, MappingProxyType(dict(details)))
+    def exception(cls, payload: Any, text: str = "", *, data: Any = None, **details: Any) -> Reply:
+        return cls(ReplyKind.EXCEPTION, payload, text, MappingProxyType(dict(details)), data)
 
     @property
     def ok(self) -> bool:

@@ -452,8 +452,8 @@ def _plain(value: Any) -> Any:
         return value.value
     if isinstance(value, StreamId):
         return str(value)
-    if isinstance(value, (StreamPosition, Reply)):
-        return {k: _plain(v) for k, v in value.__dict__.items()}
+    if isinstance(value, (StreamPosition, Reply)):   # a reply's data (frames...) is not for logs
+        return {k: _plain(v) for k, v in value.__dict__.items() if k != "data"}
     if isinstance(value, Mapping):
         return {str(k): _plain(v) for k, v in value.items()}
     if isinstance(value, (list, tuple, set, frozenset)):

@@ -12,6 +12,12 @@ One :class:`MkbEntry` per measurement spec, made by the Geometric Reasoner
   it belongs to: measurements that ONE range frame taken from one pose serves
   (:class:`ViewGroup`: its members, its anchor whose pose the frame is taken from).
 
+Each spec has the entry of the tool the Sequence Planner chose for it when the MKB was
+made (``entries``) and, where the tool rules allow another tool type for its kind (a
+rib's width: the SLRA, or the probe on its side wall), an entry for that type too
+(``alternatives``), so that a resequencing that moves it to the other type mid-run finds
+where the arm must stand.  :meth:`MeasurementKB.entry_for` picks by tool class.
+
 A measurement the reasoner could not place has ``status`` other than ``ok`` and a
 reason, and no numbers.  The whole MKB is stored as one JSON file (atomic write) under
 ``ita_home()/mkb/<part>.json``, keyed by a digest of the specs and the workcell: a
@@ -32,7 +38,7 @@ from numpy.typing import NDArray
 from ita.paths import ita_home
 
 FloatArray = NDArray[np.float64]
-MKB_VERSION = 3
+MKB_VERSION = 4
 OK = "ok"
 
 __all__ = [
@@ -146,10 +152,20 @@ class MeasurementKB:
     rack: Mapping[str, FloatArray] = field(default_factory=dict)
     build_seconds: float = 0.0
     version: int = MKB_VERSION
+    alternatives: Mapping[str, tuple[MkbEntry, ...]] = field(default_factory=dict)
 
     def entry(self, spec_id: str) -> MkbEntry:
         """The entry of `spec_id`; KeyError when the MKB has none."""
         return self.entries[spec_id]
+
+    def entry_for(self, spec_id: str, tool_class: str) -> MkbEntry | None:
+        """The entry of `spec_id` for a tool of `tool_class` (``us_tool``, ``slra_tool``):
+        its own entry when that is the class, else an alternative's; None when the MKB has
+        none for that class."""
+        e = self.entries.get(spec_id)
+        if e is not None and e.tool_class == tool_class:
+            return e
+        return next((a for a in self.alternatives.get(spec_id, ()) if a.tool_class == tool_class), None)
 
     def group_of(self, spec_id: str) -> ViewGroup | None:
         """The view group of an SLRA measurement (None for the probe or an unplaced one)."""
@@ -177,7 +193,8 @@ class MeasurementKB:
                 "build_seconds": round(self.build_seconds, 3),
                 "rack": {k: np.round(v, 12).tolist() for k, v in self.rack.items()},
                 "groups": [g.to_dict() for g in self.groups.values()],
-                "entries": [e.to_dict() for e in self.entries.values()]}
+                "entries": [e.to_dict() for e in self.entries.values()],
+                "alternatives": [a.to_dict() for alts in self.alternatives.values() for a in alts]}
 
     @classmethod
     def from_dict(cls, d: Mapping[str, Any]) -> MeasurementKB:
@@ -186,7 +203,12 @@ class MeasurementKB:
         entries = {e["spec_id"]: MkbEntry.from_dict(e) for e in d["entries"]}
         groups = {g["id"]: ViewGroup.from_dict(g) for g in d["groups"]}
         rack = {k: _array(v, (6,)) for k, v in d.get("rack", {}).items()}
-        return cls(str(d["part"]), str(d["digest"]), entries, groups, rack, float(d.get("build_seconds", 0.0)))
+        alternatives: dict[str, tuple[MkbEntry, ...]] = {}
+        for a in d.get("alternatives", []):
+            e = MkbEntry.from_dict(a)
+            alternatives[e.spec_id] = alternatives.get(e.spec_id, ()) + (e,)
+        return cls(str(d["part"]), str(d["digest"]), entries, groups, rack, float(d.get("build_seconds", 0.0)),
+                   alternatives=alternatives)
 
 
 def mkb_path(part_name: str) -> Path:

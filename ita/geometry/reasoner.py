@@ -83,10 +83,12 @@ __all__ = [
 @dataclass(frozen=True, eq=False)
 class Target:
     """A quantitative pose: the joint configuration q (6,) and, when known, the TCP pose
-    (4, 4, world, m) it puts the held tool at."""
+    (4, 4, world, m) it puts the held tool at; press_m: how far a contact pose pushes the
+    probe's spring-loaded tip in (0 elsewhere)."""
 
     q: FloatArray
     pose: FloatArray | None = None
+    press_m: float = 0.0
 
 
 def mkb_digest(specs_digest: str, cell: Workcell) -> str:
@@ -119,6 +121,7 @@ def _probe_entries(cell: Workcell, tool: ToolSpec, specs: Sequence[MeasurementSp
     """
     from ita.kinematics import measurement_poses, move_time
     from ita.sequence.cost import ROLLS, measurement_configurations
+    from ita.sequence.partition import contact_poses
 
     model = arm_model(cell.arm)
     tcp = tool.tcp.matrix()
@@ -139,8 +142,9 @@ def _probe_entries(cell: Workcell, tool: ToolSpec, specs: Sequence[MeasurementSp
         found = chosen[i]
         every = np.zeros((0, model.dof))
         if found is None:  # other rolls, nearest to the chosen configuration first
-            poses = measurement_poses(cell.part, np.array([spec.point]), np.array([spec.normal]), tool,
-                                      max(ROLLS, FALLBACK_ROLLS), standoff=0.0)[0]
+            pa, na, pb, nb = contact_poses([spec])      # where the probe must touch (a rib's side walls)
+            poses = np.concatenate([measurement_poses(cell.part, p, n, tool, max(ROLLS, FALLBACK_ROLLS),
+                                                      standoff=0.0)[0] for p, n in ((pa, na), (pb, nb))])
             ik = ik_tool(model, poses, tcp)
             every = ik.q[ik.valid]
             if len(every):
@@ -401,40 +405,58 @@ def build_mkb(
     part_name: str,
     digest: str,
     planner_for: Any = None,
+    alternatives: Mapping[str, Sequence[str]] | None = None,
 ) -> MeasurementKB:
     """The MKB of `specs`; tools: spec id -> tool name (the Sequence Planner's partition).
-    Specs without a tool are left out.  planner_for: ``held tool -> (PathPlanner, ToolSpec)``
-    (ita.path.planners_for) to check approach points (default: made here)."""
-    from ita.vision.measure import VisionContext
-
+    Specs without a tool are left out.  alternatives: spec id -> other tools (of other
+    types) the tool rules allow for it; each gets an alternative entry.  planner_for:
+    ``held tool -> (PathPlanner, ToolSpec)`` (ita.path.planners_for) to check approach
+    points (default: made here)."""
     t0 = time.perf_counter()
     if planner_for is None:
         from ita.path import planners_for as make
 
         planner_for = make(cell, part)
-    entries: dict[str, MkbEntry] = {}
-    groups: dict[str, ViewGroup] = {}
+    vctx_cache: dict[str, Any] = {}
+
+    def place(by_tool: Mapping[str, list[MeasurementSpec]]) -> tuple[dict[str, MkbEntry], dict[str, ViewGroup]]:
+        from ita.vision.measure import VisionContext
+
+        entries: dict[str, MkbEntry] = {}
+        groups: dict[str, ViewGroup] = {}
+        for tool_name, tool_specs in sorted(by_tool.items()):
+            tool = cell.tool(tool_name)
+            planner, _ = planner_for(tool_name)
+            if tool.tool_class is Tool.ULTRASONIC:
+                found = _probe_entries(cell, tool, tool_specs, planner)
+            else:
+                if "vctx" not in vctx_cache:
+                    vctx_cache["vctx"] = VisionContext.from_part(part, cell, tool=tool_name, specs=list(specs))
+                found, made = _slra_entries(cell, tool, tool_specs, vctx_cache["vctx"], planner)
+                groups.update({g.id: g for g in made})
+            entries.update({e.spec_id: e for e in found})
+        return entries, groups
+
     by_tool: dict[str, list[MeasurementSpec]] = {}
+    alt_by_tool: dict[str, list[MeasurementSpec]] = {}
     for s in specs:
         if s.id in tools:
             by_tool.setdefault(tools[s.id], []).append(s)
-    vctx = None
-    for tool_name, tool_specs in sorted(by_tool.items()):
-        tool = cell.tool(tool_name)
-        if tool.tool_class is Tool.ULTRASONIC:
-            planner, _ = planner_for(tool_name)
-            found = _probe_entries(cell, tool, tool_specs, planner)
-        else:
-            if vctx is None:
-                vctx = VisionContext.from_part(part, cell, tool=tool_name, specs=list(specs))
-            planner, _ = planner_for(tool_name)
-            found, made = _slra_entries(cell, tool, tool_specs, vctx, planner)
-            groups.update({g.id: g for g in made})
-        entries.update({e.spec_id: e for e in found})
+            for other in (alternatives or {}).get(s.id, ()):
+                alt_by_tool.setdefault(other, []).append(s)
+    entries, groups = place(by_tool)
+    alt_entries, alt_groups = {}, {}
+    for tool_name, tool_specs in alt_by_tool.items():   # one tool at a time: no id clashes
+        found, made = place({tool_name: tool_specs})
+        for e in found.values():
+            alt_entries.setdefault(e.spec_id, []).append(e)
+        alt_groups.update(made)
     order = {s.id: i for i, s in enumerate(specs)}
     entries = dict(sorted(entries.items(), key=lambda kv: order[kv[0]]))
+    groups.update({k: g for k, g in alt_groups.items() if k not in groups})
+    alternatives_out = {k: tuple(v) for k, v in sorted(alt_entries.items(), key=lambda kv: order[kv[0]])}
     return MeasurementKB(part_name, digest, entries, groups, rack_configurations(cell),
-                         time.perf_counter() - t0)
+                         time.perf_counter() - t0, alternatives=alternatives_out)
 
 
 # -- the resolver -------------------------------------------------------------------------
@@ -448,7 +470,11 @@ class GeometricReasoner:
         patches(meas(Id))                        -> the ViewGroup of the frame to take
         min_value(meas(Id)), max_value(meas(Id)) -> the spec's tolerance limits (mm)
 
-    KeyError for a term it does not know or a measurement the MKB could not place.
+    A pose of a measurement depends on the tool that takes it: `tool`, the tool the arm
+    holds, picks the MKB entry of its class (:meth:`MeasurementKB.entry_for`), and must
+    have the shape of the tool the entry was made for (a spare of the same make);
+    without one the entry of the tool the sequence plan chose is used.  KeyError for a
+    term it does not know or a measurement the MKB could not place for that tool.
     """
 
     def __init__(self, mkb: MeasurementKB, cell: Workcell, specs: Sequence[MeasurementSpec]) -> None:
@@ -457,13 +483,24 @@ class GeometricReasoner:
         self.specs = {s.id: s for s in specs}
         self.home = np.asarray(HOME_Q, dtype=float)
 
-    def entry(self, spec_id: str) -> MkbEntry:
-        e = self.mkb.entries[spec_id]
+    def entry(self, spec_id: str, tool: str | None = None) -> MkbEntry:
+        """The placed entry of `spec_id` for `tool` (None: the sequence plan's tool);
+        KeyError when there is none."""
+        e = self.mkb.entries.get(spec_id)
+        if tool is not None:
+            spec = self.cell.tool(tool)
+            e = self.mkb.entry_for(spec_id, spec.tool_class.value)
+            if e is None:
+                raise KeyError(f"{spec_id}: no MKB entry for a {spec.tool_class.value} ({tool})")
+            if e.tool != tool and not spec.same_shape(self.cell.tool(e.tool)):
+                raise KeyError(f"{spec_id}: placed for {e.tool}, whose shape {tool} does not have")
+        if e is None:
+            raise KeyError(f"{spec_id}: not in the measurement knowledge base")
         if not e.ok:
             raise KeyError(f"{spec_id}: {e.status} ({e.reason})")
         return e
 
-    def resolve(self, term: Any) -> Any:
+    def resolve(self, term: Any, tool: str | None = None) -> Any:
         if not (isinstance(term, Term) and len(term.args) == 1):
             raise KeyError(f"not a qualitative parameter: {term!r}")
         kind, place = term.name, term.args[0]
@@ -475,10 +512,12 @@ class GeometricReasoner:
             if kind == "goal_point":
                 spec = self.specs[spec_id]
                 return self.cell.part.to_world(np.asarray(spec.point, dtype=float)[None])[0]
-            e = self.entry(spec_id)
+            e = self.entry(spec_id, tool)
             if kind == "approach_point":
                 return Target(e.q_approach, e.pose_approach)
-            if kind in ("in_contact_point", "viewing_pose"):
+            if kind == "in_contact_point":
+                return Target(e.q, e.pose, e.press_m)
+            if kind == "viewing_pose":
                 return Target(e.q, e.pose)
             if kind == "patches":
                 group = self.mkb.groups.get(e.group or "")
@@ -491,14 +530,3 @@ class GeometricReasoner:
             if isinstance(place, Term) and place.name == "rack" and len(place.args) == 1:
                 return Target(np.asarray(self.mkb.rack[str(place.args[0])]))
         raise KeyError(f"the Geometric Reasoner does not know {term!r}")
-
-    def target_q(self, term: Any) -> FloatArray:
-        """The configuration of a pose term (convenience for adapters)."""
-        target = self.resolve(term)
-        if not isinstance(target, Target):
-            raise KeyError(f"{term!r} is not a pose")
-        return np.asarray(target.q, dtype=float)
-
-    def spec_ok(self, spec_id: str) -> bool:
-        e = self.mkb.entries.get(spec_id)
-        return e is not None and e.ok

@@ -138,8 +138,12 @@ def prepare_inspection(ctx: Any, part: Any, *, progress: Callable[[str], None] =
     mkb_rebuilt = mkb is None
     if mkb is None:
         progress("building the measurement knowledge base")
+        from ita.sequence.partition import alternative_tools
+
         tools = {i: g.tool for g in plan.groups for i in g.order}
-        mkb = build_mkb(ctx.workcell, part, ctx.specs, tools, part_name=ctx.part_name, digest=digest)
+        others = alternative_tools(ctx.kb, ctx.workcell, ctx.specs, ctx.feature_kinds, tools)
+        mkb = build_mkb(ctx.workcell, part, ctx.specs, tools, part_name=ctx.part_name, digest=digest,
+                        alternatives=others)
         save_mkb(mkb)
     cannot = list(plan.cannot) + [(e.spec_id, e.status) for e in mkb.problems()]
     macrops = {"planned": 0, "lookups": 0, "hits": 0, "learned": 0, "no_plan": 0}
@@ -174,7 +178,7 @@ def warm_macrops(ctx: Any, plan: Any, mkb: Any) -> tuple[dict[str, int], list[st
                 if entry is None or not entry.ok:
                     continue
                 try:
-                    op = planner.plan_measurement(ctx.spec(spec_id), state)
+                    op = planner.plan_measurement(ctx.spec(spec_id), state, group.tool)
                 except NoPlanError:
                     no_plan.append(spec_id)
                     continue
@@ -193,7 +197,8 @@ def prepare(part_dir: Path | None, progress: Callable[[str], None] = lambda _msg
     Raises InputError (with file, line, field) when the part or its specs are bad.
     """
     from ita.logic.bridge import KnowledgeBase
-    from ita.offline.reach import spec_reach, workcell_for
+    from ita.offline.reach import spec_reach
+    from ita.workcell import workcell_for
     from ita.part.store import load_part
     from ita.part.summary import summarize
     from ita.specs import service

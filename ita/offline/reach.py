@@ -1,12 +1,11 @@
 """Which specs the arm can reach, by the simple geometric test of ita.workcell.reach.
 
-The tool class that measures each kind comes from the knowledge bases (Prolog), not from
-Python: the same rules the planners use.
+The tool class that measures each kind comes from the tool rules of kb/tools.pl (its
+most preferred rule), not from Python: the rules the Sequence Planner decides by.
 """
 
 from __future__ import annotations
 
-from pathlib import Path
 from typing import Sequence
 
 import numpy as np
@@ -14,20 +13,18 @@ import numpy as np
 from ita.logic.bridge import KnowledgeBase
 from ita.logic.terms import Var
 from ita.specs.model import MeasurementKind, MeasurementSpec
-from ita.workcell import ReachReport, Workcell, load_workcell, reach_report
-
-
-def workcell_for(part_directory: Path) -> Workcell:
-    """The part's own workcell.toml when it has one, else the built-in workcell."""
-    own = Path(part_directory) / "workcell.toml"
-    return load_workcell(own if own.is_file() else None)
+from ita.workcell import ReachReport, Workcell, reach_report
 
 
 def tool_class_of_kinds(kb: KnowledgeBase) -> dict[MeasurementKind, str]:
-    """Tool class (`us_tool`, `slra_tool`) for each measurement kind, from kb/operators.pl."""
-    rows = kb.call("operators", "kind_tool_type", Var("Kind"), Var("Type"))
-    found = {str(r["Kind"]): str(r["Type"]) for r in rows}
-    return {k: found[k.value] for k in MeasurementKind if k.value in found}
+    """Tool class (`us_tool`, `slra_tool`) for each measurement kind: the type of the most
+    preferred tool rule of kb/tools.pl for the kind (``tools:preferred_tool_type/2``)."""
+    out: dict[MeasurementKind, str] = {}
+    for kind in MeasurementKind:
+        found = kb.once("tools", "preferred_tool_type", kind.value, Var("Type"))
+        if found is not None:
+            out[kind] = str(found["Type"])
+    return out
 
 
 def spec_reach(specs: Sequence[MeasurementSpec], workcell: Workcell, kb: KnowledgeBase) -> ReachReport:

@@ -5,7 +5,7 @@ this package is the facade the executive and the CLI call:
 
     from ita.planning import OperationPlanner, WorldState
     with OperationPlanner(kb, store_path("bulkhead")) as planner:
-        plan = planner.plan_measurement(spec, WorldState())
+        plan = planner.plan_measurement(spec, WorldState(), "us_probe_1")
         state = plan.final_state          # where the arm is, what it holds, afterwards
 """
 

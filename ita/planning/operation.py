@@ -2,7 +2,7 @@
 
 :class:`OperationPlanner` holds a store of learned MACROPs (a Prolog file, opened in
 memory by prolog/macrop.pl) and plans a measurement with one bridge call to
-``macrop:measurement_plan/8``, which tries MACROP lookup and otherwise plans from
+``macrop:measurement_plan/9``, which tries MACROP lookup and otherwise plans from
 scratch, generalizes the plan and stores the MACROP.  The reply is compact: the
 MACROP's number and the values of its variables.  The facade plugs them into the
 MACROP's plan template, fetched once per MACROP and cached, so a lookup costs one
@@ -333,18 +333,21 @@ class OperationPlanner:
     # -- planning --------------------------------------------------------------------
 
     def plan_measurement(
-        self, spec: "MeasurementSpec", state: WorldState, *, from_scratch: bool = False
+        self, spec: "MeasurementSpec", state: WorldState, tool: str, *, from_scratch: bool = False
     ) -> OperationPlan:
-        """The plan that takes measurement `spec` from `state`.
+        """The plan that takes measurement `spec` with `tool` from `state`.
 
-        MACROP lookup first; when no MACROP applies (or `from_scratch`), the Task
-        Planner plans from scratch and the plan is generalized and stored.  Raises
-        :class:`NoPlanError` when there is no plan.
+        `tool` is the Sequence Planner's choice (the tool rules of kb/tools.pl); the plan
+        measures with it, whatever the arm holds.  MACROP lookup first; when no MACROP
+        applies (or `from_scratch`), the Task Planner plans from scratch and the plan is
+        generalized and stored.  Raises :class:`NoPlanError` when there is no plan, and
+        :class:`~ita.errors.PrologError` for a tool that cannot take measurements of the
+        spec's kind.
         """
         start = time.perf_counter()
         mode = "from_scratch" if from_scratch else "lookup_first"
         solution = self.kb.once(
-            "macrop", "measurement_plan", self._file, spec.id, spec.kind.value,
+            "macrop", "measurement_plan", self._file, spec.id, spec.kind.value, tool,
             state.arm, state.pose.to_flat(), state.holding_atom(), mode, Var("R"),
         )
         reply = solution["R"] if solution else None

@@ -175,6 +175,39 @@ def _selection(choice: Term) -> Selection:
     return Selection(str(spec_id), None, None, None, term_text(decided.args[0]), steps)
 
 
+def alternative_tools(
+    kb: KnowledgeBase, workcell: Workcell, specs: Sequence[MeasurementSpec], feature_kinds: Mapping[str, str],
+    chosen: Mapping[str, str],
+) -> dict[str, tuple[str, ...]]:
+    """Spec id -> the tools of the OTHER types the tool rules allow for it
+    (``tools:candidate_tool_types/3``), one per type (the workcell's first tool of that
+    type), for each spec of `chosen` (spec id -> its tool).  A resequencing may move a
+    measurement to one of them; the MKB places it for them beforehand."""
+    from ita.logic.terms import Var
+
+    types_of: dict[tuple[str, str], list[str]] = {}
+    out: dict[str, tuple[str, ...]] = {}
+    for s in specs:
+        tool = chosen.get(s.id)
+        if tool is None:
+            continue
+        key = (s.kind.value, feature_kinds.get(s.feature, UNKNOWN_FEATURE))
+        if key not in types_of:
+            found = kb.once("tools", "candidate_tool_types", key[0], key[1], Var("Types"))
+            types_of[key] = [str(t) for t in found["Types"]] if found else []
+        own = workcell.tool(tool).tool_class.value
+        others = []
+        for tool_type in types_of[key]:
+            if tool_type == own:
+                continue
+            tools = workcell.tools_of_class(Tool(tool_type))
+            if tools:
+                others.append(tools[0].name)
+        if others:
+            out[s.id] = tuple(others)
+    return out
+
+
 def partition_specs(
     kb: KnowledgeBase, specs: Sequence[MeasurementSpec], feature_kinds: Mapping[str, str],
     facts: Sequence[Sequence[Term]], done: Iterable[str] = (),

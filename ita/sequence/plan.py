@@ -48,8 +48,10 @@ from ita.sequence.cost import (
 from ita.sequence.partition import (
     FactsFunction,
     Partition,
+    Selection,
     feature_kinds_of,
     partition_specs,
+    select_tools,
 )
 from ita.specs.model import MeasurementSpec
 
@@ -173,10 +175,11 @@ def planning_context(
     part_dir: Path | None = None, kb: KnowledgeBase | None = None, method: str = "default",
     cost_model: CostModel = MOTION_TIME_COST, part: Part | None = None,
 ) -> PlanningContext:
-    """A context for the part in `part_dir` (default: the built-in bulkhead) and its workcell."""
+    """A context for the part in `part_dir` (default: the built-in bulkhead) and its
+    workcell (the part's own workcell.toml when it has one)."""
     from ita.part.store import load_part
     from ita.specs.io import read_specs
-    from ita.workcell import load_workcell
+    from ita.workcell import workcell_for
 
     if kb is None:
         from ita.logic.bridge import KnowledgeBase
@@ -186,7 +189,7 @@ def planning_context(
     specs = tuple(read_specs(loaded.specs_path))
     return PlanningContext(
         kb=kb, part_name=loaded.name, specs=specs, feature_kinds=feature_kinds_of(loaded.features),
-        workcell=load_workcell(), specs_digest=specs_digest(loaded.specs_path), method=method,
+        workcell=workcell_for(loaded.directory), specs_digest=specs_digest(loaded.specs_path), method=method,
         cost_model=cost_model,
     )
 
@@ -307,6 +310,13 @@ def _remaining_orders(plan: SequencePlan) -> dict[str, tuple[str, ...]]:
     return {g.tool_class: tuple(i for i in g.order if i not in out) for g in plan.groups}
 
 
+def choose_tool(ctx: PlanningContext, spec_id: str) -> Selection:
+    """The tool rules' choice for one measurement now (the world model's tools): the
+    Sequence Planner's partition of that spec alone.  KeyError for an unknown id."""
+    spec = ctx.spec(spec_id)
+    return select_tools(ctx.kb, [spec], ctx.feature_kinds, ctx.facts(ctx.workcell, [spec]))[0]
+
+
 def partition_only(ctx: PlanningContext, done: Iterable[str] = ()) -> Partition:
     """The partition of ``ctx.specs`` (no ordering), for reports and tests."""
     return partition_specs(ctx.kb, ctx.specs, ctx.feature_kinds, ctx.spec_facts(), done=done)
@@ -314,7 +324,7 @@ def partition_only(ctx: PlanningContext, done: Iterable[str] = ()) -> Partition:
 
 __all__ = [
     "COST_MODELS", "INTERIM_COST", "MOTION_TIME_COST", "CostModel", "PlannedGroup", "PlanningContext", "SequencePlan",
-    "build_plan", "euclidean_slot_seconds", "euclidean_tcp_seconds", "held_tool", "order_group",
+    "build_plan", "choose_tool", "euclidean_slot_seconds", "euclidean_tcp_seconds", "held_tool", "order_group",
     "order_groups", "partition_only", "planning_context", "pose_facts", "slot_position", "specs_digest",
     "tool_points_world", "tool_state",
 ]

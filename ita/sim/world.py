@@ -39,13 +39,10 @@ from ita.kinematics import ArmModel, arm_model, flange_poses
 from ita.sim.faults import FaultSet
 from ita.workcell import Box, ToolSpec, Workcell, load_workcell
 from ita.workcell.frames import matrix_to_quaternion
+from ita.workcell.model import TIP_CLEARANCE
 
 FloatArray = NDArray[np.float64]
 PART = "part"
-TIP_CLEARANCE = 0.008   # m: a contact probe's shaft shape stops this far short of its tip
-_HOLDER_RADIUS = 0.03   # m
-_SHAFT_RADIUS = 0.008   # m
-_GAP = 0.002            # m: tool shapes start this far off the flange face
 
 
 class SimClock:
@@ -359,25 +356,22 @@ def tool_shapes(tool: ToolSpec) -> list[tuple[str, FloatArray, FloatArray, float
     """A tool's collision shapes in its (flange) frame: (kind, centre (3,), axis (3,),
     radius, length) for 'cylinder'/'capsule' along `axis`, or ('box', centre, size, 0, 0).
 
-    See the module docstring: straight tools are their body box; contact probes a holder
-    and a shaft that stops TIP_CLEARANCE (plus its radius) short of the tip.
+    Tools with a stand-off are their body box; contact probes their ProbeShape
+    (ita.workcell.model): the holder a cylinder, the shaft a capsule that stops
+    TIP_CLEARANCE (plus its radius) short of the tip.
     """
-    if tool.standoff_nominal > 0.0:
+    shape = tool.probe_shape()
+    if shape is None:
         return [("box", np.asarray(tool.body_center, float), np.asarray(tool.body_size, float), 0.0, 0.0)]
-    tip = np.asarray(tool.tcp.position, dtype=float)
-    axis = tool.tcp.rotation()[:, 2]
-    xy = axis[:2] @ axis[:2]
-    s = float(tip[:2] @ axis[:2] / xy) if xy > 1e-12 else 0.5 * tip[2]
-    bend = tip - s * axis
-    bend[:2] = 0.0
-    holder_len = bend[2] - _GAP
-    shapes = [("cylinder", np.array([0.0, 0.0, _GAP + holder_len / 2]), np.array([0.0, 0.0, 1.0]),
-               _HOLDER_RADIUS, holder_len)]
-    end = tip - (TIP_CLEARANCE + _SHAFT_RADIUS) * axis
+    start, bend = np.asarray(shape.holder_start), np.asarray(shape.bend)
+    holder_len = bend[2] - start[2]
+    shapes = [("cylinder", np.array([0.0, 0.0, start[2] + holder_len / 2]), np.array([0.0, 0.0, 1.0]),
+               shape.holder_radius, holder_len)]
+    end = shape.shaft_end(TIP_CLEARANCE)
     shaft = end - bend
     length = float(np.linalg.norm(shaft))
     if length > 1e-6:
-        shapes.append(("capsule", (bend + end) / 2, shaft / length, _SHAFT_RADIUS, length))
+        shapes.append(("capsule", (bend + end) / 2, shaft / length, shape.shaft_radius, length))
     return shapes
 
 

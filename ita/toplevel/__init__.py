@@ -6,25 +6,22 @@
         run_id = start_run(session, archive, limit=12)
         summary = TopLevel(session, archive, run_id, signals).run(on_progress=print)
 
-Modules: :mod:`~ita.toplevel.loop` (session, the loop, events for the archive),
-:mod:`~ita.toplevel.adapters` (the simulated arm with the gauge, and the SLRA with
-Vision, as the Executive's device adapters), :mod:`~ita.toplevel.signals` (STOP and
-INTERRUPT).
+Modules: :mod:`~ita.toplevel.session` (the loaded system), :mod:`~ita.toplevel.measure`
+(one measurement's round trip, shared with `ita measure`), :mod:`~ita.toplevel.loop`
+(the sequence-level loop), :mod:`~ita.toplevel.events` (a plan's log as archive
+events), :mod:`~ita.toplevel.signals` (STOP and INTERRUPT).  The devices the executive
+drives are :mod:`ita.devices`.
 """
 
-from ita.toplevel.loop import (
-    Progress,
-    RunSummary,
-    Session,
-    TopLevel,
-    archive_events,
-    open_session,
-    start_run,
-    state_after,
-)
+from ita.toplevel.events import archive_events
+from ita.toplevel.loop import Progress, RunSummary, TopLevel, start_run
+from ita.toplevel.measure import MeasureOutcome, MeasureStatus, measure_one, state_after
+from ita.toplevel.session import Session, open_session
 from ita.toplevel.signals import RunSignals, StopNow
 
 __all__ = [
+    "MeasureOutcome",
+    "MeasureStatus",
     "Progress",
     "RunSignals",
     "RunSummary",
@@ -32,6 +29,7 @@ __all__ = [
     "StopNow",
     "TopLevel",
     "archive_events",
+    "measure_one",
     "open_session",
     "start_run",
     "state_after",

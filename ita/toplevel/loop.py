@@ -6,9 +6,10 @@
 
 The loop (seed, "Top Level"): the next measurement from the Sequence Planner
 (``next_step``: resources checked, resequencing when a tool is gone); a plan for it from
-the Operation Planner (MACROP lookup first), from the world state the previous plan left;
-its execution by the Plan Executive on the device adapters (ita.toplevel.adapters), the
-Geometric Reasoner resolving the plan's qualitative poses from the MKB; the result to the
+the Operation Planner with the tool the Sequence Planner chose (MACROP lookup first), from
+the world state the previous plan left; its execution by the Plan Executive on the
+devices (ita.devices), the Geometric Reasoner resolving the plan's qualitative poses from
+the MKB (one round trip: :func:`ita.toplevel.measure.measure_one`); the result to the
 archive the moment it exists, with the plan's events, in one transaction.  An exception
 reply or a time-out: the measurement is recorded not done with the reason, the world
 state is taken from the steps that did complete, the arm is freed if it is stuck, and the
@@ -32,104 +33,23 @@ import time
 from collections import Counter
 from collections.abc import Callable
 from dataclasses import dataclass, field, replace
-from pathlib import Path
-from typing import Any
-
-import numpy as np
+from typing import TYPE_CHECKING, Any
 
 from ita.archive import Event, Outcome, Result, RunStatus
-from ita.executive import EventKind as XKind
-from ita.executive.commands import term_text
-from ita.logic.terms import Term
-from ita.planning.state import NOTHING, Place, Pose, PoseKind, WorldState
+from ita.planning.state import WorldState
+from ita.toplevel.events import archive_events
+from ita.toplevel.measure import MeasureOutcome, MeasureStatus, measure_one
 from ita.toplevel.signals import RunSignals, StopNow
 
-__all__ = ["Progress", "RunSummary", "Session", "TopLevel", "archive_events", "open_session", "start_run",
-           "state_after"]
+if TYPE_CHECKING:
+    from ita.archive import Archive
+    from ita.sequence.next_step import Step
+    from ita.toplevel.session import Session
+
+__all__ = ["Progress", "RunSummary", "TopLevel", "start_run"]
 
 
-# -- the session: everything a run needs, loaded once ---------------------------------------
-
-@dataclass(eq=False)
-class Session:
-    """The loaded system: knowledge bases, part, plan, MKB, simulator and devices."""
-
-    kb: Any
-    part: Any
-    part_arg: str | None          # --part as given (None: the built-in bulkhead)
-    ctx: Any                      # ita.sequence.plan.PlanningContext
-    plan: Any                     # the prepared SequencePlan
-    mkb: Any
-    reasoner: Any
-    world: Any
-    arm: Any
-    slra: Any
-    executive: Any
-    planner: Any                  # OperationPlanner
-    seed: int
-    setup_seconds: float = 0.0
-
-    @property
-    def specs(self) -> dict[str, Any]:
-        return {s.id: s for s in self.ctx.specs}
-
-    def close(self) -> None:
-        """Save the MACROP store (kept open: SWI-Prolog has one database per process, which
-        another session in this process may share) and close the simulator."""
-        try:
-            self.planner.save()
-        finally:
-            self.world.close()
-
-
-def open_session(part_dir: Path | None = None, *, seed: int = 0,
-                 progress: Callable[[str], None] = lambda _m: None) -> Session:
-    """Load everything a run needs; prepare the part first (sequence plan, MKB, MACROPs)
-    when what is stored is missing or stale."""
-    from ita.executive import PlanExecutive
-    from ita.geometry import GeometricReasoner
-    from ita.logic.bridge import KnowledgeBase
-    from ita.offline.prepare import prepare_inspection
-    from ita.part.store import load_part
-    from ita.path import planners_for
-    from ita.planning import OperationPlanner, store_path
-    from ita.sequence.plan import planning_context
-    from ita.sequence.store import apply_tool_marks, load_tool_marks
-    from ita.sim.slra import SlraScene
-    from ita.sim.world import SimWorld
-    from ita.toplevel.adapters import ArmAdapter, SlraAdapter
-    from ita.vision.measure import VisionContext
-
-    t0 = time.perf_counter()
-    progress("loading the knowledge bases and the part")
-    kb = KnowledgeBase()
-    apply_tool_marks(kb, load_tool_marks())
-    part = load_part(part_dir)
-    ctx = planning_context(part_dir, kb=kb, part=part)
-    plan, mkb, _ = prepare_inspection(ctx, part, progress=progress, warm=False)
-    specs = {s.id: s for s in ctx.specs}
-    cell = ctx.workcell
-    reasoner = GeometricReasoner(mkb, cell, ctx.specs)
-    progress("building the simulated workcell")
-    world = SimWorld(cell, part.directory, seed=seed, q0=reasoner.home)
-    try:
-        planner_for = planners_for(cell, part)
-        arm = ArmAdapter(world, reasoner, planner_for, specs)
-        slra_tools = [t for t in cell.tools if t.tool_class.value == "slra_tool"]
-        vctx = VisionContext.from_part(part, cell, tool=slra_tools[0].name if slra_tools else "slra_1",
-                                       specs=list(ctx.specs))
-        scene = SlraScene.from_truth(part.directory, cell)
-        slra = SlraAdapter(world, scene, reasoner, vctx, specs, np.random.default_rng([seed, 21]))
-        executive = PlanExecutive(kb, {"path_planner": arm, "vision": slra}, clock=world.clock)
-        op = OperationPlanner(kb, store_path(ctx.part_name))
-    except BaseException:
-        world.close()
-        raise
-    return Session(kb, part, None if part_dir is None else str(Path(part_dir).resolve()), ctx, plan, mkb,
-                   reasoner, world, arm, slra, executive, op, seed, time.perf_counter() - t0)
-
-
-def start_run(session: Session, archive: Any, *, limit: int | None = None) -> str:
+def start_run(session: Session, archive: Archive, *, limit: int | None = None) -> str:
     """Register a new run of the session's part in `archive`: the measurements it sets out
     to do are the first `limit` of the sequence plan (all by default), plus those the plan
     cannot do (recorded as such).  Returns the run id."""
@@ -199,95 +119,13 @@ class RunSummary:
                 "continue": self.continue_hint}
 
 
-# -- events ---------------------------------------------------------------------------------
-
-_CATEGORY = {"MOVE": "motion", "RETRACT": "motion", "CONTACT": "motion", "COUPLANT": "measuring",
-             "MEASURE": "measuring", "SCAN": "measuring", "PICKUP": "tool_change", "PUTDOWN": "tool_change"}
-
-
-def _stream_name(stream: Any, message_name: str | None) -> str:
-    if stream is None:
-        return "top"
-    if stream.device == "vision":
-        return "slra"
-    if message_name in ("COUPLANT", "MEASURE"):
-        return "gauge"
-    return "arm"
-
-
-def archive_events(report: Any, plan_no: int) -> list[Event]:
-    """The executive's log of one plan as archive events (ita.archive.timeline's
-    conventions): a command per SEND with its end and category, its reply, WAIT and
-    CONTINUE per stream, exceptions."""
-    names: dict[int, str] = {}
-    ends: dict[int, float] = {}
-    for e in report.events:
-        if e.kind is XKind.SEND:
-            names[e.step] = e.payload.name if isinstance(e.payload, Term) else str(e.payload)
-        elif e.kind in (XKind.REPLY, XKind.EXCEPTION, XKind.TIMEOUT, XKind.CANCELLED) and e.step is not None:
-            ends.setdefault(e.step, e.sim_time)
-    out: list[Event] = []
-    for e in report.events:
-        step = e.step
-        name = names.get(step) if step is not None else None
-        stream = _stream_name(e.stream, name)
-        cmd = f"{plan_no}.{step}"
-        if e.kind is XKind.SEND:
-            payload = {"cmd": cmd, "name": name.lower(), "category": _CATEGORY.get(name, "other"),
-                       "message": term_text(e.payload)}
-            if step in ends:
-                payload["end"] = ends[step]
-            out.append(Event("command", stream, e.sim_time, payload))
-        elif e.kind is XKind.REPLY:
-            reply, result = e.payload
-            out.append(Event("reply", stream, e.sim_time, {"cmd": cmd, "status": "ok", "reply": term_text(reply),
-                                                            "result": term_text(result)}))
-        elif e.kind in (XKind.EXCEPTION, XKind.TIMEOUT):
-            status = "timeout" if e.kind is XKind.TIMEOUT else "exception"
-            out.append(Event("reply", stream, e.sim_time, {"cmd": cmd, "status": status}))
-        elif e.kind is XKind.WAIT:
-            out.append(Event("wait", stream, e.sim_time, {"on": [f"{plan_no}.{s}" for s in e.payload], "cmd": cmd}))
-        elif e.kind is XKind.CONTINUE:
-            out.append(Event("continue", stream, e.sim_time, {"on": [f"{plan_no}.{s}" for s in e.payload],
-                                                              "cmd": cmd}))
-        elif e.kind is XKind.CANCELLED:
-            out.append(Event("cancelled", stream, e.sim_time, {"cmd": cmd, "how": str(e.payload)}))
-    if report.failure is not None:
-        f = report.failure
-        out.append(Event("exception", _stream_name(f.command.stream, f.command.name), f.at_s,
-                         {"message": f.reason, "kind": f.kind.value, "step": f.step.number,
-                          "reply": term_text(f.reply.payload) if f.reply.payload is not None else None}))
-    return out
-
-
-def state_after(plan: Any, report: Any) -> WorldState:
-    """The world state after a plan that stopped: the initial state with the results of
-    the steps that completed applied (moves, contact, tool pick-ups and put-downs)."""
-    state = plan.initial_state
-    pose, holding = state.pose, state.holding
-    for outcome in report.outcomes:
-        r = outcome.result
-        if not isinstance(r, Term):
-            continue
-        try:
-            if r.name == "moved" and len(r.args) == 2:
-                pose = Pose.from_term(r.args[1])
-            elif r.name == "contact" and len(r.args) == 3:
-                pose = Pose(PoseKind.CONTACT, Place.from_term(r.args[1]))
-            elif r.name == "tool_location" and len(r.args) == 2 and isinstance(r.args[1], Term):
-                holding = str(r.args[0]) if r.args[1].name == "on_arm" else None
-        except ValueError:
-            continue
-    return WorldState(state.arm, pose, None if holding == NOTHING else holding)
-
-
 # -- the loop ---------------------------------------------------------------------------------
 
 class TopLevel:
     """Runs (or continues) one inspection run of `session` recorded in `archive`."""
 
     def __init__(self, session: Session, archive: Any, run_id: str, signals: RunSignals | None = None) -> None:
-        self.s = session
+        self.session = session
         self.archive = archive
         self.run_id = run_id
         self.signals = signals or RunSignals(message=None)
@@ -312,7 +150,7 @@ class TopLevel:
 
     def _unmeasured(self, spec_id: str, outcome: Outcome, reason: str, *, tool: str | None = None,
                     t0: float | None = None, t1: float | None = None, events: list[Event] = ()) -> None:
-        spec = self.s.specs[spec_id]
+        spec = self.session.specs[spec_id]
         self._record(Result.unmeasured(spec, outcome, reason, tool=tool, sim_time_start=t0, sim_time_end=t1),
                      list(events))
 
@@ -320,7 +158,7 @@ class TopLevel:
     def run(self, on_progress: Callable[[Progress], None] | None = None) -> RunSummary:
         from ita.sequence.next_step import next_step
 
-        s = self.s
+        s = self.session
         wall0 = time.perf_counter()
         last = self.archive.last_sim_time(self.run_id) or 0.0
         if s.world.clock.now < last:
@@ -392,10 +230,10 @@ class TopLevel:
     def _arm_name(self) -> str:
         from ita.sequence.next_step import the_arm
 
-        return the_arm(self.s.kb)
+        return the_arm(self.session.kb)
 
     def _progress(self, current: tuple, wall0: float, sim0: float, n0: int, status: str) -> Progress:
-        s = self.s
+        s = self.session
         done, total = len(self.done), len(self.todo)
         wall = time.perf_counter() - wall0
         made = done - n0
@@ -405,79 +243,58 @@ class TopLevel:
         return Progress(self.run_id, done, total, current[0], current[1], current[2], status, s.world.clock.now,
                         wall, eta_wall, eta_sim, self.exceptions, dict(self.counts))
 
-    def _measure(self, step: Any, state: WorldState) -> WorldState:
-        """Plan, execute and record one measurement (and its view group's); the new state."""
-        from ita.planning import NoPlanError
-
-        s = self.s
-        spec_id = step.spec_id
-        spec = s.specs[spec_id]
-        entry = s.mkb.entries.get(spec_id)
-        if entry is None or not entry.ok:
-            why = "not in the measurement knowledge base" if entry is None else f"{entry.status}: {entry.reason}"
-            self._unmeasured(spec_id, Outcome.CANNOT_BE_DONE, why, tool=step.tool)
-            return state
-        t0 = s.world.clock.now
-        try:
-            op = s.planner.plan_measurement(spec, state)
-        except NoPlanError as exc:
-            self._unmeasured(spec_id, Outcome.NOT_DONE, f"no plan: {exc.reason}", tool=step.tool, t0=t0, t1=t0)
-            return state
+    def _measure(self, step: Step, state: WorldState) -> WorldState:
+        """Measure one step (and its view group's other members) and record it; the new state."""
+        out = measure_one(self.session, step.spec_id, state, step.tool)
+        if out.status is MeasureStatus.CANNOT_BE_DONE:
+            self._unmeasured(step.spec_id, Outcome.CANNOT_BE_DONE, out.reason or "", tool=step.tool)
+            return out.state
+        if out.plan is None:
+            self._unmeasured(step.spec_id, Outcome.NOT_DONE, out.reason or "", tool=step.tool, t0=out.t0,
+                             t1=out.t1)
+            return out.state
         self.plan_no += 1
-        report = s.executive.execute(op, start_s=t0)
-        t1 = max(s.world.clock.now, report.finished_s)
-        if s.world.clock.now < t1:
-            s.world.clock.advance(t1 - s.world.clock.now)
-        events = [Event("plan_start", "top", t0, {"spec": spec_id, "macrop": op.macrop_name,
-                                                  "source": op.source.value, "steps": len(op.steps)})]
-        events += archive_events(report, self.plan_no)
-        readings = s.arm.take_readings()
-        vision = s.slra.take_results()
+        events = self._events(out)
         if any(e.kind == "command" and e.payload.get("name") == "scan" for e in events):
             self.frames += 1
-        if report.ok:
-            new_state = op.final_state
-            value, u = self._value(spec_id, report, readings, vision)
-            events.append(Event("plan_end", "top", t1, {"spec": spec_id, "status": "ok"}))
-            if value is None:
-                self._unmeasured(spec_id, Outcome.NOT_DONE, "no value in the replies", tool=step.tool, t0=t0,
-                                 t1=t1, events=events)
-            else:
-                self._record(Result.measured(spec, value, u, tool=step.tool, sim_time_start=t0, sim_time_end=t1),
-                             events)
+        spec = self.session.specs[step.spec_id]
+        if out.status is MeasureStatus.MEASURED:
+            assert out.value is not None
+            self._record(Result.measured(spec, out.value.value, out.value.u, tool=step.tool,
+                                         sim_time_start=out.t0, sim_time_end=out.t1), events)
         else:
-            self.exceptions += 1
-            new_state = state_after(op, report)
-            moved = s.arm.recover()
-            events.append(Event("plan_end", "top", t1, {"spec": spec_id, "status": "failed",
-                                                        "recovered_arm": moved}))
-            if moved:
-                events.append(Event("recovery", "arm", t1, {"how": "jog back to the last free configuration",
-                                                            "duration": s.arm.RECOVER_SECONDS}))
-            self._unmeasured(spec_id, Outcome.NOT_DONE, report.failure.reason, tool=step.tool, t0=t0, t1=t1,
-                             events=events)
-        for other, reply in vision.items():   # the rest of the frame's view group
-            if other == spec_id or other in self.done or other not in self.todo_set:
+            if out.report is not None and not out.report.ok:
+                self.exceptions += 1
+            self._unmeasured(step.spec_id, Outcome.NOT_DONE, out.reason or "", tool=step.tool, t0=out.t0,
+                             t1=out.t1, events=events)
+        for other in out.others:   # the rest of the frame's view group
+            if other.spec_id in self.done or other.spec_id not in self.todo_set:
                 continue
-            if reply.ok:
-                self._record(Result.measured(s.specs[other], reply.value, reply.uncertainty, tool=step.tool,
-                                             sim_time_start=t0, sim_time_end=t1,
-                                             reason=f"from the frame of {spec_id}"))
+            if other.ok:
+                self._record(Result.measured(self.session.specs[other.spec_id], other.value, other.u,
+                                             tool=step.tool, sim_time_start=out.t0, sim_time_end=out.t1,
+                                             reason=f"from the frame of {step.spec_id}"))
             else:
-                self._unmeasured(other, Outcome.NOT_DONE, f"vision: {reply.reason.value}: {reply.detail}",
-                                 tool=step.tool, t0=t0, t1=t1)
-        return new_state
+                self._unmeasured(other.spec_id, Outcome.NOT_DONE, other.reason or "", tool=step.tool, t0=out.t0,
+                                 t1=out.t1)
+        return out.state
 
-    @staticmethod
-    def _value(spec_id: str, report: Any, readings: dict, vision: dict) -> tuple[float | None, float]:
-        """The measured value and standard uncertainty of `spec_id` from the plan's results."""
-        if spec_id in readings:
-            r = readings[spec_id]
-            return float(r.thickness_mm), float(r.u_mm)
-        if spec_id in vision and vision[spec_id].ok:
-            r = vision[spec_id]
-            return float(r.value), float(r.uncertainty)
-        for res in report.results:
-            if isinstance(res, Term) and res.name == "dimension" and res.args[0] == spec_id:
-                return float(res.args[2]), float(res.args[3])
-        return None, 0.0
+    def _events(self, out: MeasureOutcome) -> list[Event]:
+        """The archive events of a measurement's plan: its start, the executive's log, its
+        end and a recovery of the arm."""
+        assert out.plan is not None and out.report is not None
+        plan, report = out.plan, out.report
+        events = [Event("plan_start", "top", out.t0, {"spec": out.spec_id, "macrop": plan.macrop_name,
+                                                      "source": plan.source.value, "steps": len(plan.steps)})]
+        events += archive_events(report, self.plan_no)
+        if report.ok:
+            events.append(Event("plan_end", "top", out.t1, {"spec": out.spec_id, "status": "ok"}))
+            return events
+        events.append(Event("plan_end", "top", out.t1, {"spec": out.spec_id, "status": "failed",
+                                                        "recovered_arm": out.recovered_arm}))
+        if out.recovered_arm:
+            from ita.devices.arm import RECOVER_SECONDS
+
+            events.append(Event("recovery", "arm", out.t1, {"how": "jog back to the last free configuration",
+                                                            "duration": RECOVER_SECONDS}))
+        return events

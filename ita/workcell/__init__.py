@@ -8,7 +8,7 @@ the couplant station and the calibration block (`bulkhead/workcell.toml`,
     print(report.summary())
 """
 
-from ita.workcell.load import default_workcell_path, load_workcell
+from ita.workcell.load import default_workcell_path, load_workcell, workcell_for
 from ita.workcell.model import (
     ArmKinematics,
     ArmSpec,
@@ -41,4 +41,5 @@ __all__ = [
     "default_workcell_path",
     "load_workcell",
     "reach_report",
+    "workcell_for",
 ]

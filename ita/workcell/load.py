@@ -26,6 +26,8 @@ from ita.workcell.model import (
     Box,
     JointLimits,
     PartPlacement,
+    PROBE_HOLDER_RADIUS,
+    PROBE_SHAFT_RADIUS,
     Pose,
     Rack,
     RackSlot,
@@ -336,7 +338,12 @@ def _read_tools(r: _Reader, data: dict[str, Any], payload: float) -> tuple[ToolS
         fov = r.vector(t, "fov_deg", f"{f}.fov_deg", n=2, nonnegative=True)
         if any(v >= 180 for v in fov):
             r.fail(f"{f}.fov_deg", "must be < 180 degrees")
-        tools.append(ToolSpec(name, tool_class, weight, tcp, body_center, body, *standoff, approach, fov))  # type: ignore[arg-type]
+        holder = r.number(t, "holder_radius", f"{f}.holder_radius", low=0.0, strict_low=True,
+                          default=PROBE_HOLDER_RADIUS)
+        shaft = r.number(t, "shaft_radius", f"{f}.shaft_radius", low=0.0, strict_low=True,
+                         default=PROBE_SHAFT_RADIUS)
+        tools.append(ToolSpec(name, tool_class, weight, tcp, body_center, body, *standoff, approach, fov,  # type: ignore[arg-type]
+                              holder, shaft))
     if not tools:
         r.fail("tool", "at least one [[tool]] is needed")
     return tuple(tools)
@@ -397,3 +404,10 @@ def _check_unique_names(r: _Reader, cell: Workcell) -> None:
         if name in seen:
             r.fail(name, f"name {name!r} is used twice")
         seen.add(name)
+
+
+def workcell_for(part_directory: Path | str | None) -> Workcell:
+    """The workcell of a part: its directory's own ``workcell.toml`` when it has one, else
+    the built-in workcell (also for None, the built-in part)."""
+    own = None if part_directory is None else Path(part_directory) / "workcell.toml"
+    return load_workcell(own if own is not None and own.is_file() else None)

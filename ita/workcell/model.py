@@ -163,6 +163,34 @@ class PartPlacement:
         return Box("part_envelope", Pose(tuple(map(float, centre)), tuple(map(float, q))), size)  # type: ignore[arg-type]
 
 
+#: A contact probe's shape (the simulator's and the collision model's one definition):
+PROBE_HOLDER_RADIUS = 0.03   # m: the holder, a cylinder along the flange axis up to the bend
+PROBE_SHAFT_RADIUS = 0.008   # m: the shaft, along the tip axis from the bend to the tip
+TOOL_GAP = 0.002             # m: tool shapes start this far off the flange face
+TIP_CLEARANCE = 0.008        # m: the shaft's solid shape stops this far short of the
+                             # spring-loaded tip, which the gauge models
+
+
+@dataclass(frozen=True)
+class ProbeShape:
+    """A contact probe's solid shape in the flange frame (m): a holder, the cylinder of
+    `holder_radius` along the flange's z axis from `holder_start` to the `bend`, then a
+    shaft of `shaft_radius` along the tip `axis` from the bend to the `tip` (the TCP).
+    A probe bent 90 degrees has a horizontal shaft; a straight one has no shaft."""
+
+    holder_start: Vec3
+    bend: Vec3
+    tip: Vec3
+    axis: Vec3
+    holder_radius: float = PROBE_HOLDER_RADIUS
+    shaft_radius: float = PROBE_SHAFT_RADIUS
+
+    def shaft_end(self, clearance: float = 0.0) -> np.ndarray:
+        """(3,) where the shaft's solid part ends: `clearance` (plus the shaft's radius)
+        short of the tip along its axis."""
+        return np.asarray(self.tip) - (clearance + self.shaft_radius) * np.asarray(self.axis)
+
+
 @dataclass(frozen=True)
 class ToolSpec:
     """A tool that the arm can pick up from the rack.
@@ -173,7 +201,8 @@ class ToolSpec:
     collision checks.
     standoff_*: SLRA working range along the view axis (m), 0 for a contact probe;
     approach_distance: free-space approach point off the surface (m); fov_deg: SLRA
-    field of view (horizontal, vertical), (0, 0) for a probe.
+    field of view (horizontal, vertical), (0, 0) for a probe; holder_radius,
+    shaft_radius: a contact probe's holder and shaft (m, :meth:`probe_shape`).
     """
 
     name: str
@@ -187,11 +216,36 @@ class ToolSpec:
     standoff_max: float
     approach_distance: float
     fov_deg: tuple[float, float]
+    holder_radius: float = PROBE_HOLDER_RADIUS
+    shaft_radius: float = PROBE_SHAFT_RADIUS
 
     @property
     def tcp_length(self) -> float:
         """Distance (m) from the flange to the TCP along the flange's z axis."""
         return float(self.tcp.position[2])
+
+    def same_shape(self, other: "ToolSpec") -> bool:
+        """Whether `other` is a tool of the same make: everything but the name and weight
+        equal (a spare takes the first one's poses)."""
+        from dataclasses import replace
+
+        return replace(self, name=other.name, weight_kg=other.weight_kg) == other
+
+    def probe_shape(self) -> ProbeShape | None:
+        """The contact probe's shape (None for a tool with a stand-off, which is its body
+        box): the holder runs up the flange axis to the bend, the point of the tip axis
+        nearest it; the shaft from there to the tip."""
+        if self.standoff_nominal > 0.0 or self.tcp_length <= TOOL_GAP:
+            return None
+        tip = np.asarray(self.tcp.position, dtype=float)
+        axis = self.tcp.rotation()[:, 2]
+        xy = axis[:2] @ axis[:2]
+        s = float(tip[:2] @ axis[:2] / xy) if xy > 1e-12 else 0.5 * tip[2]
+        bend = tip - s * axis
+        bend[:2] = 0.0
+        as_tuple = lambda v: tuple(float(x) for x in v)  # noqa: E731
+        return ProbeShape((0.0, 0.0, TOOL_GAP), as_tuple(bend), as_tuple(tip), as_tuple(axis),
+                          self.holder_radius, self.shaft_radius)
 
     @property
     def is_straight(self) -> bool:

@@ -1,0 +1,253 @@
+"""The arm's stream: the Path Planner, the robot controller and the tool changer.
+
+    arm = ArmDevice(world, poses, planner_for, extra=GaugeCommands(gauge, specs).handlers)
+
+Commands (the operators' messages) and their handlers:
+
+- MOVE: the arm receives its whole queue at plan start (lookahead); consecutive MOVEs of
+  the queue (no WAIT, no other command between them) are planned together
+  (``PathPlanner.plan_queue``) and flown as one blended trajectory; each MOVE's reply
+  comes when the arm passes (nearest) its goal.
+- RETRACT, CONTACT: straight, slow joint moves between the approach point and the
+  contact pose, guarded (the controller stops at a bump); CONTACT replies the force of
+  the probe's spring (``CONTACT(F)``).
+- PICKUP, PUTDOWN: the tool changer.
+- `extra` handlers (the gauge's COUPLANT and MEASURE) ride on the same stream.
+
+Times: the robot controller, the tool changer and the gauge advance the world's
+simulated clock as they work; each command ends at the clock after it.  Replies match
+the operators' reply patterns; a failure is an exception reply naming it
+(``NO_PATH(reason)``, ``BUMP(link, obstacle)``, ``NO_POSE(...)``), never a raised
+exception.  Poses come from the Geometric Reasoner through ``poses.resolve(term, tool)``
+with the tool the arm holds.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from ita.executive.adapters import Completion, PoseResolver
+from ita.executive.commands import Command, Reply, Wait
+from ita.logic.terms import Term
+
+__all__ = ["CONTACT_SPEED", "RECOVER_SECONDS", "RETRACT_SPEED", "SPRING_N_PER_M", "ArmDevice", "exception_reply"]
+
+#: speed scale of the guarded contact move and of the retract (of the joints' limits)
+CONTACT_SPEED = 0.5
+RETRACT_SPEED = 1.0
+#: the probe's spring rate (N/m), to report the contact force
+SPRING_N_PER_M = 2000.0
+#: seconds an operator's jog back to a free configuration takes (ArmDevice.recover)
+RECOVER_SECONDS = 10.0
+_SAME_Q = 1e-6
+
+Handler = Callable[[Command], "Reply | Completion"]
+
+
+def exception_reply(name: str, text: str, *args: Any, **details: Any) -> Reply:
+    """An exception reply ``NAME(args...)`` (or the atom NAME) with a line for people."""
+    return Reply.exception(Term(name, tuple(args)) if args else name, text, **details)
+
+
+class ArmDevice:
+    """The arm's stream (see the module docstring).
+
+    world: the simulated workcell (ita.sim.world.SimWorld); poses: the Geometric
+    Reasoner's PoseResolver; planner_for: ``held tool -> (PathPlanner, ToolSpec)``;
+    extra: more handlers by message name (the gauge's).
+    """
+
+    lookahead = True
+
+    def __init__(self, world: Any, poses: PoseResolver, planner_for: Callable[[str | None], tuple[Any, Any]],
+                 *, extra: Mapping[str, Handler] = (), controller: Any = None) -> None:
+        from ita.robot import RobotController, ToolChanger
+
+        self.world = world
+        self.poses = poses
+        self.planner_for = planner_for
+        self.controller = controller if controller is not None else RobotController(world)
+        self.changer = ToolChanger(self.controller)
+        self._queue: list[Command | Wait] = []
+        self._ready: dict[int, Completion] = {}        # step -> Completion computed with an earlier one
+        self.last_free_q = np.array(world.q)
+        self.planning_seconds = 0.0
+        self.stats: dict[str, float] = {"moves": 0, "move_s": 0.0, "contact_s": 0.0, "gauge_s": 0.0,
+                                         "tool_change_s": 0.0}
+        own: dict[str, tuple[Handler, str | None]] = {
+            "RETRACT": (self._straight, "contact_s"), "CONTACT": (self._straight, "contact_s"),
+            "PICKUP": (self._tool, "tool_change_s"), "PUTDOWN": (self._tool, "tool_change_s"),
+        }
+        self.handlers: dict[str, tuple[Handler, str | None]] = {
+            **own, **{name: (h, "gauge_s") for name, h in dict(extra).items()}}
+
+    # -- the protocol ------------------------------------------------------------------
+    def begin(self, items: Sequence[Command | Wait], now: float) -> None:
+        self._queue = list(items)
+        self._ready = {}
+
+    def start(self, command: Command, now: float) -> Completion:
+        if command.step in self._ready:
+            return self._ready.pop(command.step)
+        if command.name == "MOVE":
+            return self._moves(command)
+        entry = self.handlers.get(command.name)
+        if entry is None:
+            return Completion(max(self.world.clock.now, now), exception_reply(
+                "UNSUPPORTED", f"the simulated arm cannot {command.text}", command.name.lower()))
+        handler, stat = entry
+        t0 = self.world.clock.now
+        reply = handler(command)
+        if stat is not None:
+            self.stats[stat] += self.world.clock.now - t0
+        return reply if isinstance(reply, Completion) else Completion(max(self.world.clock.now, now), reply)
+
+    def stop(self, now: float) -> None:
+        self._ready = {}
+
+    def snapshot(self) -> Mapping[str, Any]:
+        return {"q": [round(float(v), 6) for v in self.world.q], "held": self.world.held}
+
+    def recover(self) -> bool:
+        """After a failed plan: if the arm is not where the Path Planner can start from (in
+        contact, bumped), put it back at the last configuration it left free (an operator's
+        jog, taking :data:`RECOVER_SECONDS`).  Returns whether it moved the arm."""
+        planner, tool = self.planner_for(self.world.held)
+        q = np.asarray(self.world.q)[None]
+        if planner.config_free(q, tool)[0] and planner.context(tool).motion_free.clear(q)[0]:
+            return False
+        self.world.set_q(self.last_free_q)
+        self.world.clock.advance(RECOVER_SECONDS)
+        return True
+
+    # -- commands ----------------------------------------------------------------------
+    def _q(self, term: Any) -> np.ndarray:
+        """The joint configuration (6,) of a pose term for the held tool; KeyError if none."""
+        target = self.poses.resolve(term, self.world.held)
+        q = getattr(target, "q", None)
+        if q is None:
+            raise KeyError(f"{term!r} is not a pose")
+        return np.asarray(q, dtype=float)
+
+    def _moves(self, first: Command) -> Completion:
+        """Plan the run of consecutive MOVEs from `first` together and fly it."""
+        world = self.world
+        start_t = world.clock.now
+        index = next(i for i, it in enumerate(self._queue) if isinstance(it, Command) and it.step == first.step)
+        batch: list[Command] = []
+        for item in self._queue[index:]:
+            if not (isinstance(item, Command) and item.name == "MOVE"):
+                break
+            batch.append(item)
+        try:
+            goals = [self._q(c.args[1]) for c in batch]
+        except KeyError as exc:
+            return Completion(start_t, exception_reply("NO_POSE", str(exc), str(exc)))
+        q = world.q
+        keep: list[int] = []                 # the batch's moves that go somewhere
+        last = q
+        for i, g in enumerate(goals):
+            if np.max(np.abs(g - last)) > _SAME_Q:
+                keep.append(i)
+                last = g
+        if not keep:
+            for c in batch[1:]:
+                self._ready[c.step] = Completion(start_t, Reply.normal("DONE"))
+            return Completion(start_t, Reply.normal("DONE"))
+        planner, tool = self.planner_for(world.held)
+        w0 = time.perf_counter()
+        results, traj = planner.plan_queue(q, [goals[i] for i in keep], tool)
+        self.planning_seconds += time.perf_counter() - w0
+        if traj is None:   # none of the batch is flown: the first MOVE fails, naming the one that could not
+            bad = results[-1]
+            failed = batch[keep[len(results) - 1]]
+            payload = bad.reason.value if bad.reason is not None else "no_path"
+            return Completion(start_t, exception_reply("NO_PATH", f"no path for {failed.text}: {bad.message}",
+                                                       payload))
+        ends = _pass_times(traj, [goals[i] for i in keep])
+        reply = self.controller.execute(traj, command="move")
+        self.stats["moves"] += len(keep)
+        self.stats["move_s"] += reply.time_s
+        completions: dict[int, Completion] = {}
+        kept_end = dict(zip(keep, ends))
+        t_prev = 0.0
+        failed_at = None if reply.ok else reply.time_s
+        for i, c in enumerate(batch):
+            t_end = kept_end.get(i, t_prev)
+            if failed_at is not None and t_end >= failed_at - 1e-9:
+                completions[c.step] = Completion(start_t + failed_at, self._motion_failure(reply, c))
+                break
+            completions[c.step] = Completion(start_t + (traj.duration if i == len(batch) - 1 and reply.ok else t_end),
+                                             Reply.normal("DONE"))
+            t_prev = t_end
+        if reply.ok:
+            self.last_free_q = np.array(world.q)
+        first_completion = completions.pop(first.step)
+        self._ready.update(completions)
+        return first_completion
+
+    @staticmethod
+    def _motion_failure(reply: Any, command: Command) -> Reply:
+        status = reply.status.value
+        if reply.contact is not None:
+            return exception_reply("BUMP", f"{command.text}: {reply.message}", reply.contact.moving,
+                                   reply.contact.obstacle, q=list(reply.q or ()))
+        if status == "timeout":
+            return Reply.exception(Term("TIMEOUT", (status,)), reply.message)
+        return exception_reply(status.upper(), f"{command.text}: {reply.message}", reply.joint or status)
+
+    def _straight(self, command: Command) -> Reply:
+        from ita.robot import from_waypoints
+
+        world = self.world
+        try:
+            target = self.poses.resolve(command.args[1], world.held)
+            goal = np.asarray(target.q, dtype=float)
+        except (KeyError, AttributeError) as exc:
+            return exception_reply("NO_POSE", str(exc), str(exc))
+        before = np.array(world.q)
+        speed = CONTACT_SPEED if command.name == "CONTACT" else RETRACT_SPEED
+        traj = from_waypoints(world.model, [before, goal], speed_scale=speed)
+        reply = self.controller.execute(traj, command=command.name.lower())
+        if not reply.ok:
+            return self._motion_failure(reply, command)
+        if command.name == "CONTACT":
+            self.last_free_q = before
+            force = round(SPRING_N_PER_M * float(getattr(target, "press_m", 0.0)), 3)
+            return Reply.normal(Term("CONTACT", (force,)))
+        self.last_free_q = np.array(world.q)
+        return Reply.normal("DONE")
+
+    def _tool(self, command: Command) -> Reply:
+        if command.name == "PICKUP":
+            reply = self.changer.pick_up(str(command.args[0]))
+        else:
+            if self.world.held != str(command.args[0]):
+                return exception_reply("REJECTED", f"not holding {command.args[0]}", "not_holding")
+            reply = self.changer.put_down()
+        if not reply.ok:
+            return self._motion_failure(reply, command)
+        self.last_free_q = np.array(self.world.q)
+        return Reply.normal("DONE")
+
+
+def _pass_times(traj: Any, goals: Sequence[np.ndarray]) -> list[float]:
+    """When (s) the trajectory passes nearest each goal (6,) in turn (blends pass near,
+    not through, intermediate goals); the last goal at the end."""
+    q = np.asarray(traj.q)
+    t = np.asarray(traj.times)
+    out: list[float] = []
+    k0 = 0
+    for i, g in enumerate(goals):
+        if i == len(goals) - 1:
+            out.append(float(t[-1]))
+            break
+        d = np.max(np.abs(q[k0:] - g), axis=1)
+        k = k0 + int(np.argmin(d))
+        out.append(float(t[k]))
+        k0 = k
+    return out

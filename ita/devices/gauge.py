@@ -1,0 +1,57 @@
+"""The ultrasonic gauge's commands, on the arm's stream (the probe is on the flange).
+
+    gauge = GaugeCommands(UltrasonicGauge(UltrasonicSim(world)), specs)
+    gauge.handlers    # {"COUPLANT": ..., "MEASURE": ...}: command -> Reply
+
+COUPLANT squirts couplant ahead of the probe (``DONE``).  MEASURE takes one reading
+(``VALUE(V)``) with the reading as the reply's data (:class:`~ita.devices.data
+.MeasuredValue`, its standard uncertainty from the gauge's data sheet); a reading about
+twice the spec's nominal is refused as DOUBLED (a second-echo lock), and a gauge
+exception becomes the exception reply ``GAUGE(reason)``.  The gauge advances the
+world's clock itself; the arm device reports each command's end as the clock after it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from typing import Any
+
+from ita.devices.data import MeasuredValue, spec_of_message
+from ita.executive.commands import Command, Reply
+from ita.logic.terms import Term
+
+__all__ = ["GaugeCommands"]
+
+
+class GaugeCommands:
+    """COUPLANT and MEASURE of `gauge` (ita.sensors.ultrasonic.UltrasonicGauge); specs:
+    spec id -> MeasurementSpec (for the doubled-reading check)."""
+
+    def __init__(self, gauge: Any, specs: Mapping[str, Any]) -> None:
+        self.gauge = gauge
+        self.specs = specs
+
+    @property
+    def handlers(self) -> dict[str, Callable[[Command], Reply]]:
+        return {"COUPLANT": self.couplant, "MEASURE": self.measure}
+
+    def couplant(self, command: Command) -> Reply:
+        self.gauge.apply_couplant()
+        return Reply.normal("DONE")
+
+    def measure(self, command: Command) -> Reply:
+        from ita.sensors.ultrasonic import GaugeException, check_expected
+
+        spec_id = spec_of_message(command.message)
+        spec = self.specs.get(spec_id or "")
+        reply = self.gauge.measure()
+        if spec is not None:
+            reply = check_expected(reply, spec.nominal, max(abs(spec.upper), abs(spec.lower)))
+        if isinstance(reply, GaugeException):
+            failed = None if spec_id is None else MeasuredValue(spec_id, None, None, f"gauge: {reply.reason.value}",
+                                                                reply)
+            return Reply.exception(Term("GAUGE", (reply.reason.value,)),
+                                   f"gauge: {reply.reason.value} ({reply.message})", data=failed)
+        data = None if spec_id is None else MeasuredValue(spec_id, float(reply.thickness_mm), float(reply.u_mm),
+                                                          source=reply)
+        return Reply.normal(Term("VALUE", (float(reply.thickness_mm),)), data=data)

@@ -1,0 +1,196 @@
+"""The SLRA's stream: range frames of a view group at the arm's pose, then Vision.
+
+    slra = SlraDevice(world, scene, poses, vision_ctx, specs, rng)
+
+- SCAN(patches(meas(Id))): the frames of Id's view group (the MKB), taken from the
+  group's anchor pose; replies ``IMAGE(Group)`` with the frames as data
+  (:class:`~ita.devices.data.ScanData`).  A group whose members need several frames
+  (:func:`ita.vision.measure.frames_for`: a position whose only datum is the arm's
+  pose) gets them at one SCAN, each after a re-approach: the arm backs off
+  :data:`REAPPROACH_M` from the part and comes back to the viewing configuration
+  (through the robot controller, so each return settles with a new repeatability draw
+  and takes its real time).
+- MEASURE(min_value(meas(Id)), ...): Vision on the group's last frames, for every
+  member of the group; replies ``VALUE(V, S)`` for Id (or ``VISION(reason)``) with one
+  :class:`~ita.devices.data.MeasuredValue` per member as data.
+
+Times: a SCAN ends after its frames' scan times (and the re-approaches, which advance
+the clock through the controller); Vision takes :data:`VISION_SECONDS` per frame it
+measures.  The executive advances the clock to each reply.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any
+
+import numpy as np
+
+from ita.devices.arm import RETRACT_SPEED, exception_reply
+from ita.devices.data import MeasuredValue, ScanData, spec_of_message
+from ita.executive.adapters import Completion, PoseResolver
+from ita.executive.commands import Command, Reply, Wait
+from ita.logic.terms import Term
+
+__all__ = ["REAPPROACH_M", "VISION_SECONDS", "SlraDevice"]
+
+#: simulated seconds Vision takes per measurement in a frame (patches, fits)
+VISION_SECONDS = 0.15
+#: how far (m) the arm backs off along the line of sight between the frames of a
+#: multi-frame SLRA measurement, so that each return is a real approach of the pose
+REAPPROACH_M = 0.02
+
+
+def _guarded_measure(measure: Callable[..., Any], frames: Any, spec: Any, vctx: Any) -> Any:
+    """Vision's reply; an error inside Vision becomes a NOT_MEASURABLE reply naming it
+    (a device reports failures, it never raises)."""
+    from ita.vision.measure import Reason, VisionException
+
+    try:
+        return measure(frames, spec, vctx)
+    except Exception as exc:  # noqa: BLE001 - any fault of the vision code is a failed measurement
+        return VisionException(spec.id, Reason.NOT_MEASURABLE, f"vision error {type(exc).__name__}: {exc}")
+
+
+def _value(spec_id: str, reply: Any) -> MeasuredValue:
+    if reply.ok:
+        return MeasuredValue(spec_id, float(reply.value), float(reply.uncertainty), source=reply)
+    return MeasuredValue(spec_id, None, None, f"vision: {reply.reason.value}: {reply.detail}", reply)
+
+
+class SlraDevice:
+    """The SLRA's stream (see the module docstring).  wanted: which members of a view
+    group to measure besides the one asked for (default all)."""
+
+    lookahead = False
+
+    def __init__(self, world: Any, scene: Any, poses: PoseResolver, vision_ctx: Any,
+                 specs: Mapping[str, Any], rng: np.random.Generator, *, params: Any = None,
+                 wanted: Callable[[str], bool] | None = None, controller: Any = None) -> None:
+        from ita.robot import RobotController
+        from ita.sim.slra import SlraParams
+
+        self.world = world
+        self.scene = scene
+        self.poses = poses
+        self.vctx = vision_ctx
+        self.specs = specs
+        self.rng = rng
+        self.params = params if params is not None else SlraParams()
+        self.wanted = wanted or (lambda _id: True)
+        self.controller = controller if controller is not None else RobotController(world)
+        self._frames: dict[str, tuple[Any, ...]] = {}  # group id -> the frames of its last SCAN
+        self.stats: dict[str, float] = {"frames": 0, "scan_s": 0.0, "vision_s": 0.0, "reapproaches": 0,
+                                         "reapproach_s": 0.0}
+        self.handlers: dict[str, Callable[[Command, float], Completion]] = {
+            "SCAN": self._scan, "MEASURE": self._measure}
+
+    # -- the protocol ------------------------------------------------------------------
+    def begin(self, items: Sequence[Command | Wait], now: float) -> None:
+        pass
+
+    def start(self, command: Command, now: float) -> Completion:
+        handler = self.handlers.get(command.name)
+        if handler is None:
+            return Completion(now, exception_reply("UNSUPPORTED", f"the SLRA cannot {command.text}",
+                                                   command.name.lower()))
+        return handler(command, now)
+
+    def stop(self, now: float) -> None:
+        pass
+
+    def snapshot(self) -> Mapping[str, Any]:
+        return {"frames": sorted(self._frames)}
+
+    # -- commands ----------------------------------------------------------------------
+    def _scan(self, command: Command, now: float) -> Completion:
+        from ita.sensors.slra_frame import ScanGeometry
+        from ita.sim.slra import simulate_frame
+
+        world = self.world
+        tool = world.held_tool
+        if tool is None or tool.tool_class.value != "slra_tool":
+            return Completion(now, exception_reply("NO_SENSOR", "no SLRA on the flange", "no_sensor"))
+        spec_id = spec_of_message(command.message)
+        try:
+            group = self.poses.resolve(command.args[0], tool.name)
+            anchor = self.poses.resolve(Term("viewing_pose", (Term("meas", (group.anchor,)),)), tool.name)
+        except KeyError as exc:
+            return Completion(now, exception_reply("NO_VIEW", str(exc), spec_id or "?"))
+        plan = self._frame_plan(group)
+        t = max(now, world.clock.now)
+        frames: list[Any] = []
+        for k in range(plan.count):
+            if k:
+                moved = self._reapproach(np.asarray(anchor.q, dtype=float), anchor.pose)
+                if not moved.ok:
+                    return Completion(t + moved.time_s, exception_reply(
+                        "REAPPROACH", f"re-approach {k} of {plan.count - 1} for {group.id}: {moved.message}",
+                        moved.status.value))
+                t += moved.time_s
+                self.stats["reapproaches"] += 1
+                self.stats["reapproach_s"] += moved.time_s
+            shape = tuple(group.pixels) if k == 0 else plan.shape
+            frame = simulate_frame(self.scene, world.tcp_pose(), ScanGeometry(shape, tuple(group.fov_deg)),
+                                   self.params, self.rng, reported_pose=np.asarray(anchor.pose), timestamp=t,
+                                   sensor=tool.name)
+            frames.append(frame)
+            t += frame.frame_time
+            self.stats["frames"] += 1
+            self.stats["scan_s"] += frame.frame_time
+        self._frames = {group.id: tuple(frames)}
+        return Completion(t, Reply.normal(Term("IMAGE", (group.id,)), data=ScanData(group.id, tuple(frames))))
+
+    def _members(self, group: Any, spec_id: str) -> list[str]:
+        return [m for m in group.members if m == spec_id or self.wanted(m)]
+
+    def _frame_plan(self, group: Any) -> Any:
+        """The frames the group's wanted members need (the most any of them needs)."""
+        from ita.vision.measure import frames_for
+
+        plans = [frames_for(self.specs[m], self.vctx) for m in self._members(group, group.anchor) if m in self.specs]
+        return max(plans, key=lambda p: p.count) if plans else frames_for(self.specs[group.anchor], self.vctx)
+
+    def _reapproach(self, q_view: np.ndarray, view_pose: Any) -> Any:
+        """Back off REAPPROACH_M along the line of sight and return to q_view (6,): the
+        controller's reply (its time; the arm settles with a new repeatability draw)."""
+        from ita.robot import from_waypoints
+        from ita.robot.controller import joint_offset
+
+        world = self.world
+        pose = np.asarray(view_pose, dtype=float)
+        look = pose[:3, 2] / np.linalg.norm(pose[:3, 2])      # the sensor looks along its z axis
+        tcp = world.held_tool.tcp.matrix()
+        q_back = q_view + joint_offset(world.model, q_view, tcp, -REAPPROACH_M * look)
+        traj = from_waypoints(world.model, [np.asarray(world.q), q_back, q_view], speed_scale=RETRACT_SPEED)
+        return self.controller.execute(traj, command="reapproach")
+
+    def _measure(self, command: Command, now: float) -> Completion:
+        from ita.vision.measure import frames_for, measure_frames
+
+        spec_id = spec_of_message(command.message) or ""
+        held = self.world.held
+        try:
+            group = self.poses.resolve(Term("patches", (Term("meas", (spec_id,)),)), held)
+        except KeyError:
+            group = None
+        frames = self._frames.get(group.id) if group is not None else None
+        if not frames:
+            return Completion(now, exception_reply("NO_IMAGE", f"no frame for {spec_id}", spec_id))
+        replies, took = {}, 0.0
+        for m in self._members(group, spec_id):
+            used = frames[:frames_for(self.specs[m], self.vctx).count]
+            replies[m] = _guarded_measure(measure_frames, used, self.specs[m], self.vctx)
+            took += VISION_SECONDS * len(used)
+        self.stats["vision_s"] += took
+        data = tuple(_value(m, r) for m, r in replies.items())
+        reply = replies[spec_id]
+        if not reply.ok:
+            return Completion(now + took, Reply.exception(
+                Term("VISION", (reply.reason.value,)), f"vision: {reply.reason.value}: {reply.detail}", data=data))
+        value, sigma = float(reply.value), float(reply.uncertainty)
+        if not (math.isfinite(value) and math.isfinite(sigma)):
+            return Completion(now + took, Reply.exception(Term("VISION", ("garbage",)), "vision: not a number",
+                                                          data=data))
+        return Completion(now + took, Reply.normal(Term("VALUE", (value, sigma)), data=data))

@@ -1,0 +1,120 @@
+"""The loaded system a run (or one measurement) needs: knowledge bases, part, plans,
+MKB, simulator and devices.
+
+    session = open_session(part_dir, seed=1, progress=print)   # prepares first if needed
+    ...
+    session.close()                                            # saves the MACROP store
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from ita.devices import ArmDevice, SlraDevice
+    from ita.executive import PlanExecutive
+    from ita.geometry import GeometricReasoner
+    from ita.geometry.mkb import MeasurementKB
+    from ita.logic.bridge import KnowledgeBase
+    from ita.part.model import Part
+    from ita.planning import OperationPlanner
+    from ita.sequence.plan import PlanningContext, SequencePlan
+    from ita.sim.world import SimWorld
+    from ita.specs.model import MeasurementSpec
+
+__all__ = ["Session", "open_session"]
+
+
+@dataclass(eq=False)
+class Session:
+    """The loaded system: knowledge bases, part, plan, MKB, simulator and devices.
+
+    part_arg: --part as given (None: the built-in bulkhead); plan: the prepared
+    sequence plan; arm, slra: the devices of the executive's streams.
+    """
+
+    kb: KnowledgeBase
+    part: Part
+    part_arg: str | None
+    ctx: PlanningContext
+    plan: SequencePlan
+    mkb: MeasurementKB
+    reasoner: GeometricReasoner
+    world: SimWorld
+    arm: ArmDevice
+    slra: SlraDevice
+    executive: PlanExecutive
+    planner: OperationPlanner
+    seed: int
+    setup_seconds: float = 0.0
+
+    @property
+    def specs(self) -> dict[str, MeasurementSpec]:
+        return {s.id: s for s in self.ctx.specs}
+
+    def planned_tool(self, spec_id: str) -> str | None:
+        """The tool the prepared sequence plan takes `spec_id` with (None: not planned)."""
+        return next((g.tool for g in self.plan.groups if spec_id in g.order), None)
+
+    def close(self) -> None:
+        """Save the MACROP store (kept open: SWI-Prolog has one database per process, which
+        another session in this process may share) and close the simulator."""
+        try:
+            self.planner.save()
+        finally:
+            self.world.close()
+
+
+def open_session(part_dir: Path | None = None, *, seed: int = 0,
+                 progress: Callable[[str], None] = lambda _m: None) -> Session:
+    """Load everything a run needs; prepare the part first (sequence plan, MKB, MACROPs)
+    when what is stored is missing or stale."""
+    from ita.devices import ArmDevice, GaugeCommands, SlraDevice
+    from ita.executive import PlanExecutive
+    from ita.geometry import GeometricReasoner
+    from ita.logic.bridge import KnowledgeBase
+    from ita.offline.prepare import prepare_inspection
+    from ita.part.store import load_part
+    from ita.path import planners_for
+    from ita.planning import OperationPlanner, store_path
+    from ita.sensors.ultrasonic import UltrasonicGauge
+    from ita.sequence.plan import planning_context
+    from ita.sequence.store import apply_tool_marks, load_tool_marks
+    from ita.sim.slra import SlraScene
+    from ita.sim.ultrasonic import UltrasonicSim
+    from ita.sim.world import SimWorld
+    from ita.vision.measure import VisionContext
+
+    t0 = time.perf_counter()
+    progress("loading the knowledge bases and the part")
+    kb = KnowledgeBase()
+    apply_tool_marks(kb, load_tool_marks())
+    part = load_part(part_dir)
+    ctx = planning_context(part_dir, kb=kb, part=part)
+    plan, mkb, _ = prepare_inspection(ctx, part, progress=progress, warm=False)
+    specs = {s.id: s for s in ctx.specs}
+    cell = ctx.workcell
+    reasoner = GeometricReasoner(mkb, cell, ctx.specs)
+    progress("building the simulated workcell")
+    world = SimWorld(cell, part.directory, seed=seed, q0=reasoner.home)
+    try:
+        gauge = GaugeCommands(UltrasonicGauge(UltrasonicSim(world)), specs)
+        arm = ArmDevice(world, reasoner, planners_for(cell, part), extra=gauge.handlers)
+        slra_tools = [t for t in cell.tools if t.tool_class.value == "slra_tool"]
+        vctx = VisionContext.from_part(part, cell, tool=slra_tools[0].name if slra_tools else "slra_1",
+                                       specs=list(ctx.specs))
+        scene = SlraScene.from_truth(part.directory, cell)
+        slra = SlraDevice(world, scene, reasoner, vctx, specs, np.random.default_rng([seed, 21]))
+        executive = PlanExecutive(kb, {"path_planner": arm, "vision": slra}, clock=world.clock)
+        op = OperationPlanner(kb, store_path(ctx.part_name))
+    except BaseException:
+        world.close()
+        raise
+    return Session(kb, part, None if part_dir is None else str(Path(part_dir).resolve()), ctx, plan, mkb,
+                   reasoner, world, arm, slra, executive, op, seed, time.perf_counter() - t0)
