@@ -43,7 +43,9 @@ from ita.sim.slra import SlraParams, SlraScene, pose_error, simulate_frame
 from ita.specs.io import read_specs
 from ita.specs.model import MeasurementKind as K
 from ita.sensors.slra_frame import ScanGeometry
-from ita.vision.measure import SLRA_KINDS, VisionContext, frames_for, measure_frames, scan_for
+from ita.vision.context import SLRA_KINDS, VisionContext
+from ita.vision.measure import measure_frames
+from ita.vision.scan import frames_for, scan_for
 from ita.workcell import load_workcell
 
 DEFAULT_OUT = Path(__file__).resolve().parent / "results" / "vision.json"

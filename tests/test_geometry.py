@@ -90,7 +90,8 @@ def test_slra_view_groups_share_one_frame(prepared, builtin_part) -> None:
     # window much wider than its own (a fastener's diameter does not share the wide frame
     # its position needs: its pixels would be three times coarser)
     from ita.geometry import GROUP_GROWTH
-    from ita.vision.measure import VisionContext, scan_for
+    from ita.vision.context import VisionContext
+    from ita.vision.scan import scan_for
 
     kinds = {tuple(sorted(ctx.spec(m).kind.value for m in g.members)) for g in mkb.groups.values()}
     assert ("flange_height", "flange_width") in kinds
@@ -108,7 +109,8 @@ def test_view_group_pixels_are_the_most_a_member_asks_for(prepared, builtin_part
     """Every group's frame has, per axis, the most pixels any member's `scan_for` asks for;
     the bulkhead's small fastener holes (5 mm) get finer position frames than ctx.shape."""
     from ita.geometry.reasoner import group_pixels
-    from ita.vision.measure import VisionContext, scan_for
+    from ita.vision.context import VisionContext
+    from ita.vision.scan import scan_for
 
     assert group_pixels([(256, 256), (384, 256), (128, 512)]) == (384, 512)
     ctx, _, mkb, _ = prepared
@@ -142,7 +144,8 @@ def test_shared_frame_measures_every_member(prepared, builtin_part) -> None:
     from ita.part.truth import load_truth
     from ita.sensors.slra_frame import ScanGeometry
     from ita.sim.slra import SlraParams, SlraScene, simulate_frame
-    from ita.vision.measure import VisionContext, measure
+    from ita.vision.context import VisionContext
+    from ita.vision.measure import measure
 
     ctx, _, mkb, _ = prepared
     cell = ctx.workcell

@@ -18,7 +18,9 @@ from ita.sensors.slra_frame import RangeFrame
 from ita.sim.slra import SlraParams, SlraScene, simulate_frame
 from ita.specs.model import MeasurementKind as K
 from ita.specs.model import MeasurementSpec
-from ita.vision.measure import Reason, VisionContext, measure, scan_for
+from ita.vision.context import Reason, VisionContext
+from ita.vision.measure import measure
+from ita.vision.scan import scan_for
 from ita.vision.regions import planar_regions
 from ita.workcell.model import Box, Pose
 from tests.test_slra import PLACEMENT, looking_down

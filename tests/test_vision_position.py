@@ -16,16 +16,10 @@ from ita.sim.slra import SlraParams, SlraScene, pose_error, simulate_frame
 from ita.specs.model import MeasurementKind as K
 from ita.specs.model import MeasurementSpec
 from ita.vision.fit import fit_circle, fit_circle_fixed_radius
-from ita.vision.measure import (
-    MIN_HOLE_PIXELS,
-    RASTER_STEP,
-    VisionContext,
-    VisionException,
-    _rib_beneath,
-    frames_for,
-    measure_frames,
-    scan_for,
-)
+from ita.vision.context import VisionContext, VisionException
+from ita.vision.measure import measure_frames
+from ita.vision.register import rib_beneath
+from ita.vision.scan import MIN_HOLE_PIXELS, RASTER_STEP, frames_for, scan_for
 from ita.vision.patches import View
 from tests.test_slra import PLACEMENT, looking_down
 from tests.test_vision import _box, _mesh
@@ -184,8 +178,8 @@ def test_datum_set_leaves_out_a_neighbour_with_a_rib_beneath_in_every_frame(rib_
     replies = [measure_frames([f], spec, ctx) for f in frames]
     assert all(r.ok for r in replies)
     assert {tuple(r.diagnostics["registered_on"]) for r in replies} == {("H0",)}
-    assert all(_rib_beneath(View(f, PLACEMENT), ROW[2], ctx) for f in frames)
-    assert not any(_rib_beneath(View(f, PLACEMENT), ROW[1], ctx) for f in frames)
+    assert all(rib_beneath(View(f, PLACEMENT), ROW[2], ctx) for f in frames)
+    assert not any(rib_beneath(View(f, PLACEMENT), ROW[1], ctx) for f in frames)
 
 
 def test_diameter_of_a_rim_with_a_rib_beneath_part_of_it(rib_row_scene):

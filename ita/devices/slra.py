@@ -5,7 +5,7 @@
 - SCAN(patches(meas(Id))): the frames of Id's view group (the MKB), taken from the
   group's anchor pose; replies ``IMAGE(Group)`` with the frames as data
   (:class:`~ita.devices.data.ScanData`).  A group whose members need several frames
-  (:func:`ita.vision.measure.frames_for`: a position whose only datum is the arm's
+  (:func:`ita.vision.scan.frames_for`: a position whose only datum is the arm's
   pose) gets them at one SCAN, each after a re-approach: the arm backs off
   :data:`REAPPROACH_M` from the part and comes back to the viewing configuration
   (through the robot controller, so each return settles with a new repeatability draw
@@ -45,7 +45,7 @@ REAPPROACH_M = 0.02
 def _guarded_measure(measure: Callable[..., Any], frames: Any, spec: Any, vctx: Any) -> Any:
     """Vision's reply; an error inside Vision becomes a NOT_MEASURABLE reply naming it
     (a device reports failures, it never raises)."""
-    from ita.vision.measure import Reason, VisionException
+    from ita.vision.context import Reason, VisionException
 
     try:
         return measure(frames, spec, vctx)
@@ -147,7 +147,7 @@ class SlraDevice:
 
     def _frame_plan(self, group: Any) -> Any:
         """The frames the group's wanted members need (the most any of them needs)."""
-        from ita.vision.measure import frames_for
+        from ita.vision.scan import frames_for
 
         plans = [frames_for(self.specs[m], self.vctx) for m in self._members(group, group.anchor) if m in self.specs]
         return max(plans, key=lambda p: p.count) if plans else frames_for(self.specs[group.anchor], self.vctx)
@@ -167,7 +167,8 @@ class SlraDevice:
         return self.controller.execute(traj, command="reapproach")
 
     def _measure(self, command: Command, now: float) -> Completion:
-        from ita.vision.measure import frames_for, measure_frames
+        from ita.vision.measure import measure_frames
+        from ita.vision.scan import frames_for
 
         spec_id = spec_of_message(command.message) or ""
         held = self.world.held

@@ -20,7 +20,7 @@ information"):
   ``approach_blocked``, or ``contact_blocked`` when the probe on the point itself
   collides at every roll and arm branch);
 - the SLRA: the viewing pose at the chosen stand-off, the scan window Vision asks for
-  (ita.vision.measure.scan_for) scaled to that stand-off; measurements of one feature
+  (ita.vision.scan.scan_for) scaled to that stand-off; measurements of one feature
   whose windows fit, all together, into one frame no more than :data:`GROUP_GROWTH` times
   wider than the narrowest of them, share one frame (a view group), taken from the pose
   of the member with the widest window (the anchor).  The growth bound keeps every
@@ -95,7 +95,7 @@ def mkb_digest(specs_digest: str, cell: Workcell) -> str:
     """Digest of what an MKB depends on: the specs (their file's digest), the workcell and
     Vision's rule for a frame's pixels (its view groups' rasters)."""
     from ita.geometry.mkb import MKB_VERSION
-    from ita.vision.measure import MAX_RASTER, MIN_HOLE_PIXELS, RASTER_STEP
+    from ita.vision.scan import MAX_RASTER, MIN_HOLE_PIXELS, RASTER_STEP
 
     raster = f"{MIN_HOLE_PIXELS},{RASTER_STEP},{MAX_RASTER}"
     text = f"{MKB_VERSION}|{PRESS_M}|{GROUP_GROWTH}|{raster}|{specs_digest}|{cell!r}"
@@ -239,7 +239,7 @@ def _probe_at(model: Any, planner: PathPlanner | None, tool: ToolSpec, surface: 
 
 def _window_mm(spec: MeasurementSpec, vctx: Any) -> float:
     """The width (mm, at the nominal stand-off) of the window Vision asks for `spec`."""
-    from ita.vision.measure import scan_for
+    from ita.vision.scan import scan_for
 
     ang = scan_for(spec, vctx).fov_deg[0]
     return 2.0 * vctx.standoff_m * 1000.0 * math.tan(math.radians(ang) / 2.0)
@@ -247,7 +247,7 @@ def _window_mm(spec: MeasurementSpec, vctx: Any) -> float:
 
 def _rasters(specs: Sequence[MeasurementSpec], vctx: Any) -> dict[str, tuple[int, int]]:
     """Spec id -> the pixels (rows, cols) Vision asks for its frame (`scan_for`)."""
-    from ita.vision.measure import scan_for
+    from ita.vision.scan import scan_for
 
     return {s.id: scan_for(s, vctx).shape for s in specs}
 
@@ -420,7 +420,7 @@ def build_mkb(
     vctx_cache: dict[str, Any] = {}
 
     def place(by_tool: Mapping[str, list[MeasurementSpec]]) -> tuple[dict[str, MkbEntry], dict[str, ViewGroup]]:
-        from ita.vision.measure import VisionContext
+        from ita.vision.context import VisionContext
 
         entries: dict[str, MkbEntry] = {}
         groups: dict[str, ViewGroup] = {}

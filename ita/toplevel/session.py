@@ -89,7 +89,7 @@ def open_session(part_dir: Path | None = None, *, seed: int = 0,
     from ita.sim.slra import SlraScene
     from ita.sim.ultrasonic import UltrasonicSim
     from ita.sim.world import SimWorld
-    from ita.vision.measure import VisionContext
+    from ita.vision.context import VisionContext
 
     t0 = time.perf_counter()
     progress("loading the knowledge bases and the part")

@@ -1,0 +1,186 @@
+"""What Vision knows besides a frame, and what it answers: the context (nominal features,
+the part's placement, the SLRA's window and the tolerances a reference needs), the
+replies (a value with its standard uncertainty, or an exception reply with the reason),
+and the constants of its method (see :mod:`ita.vision.measure`).
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from enum import Enum
+from typing import Any, Union
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ita.part import geometry2d as g2
+from ita.part.model import Feature, Hole, HoleRole, Pocket
+from ita.specs.model import MeasurementKind as K
+from ita.workcell.model import PartPlacement
+
+FloatArray = NDArray[np.float64]
+
+
+SLRA_KINDS = (K.HOLE_DIAMETER, K.HOLE_POSITION, K.FLANGE_HEIGHT, K.FLANGE_WIDTH,
+              K.STIFFENER_HEIGHT, K.STIFFENER_WIDTH, K.EDGE_DISTANCE)
+
+
+BLUR_MM = 1.0            # edge band half-width: >= 3 sigma of the SLRA's beam footprint
+
+
+SURFACE_BAND_MM = 3.0    # a face's pixels lie within this of its nominal height
+
+
+OCCLUDER_MM = 3.0        # a pixel this far in front of a face occludes it
+
+
+MAX_OCCLUDED = 0.25      # share of a patch's pixels in front that makes it occluded
+
+
+MIN_PLANE_PIXELS = 25
+
+
+MIN_EDGE_POINTS = 12
+
+
+MAX_PLANE_RMS_MM = 0.6
+
+
+MAX_EDGE_RMS_MM = 0.3    # plus half a pixel
+
+
+EDGE_CORRELATION = 1.6   # inflates edge-fit sigmas: row and column crossings share pixels
+
+
+EDGE_MODEL_PX = 0.05     # residual bias of a sub-pixel edge point (pixels), not averaged away
+
+
+MIX_RANGE_MM = 100.0     # a surface this far beyond the face mixes with it in phase (range share)
+
+
+FAR_SPREAD_MM = 2.0      # beyond a rim, heights this far from their median are another surface,
+
+
+FAR_MIXED_SHARE = 0.03   # and more than this share of them means several surfaces
+
+
+FAR_MIXED_U_MM = 0.06    # then the rim's position (radius, centre) carries this much more
+
+
+FAR_CHECK_MM = 0.6       # the surface just beyond a rim is looked for this far inside it (2 sigma of the beam)
+
+
+DATUM_MIN_COVERAGE = math.radians(120)  # rim span a datum neighbour's fit needs
+
+
+DIAMETER_TOLERANCE = 0.076  # +/- of a hole's diameter when its spec does not say
+
+
+MAX_DATUM_HOLES = 6      # a fastener hole registers on at most this many neighbours in view
+
+
+POSE_DATUM_FRAMES = 16   # re-approaches averaged for a position whose only datum is the pose
+
+
+class Reason(str, Enum):
+    """Why a measurement could not be made."""
+
+    OUT_OF_VIEW = "out_of_view"
+    OCCLUDED = "occluded"
+    TOO_FEW_PIXELS = "too_few_pixels"
+    FIT_RESIDUAL = "fit_residual"
+    NOT_MEASURABLE = "not_measurable"
+
+
+@dataclass(frozen=True)
+class VisionException:
+    """The reply when a measurement cannot be made: the reason and what was seen."""
+
+    spec_id: str
+    reason: Reason
+    detail: str = ""
+    ok = False
+
+
+@dataclass(frozen=True)
+class VisionResult:
+    """A measured value (mm) with its standard uncertainty u (mm); U = 2u expanded."""
+
+    spec_id: str
+    kind: K
+    value: float
+    uncertainty: float
+    diagnostics: dict[str, Any] = field(default_factory=dict, compare=False)
+    ok = True
+
+    @property
+    def expanded(self) -> float:
+        """Expanded uncertainty U = 2u (about 95 %)."""
+        return 2.0 * self.uncertainty
+
+
+VisionReply = Union[VisionResult, VisionException]  # noqa: UP007 (a runtime alias)
+
+
+class VisionFail(Exception):
+    def __init__(self, reason: Reason, detail: str):
+        super().__init__(detail)
+        self.reason, self.detail = reason, detail
+
+
+@dataclass(frozen=True)
+class VisionContext:
+    """What Vision knows besides the frame: nominal features, the part's placement, the
+    SLRA's nominal standoff and largest window, and tolerances it needs for references.
+
+    web_tolerance: +/- of the web thickness (a height's reference); position_zones: hole id
+    -> true-position zone diameter; diameter_tolerances: hole id -> +/- of its diameter
+    (a datum neighbour's radius, see :func:`register_on_neighbours`); pose_sigma_m: the
+    arm's pose error per axis (1 sigma);
+    pose_datum_frames: frames (each from its own approach) averaged for a position whose
+    only datum is the pose (see :func:`frames_for`).
+    """
+
+    features: Mapping[str, Feature]
+    placement: PartPlacement
+    standoff_m: float = 0.45
+    max_fov_deg: tuple[float, float] = (30.0, 24.0)
+    web_tolerance: float = 0.127
+    position_zones: Mapping[str, float] = field(default_factory=dict)
+    pose_sigma_m: float = 0.25e-3 / 3
+    shape: tuple[int, int] = (256, 256)
+    pose_datum_frames: int = POSE_DATUM_FRAMES
+    diameter_tolerances: Mapping[str, float] = field(default_factory=dict)
+
+    @classmethod
+    def from_part(cls, part: Any, workcell: Any, tool: str = "slra_1", specs: Any = None) -> VisionContext:
+        """Context of a loaded Part in a Workcell (specs: default read from the part)."""
+        from ita.specs.io import read_specs
+
+        specs = read_specs(part.specs_path) if specs is None else specs
+        t = workcell.tool(tool)
+        web = [s.upper for s in specs if s.kind is K.WEB_THICKNESS]
+        zones = {s.feature: s.upper for s in specs if s.kind is K.HOLE_POSITION}
+        diameters = {s.feature: (s.upper - s.lower) / 2 for s in specs if s.kind is K.HOLE_DIAMETER}
+        return cls({f.id: f for f in part.features}, workcell.part, t.standoff_nominal, tuple(t.fov_deg),
+                   max(web) if web else 0.127, zones, workcell.arm.repeatability_m / 3,
+                   diameter_tolerances=diameters)
+
+    def pockets(self) -> list[Pocket]:
+        return [f for f in self.features.values() if isinstance(f, Pocket)]
+
+    def web_at(self, xy: FloatArray) -> float | None:
+        """Nominal web height (mm) of the pocket containing part point (2,), if any."""
+        for p in self.pockets():
+            if g2.points_in_polygon(np.atleast_2d(xy), p.outline_array)[0]:
+                return p.web_thickness
+        return None
+
+
+def fastener_neighbours(hole: Hole, ctx: VisionContext, within: float) -> list[Hole]:
+    out = [h for h in ctx.features.values() if isinstance(h, Hole) and h.role is HoleRole.FASTENER
+           and h.id != hole.id and abs(h.center[2] - hole.center[2]) < 1.0
+           and math.dist(h.center[:2], hole.center[:2]) < within]
+    return sorted(out, key=lambda h: math.dist(h.center[:2], hole.center[:2]))

@@ -1,0 +1,182 @@
+"""The per-kind measurers: hole diameter, position and edge distance, flange and stiffener
+height and width, each from one range frame (:data:`MEASURERS`, by measurement kind).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ita.part.model import FlangeSegment, Hole, HoleRole, Stiffener
+from ita.specs.model import MeasurementKind as K
+from ita.specs.model import MeasurementSpec
+from ita.vision.context import BLUR_MM, EDGE_CORRELATION, Reason, VisionContext, VisionFail, VisionResult
+from ita.vision.fit import (
+    LineFit,
+    fit_parallel_planes,
+)
+from ita.vision.patches import View, nominal_points
+from ita.vision.register import register_on_neighbours, rib_beneath
+from ita.vision.rims import edge_sigma, fit_edge, fit_face, fit_rim, frame_uv, free_edge, rect_patch
+
+FloatArray = NDArray[np.float64]
+
+
+def _hole_diameter(view: View, spec: MeasurementSpec, hole: Hole, ctx: VisionContext) -> VisionResult:
+    fit, _, diag = fit_rim(view, hole, "rim")
+    px = diag["pixel_mm"]
+    u = math.hypot(2 * EDGE_CORRELATION * fit.radius_sigma, 2 * edge_sigma(px, fit.n))
+    u = math.hypot(u, 2e-4 * fit.radius, 2 * diag["u_model"])  # + scanner angle-scale calibration
+    diag.update(center=fit.center)
+    return VisionResult(spec.id, spec.kind, 2 * fit.radius, u, diag)
+
+
+def _hole_position(view: View, spec: MeasurementSpec, hole: Hole, ctx: VisionContext) -> VisionResult:
+    fit, _, diag = fit_rim(view, hole, "rim")
+    px = diag["pixel_mm"]
+    u_fit = math.hypot(EDGE_CORRELATION * max(fit.center_sigma), edge_sigma(px, fit.n))
+    shift, u_reg, used, left = np.zeros(2), math.nan, [], []
+    if hole.role is HoleRole.FASTENER:
+        # a rim with a rib beneath is fitted less well than its neighbours' are: no radius for them
+        radius = None if rib_beneath(view, hole, ctx) else fit.radius
+        shift, u_reg, used, left = register_on_neighbours(view, hole, radius, ctx)
+    pose_u = ctx.pose_sigma_m / ctx.placement.scale
+    d = np.asarray(fit.center) + shift - np.asarray(hole.center[:2])
+    # random from frame to frame: the rim fit and, with the pose as datum, the arm's pose
+    # error (a new draw at each approach); the same in every frame: the edge model and the
+    # neighbours' own position errors
+    u_random = math.hypot(u_fit, pose_u) if not used else u_fit
+    u_system = math.hypot(diag["u_model_centre"], u_reg) if used else diag["u_model_centre"]
+    u_axis = math.hypot(u_random, u_system)
+    diag.update(center=fit.center, registered_on=used, left_out=left, shift=tuple(shift), deviation=tuple(d),
+                datum="neighbours" if used else "pose", u_random=u_random, u_systematic=u_system)
+    return VisionResult(spec.id, spec.kind, 2 * float(np.hypot(*d)), 2 * u_axis, diag)
+
+
+def _edge_distance(view: View, spec: MeasurementSpec, hole: Hole, ctx: VisionContext) -> VisionResult:
+    fit, _, diag = fit_rim(view, hole, "rim")
+    u, v = frame_uv(spec.direction or (1.0, 0.0, 0.0))
+    c = np.asarray(hole.center[:2])
+    edge = c + spec.nominal * u
+    b = BLUR_MM + diag["pixel_mm"]
+    patch, region = rect_patch(view, "free edge", edge, u, v, (-spec.nominal + hole.diameter / 2 + b, b + 6.0),
+                                (-8.0, 8.0), hole.center[2])
+    q = nominal_points(view, patch, hole.center[2])[..., :2] - edge
+    s_u = q @ u
+    near_region = region & (s_u < -b) & (np.hypot(*(q + edge - c).transpose(2, 0, 1)) > hole.diameter / 2 + b)
+    near2, near_px = fit_face(view, patch, near_region, hole.center[2])
+    line, ldiag = fit_edge(view, near2, near_px, patch, region & (np.abs(s_u) < b), region & (s_u > b), "free edge",
+                        free_edge(ctx, hole, spec.nominal, u))
+    dist = float(line.distance(np.asarray(fit.center))[0])
+    sign = 1.0 if float(np.dot([-line.direction[1], line.direction[0]], u)) < 0 else -1.0
+    value = sign * dist
+    u_val = math.sqrt(line.offset_sigma_at(np.asarray(fit.center)) ** 2 * EDGE_CORRELATION ** 2
+                      + (EDGE_CORRELATION * max(fit.center_sigma)) ** 2 + 2 * edge_sigma(diag["pixel_mm"], 1) ** 2
+                      + diag["u_model"] ** 2)
+    diag.update(edge_points=ldiag["points"], edge_rms=ldiag["rms"], edge_xy=ldiag["xy"])
+    return VisionResult(spec.id, spec.kind, value, u_val, diag)
+
+
+def _web_plane(view: View, c: FloatArray, u: FloatArray, v: FloatArray, u_range, v_range, ctx: VisionContext,
+               name: str) -> tuple[FloatArray, float]:
+    mid = c + 0.5 * (u_range[0] + u_range[1]) * u
+    z_web = ctx.web_at(mid)
+    if z_web is None:
+        raise VisionFail(Reason.NOT_MEASURABLE, f"no pocket floor beside the feature at {tuple(np.round(mid, 1))}")
+    patch, region = rect_patch(view, name, c, u, v, u_range, v_range, z_web)
+    _, used = fit_face(view, patch, region, z_web)
+    return patch.take(view.points)[used], z_web
+
+
+def _height(top: FloatArray, webs: list[tuple[FloatArray, float]], ctx: VisionContext) -> tuple[float, float, dict]:
+    """Height of the top face above datum A from its gap to the web faces beside it, fitted
+    as parallel planes (points (n, 3) of each), plus the webs' nominal heights."""
+    fit = fit_parallel_planes([top] + [w for w, _ in webs])
+    h = [fit.offsets[0] - fit.offsets[1 + i] + zw for i, (_, zw) in enumerate(webs)]
+    u_fit = math.sqrt(np.mean([fit.gap_sigma(0, 1 + i) ** 2 for i in range(len(webs))]))
+    u_web = ctx.web_tolerance / math.sqrt(3) / math.sqrt(len(webs))
+    return float(np.mean(h)), math.hypot(u_fit, u_web), {"rms": fit.rms, "u_fit": u_fit, "u_web": u_web,
+                                                         "pixels": [len(top)] + [len(w) for w, _ in webs]}
+
+
+def _flange(view: View, spec: MeasurementSpec, seg: FlangeSegment, ctx: VisionContext) -> VisionResult:
+    u, v = frame_uv(spec.direction or _inward(seg, spec))
+    p = np.asarray(spec.point[:2])
+    outer = p - u * (seg.wall_thickness + seg.cap_width) / 2          # the wall's free face
+    free = outer + u * seg.cap_width
+    b = BLUR_MM + view.pixel_mm(ctx.standoff_m * 1000)
+    along = (-8.0, 8.0)
+    patch, region = rect_patch(view, "cap", outer, u, v, (-b - 5.0, seg.cap_width + b + 5.0), along, seg.height)
+    q = nominal_points(view, patch, seg.height)[..., :2] - outer
+    s_u = q @ u
+    cap_region = region & (s_u > b) & (s_u < seg.cap_width - b)
+    cap, cap_px = fit_face(view, patch, cap_region, seg.height)
+    if spec.kind is K.FLANGE_HEIGHT:
+        web = _web_plane(view, free, u, v, (b + 2.0, b + 14.0), along, ctx, "web")
+        value, unc, diag = _height(patch.take(view.points)[cap_px], [web], ctx)
+        return VisionResult(spec.id, spec.kind, value, unc, diag)
+    l_out, d_out = fit_edge(view, cap, cap_px, patch, region & (np.abs(s_u) < b), region & (s_u < -b), "outer edge")
+    l_free, d_free = fit_edge(view, cap, cap_px, patch, region & (np.abs(s_u - seg.cap_width) < b),
+                           region & (s_u > seg.cap_width + b), "free edge")
+    return _width(spec, p, l_out, l_free, d_out, d_free)
+
+
+def _width(spec: MeasurementSpec, p: FloatArray, a: LineFit, b: LineFit, da: dict, db: dict) -> VisionResult:
+    value = abs(float(a.distance(p)[0]) - float(b.distance(p)[0])) if np.dot(a.direction, b.direction) > 0 else \
+        abs(float(a.distance(p)[0]) + float(b.distance(p)[0]))
+    u = math.sqrt((EDGE_CORRELATION * a.offset_sigma_at(p)) ** 2 + (EDGE_CORRELATION * b.offset_sigma_at(p)) ** 2
+                  + edge_sigma(da["pixel_mm"], a.n) ** 2 + edge_sigma(db["pixel_mm"], b.n) ** 2)
+    u = math.hypot(u, 2e-4 * value)
+    return VisionResult(spec.id, spec.kind, value, u, {"edge_points": (a.n, b.n), "edge_rms": (a.rms, b.rms),
+                                                       "modes": (da["mode"], db["mode"]),
+                                                       "edge_xy": np.vstack([da["xy"], db["xy"]])})
+
+
+def _inward(seg: FlangeSegment, spec: MeasurementSpec) -> FloatArray:
+    path = seg.path_array
+    i = int(np.argmin(np.linalg.norm(path - np.asarray(spec.point[:2]), axis=1)))
+    return seg.normals_array[i]
+
+
+def _stiffener(view: View, spec: MeasurementSpec, rib: Stiffener, ctx: VisionContext) -> VisionResult:
+    along, across = frame_uv(rib.direction)
+    p = np.asarray(spec.point[:2])
+    b = BLUR_MM + view.pixel_mm(ctx.standoff_m * 1000)
+    half = rib.width / 2
+    span = (-10.0, 10.0)
+    patch, region = rect_patch(view, "rib", p, across, along, (-half - b - 4.0, half + b + 4.0), span, rib.height)
+    q = nominal_points(view, patch, rib.height)[..., :2] - p
+    t = q @ across
+    top_w = max(half - b, 0.3)
+    top, top_px = fit_face(view, patch, region & (np.abs(t) < top_w), rib.height)
+    if spec.kind is K.STIFFENER_HEIGHT:
+        webs = []
+        for side in (-1.0, 1.0):
+            try:
+                webs.append(_web_plane(view, p, side * across, along, (half + b + 1.0, half + b + 11.0), span, ctx,
+                                       f"web {'left' if side < 0 else 'right'}"))
+            except VisionFail as exc:
+                if exc.reason is not Reason.NOT_MEASURABLE and exc.reason is not Reason.TOO_FEW_PIXELS:
+                    raise
+        if not webs:
+            raise VisionFail(Reason.TOO_FEW_PIXELS, "no web visible beside the rib")
+        value, unc, diag = _height(patch.take(view.points)[top_px], webs, ctx)
+        return VisionResult(spec.id, spec.kind, value, unc, diag)
+    lines = []
+    for side in (-1.0, 1.0):
+        lines.append(fit_edge(view, top, top_px, patch, region & (np.abs(t - side * half) < b),
+                           region & (side * t > half + b), f"side {side:+.0f}"))
+    return _width(spec, p, lines[0][0], lines[1][0], lines[0][1], lines[1][1])
+
+
+MEASURERS = {
+    K.HOLE_DIAMETER: (Hole, _hole_diameter),
+    K.HOLE_POSITION: (Hole, _hole_position),
+    K.EDGE_DISTANCE: (Hole, _edge_distance),
+    K.FLANGE_HEIGHT: (FlangeSegment, _flange),
+    K.FLANGE_WIDTH: (FlangeSegment, _flange),
+    K.STIFFENER_HEIGHT: (Stiffener, _stiffener),
+    K.STIFFENER_WIDTH: (Stiffener, _stiffener),
+}
