@@ -16,47 +16,23 @@
             macrop_text/3               % +File, +Id, -Text
           ]).
 
-/** <module> Plan generalization and MACROP lookup
+/** <module> MACROP lookup: the Operation Planner's index over its stores
 
-The two other parts of the seed's Operation Planner.
+The seed's Operation Planner tries MACROP lookup before it plans: *MACROP lookup*
+compares each MACROP to the goals (each goal must unify with a purpose) and the initial
+state (each precondition must match a fact), checks the constraints and returns the plan
+with the bindings plugged in.  Shorter plans are tried first.  Plan generalization, which
+makes MACROPs, is prolog/macrop_generalize.pl; the store, which keeps them in a file with
+their counts, is prolog/macrop_store.pl (both re-exported here, so `macrop` is the
+Operation Planner's one entry).
 
-*Plan generalization* turns a plan into a MACROP (Figure 4):
-
-    macrop(NameAndFormat,
-           [ purpose(Goals),              % what the MACROP is for
-             preconditions(Facts),        % must hold in the initial state
-             adders(Facts),               % hold after the plan
-             unary_constraints(Goals),
-             n_ary_constraints(Goals),
-             resources(Objects),
-             plan(Steps)                  % step(N, Action, Predecessors)
-           ])
-
-Each step gets a fresh instance of its operator, so every constant the plan chose is a
-variable; then each precondition a step takes from an earlier step is unified with that
-step's adder (the links of a triangle table), which makes shared objects one variable.
-Preconditions taken from the initial state are the overall preconditions; adders that
-survive to the end of the plan are the overall adders; unary and n-ary constraints and
-resources are collected from the steps.
-
-*MACROP lookup* compares each MACROP to the goals (each goal must unify with a purpose)
-and the initial state (each precondition must match a fact), checks the constraints and
-returns the plan with the bindings plugged in.  Shorter plans are tried first.
-
-*The store.*  MACROPs persist in a Prolog file, one `macrop(Id, NameAndFormat, Fields,
-hits(N))` clause each, a `store_counts(Lookups, Hits, Misses)` clause and a
-`written_hits(Name, N)` clause per hand-written MACROP that was used, so a user can
-read the file or consult it.  A store is opened by its file name, which the caller
-chooses: learned MACROPs live apart from the hand-written ones of kb/macrops.pl, which
-lookup/5 also consults.  An open store lives in memory, with a lookup index; it is
-written back to its file (atomically) only by save_store/1.  The index holds, besides
-each MACROP's fields, its applicability test compiled into a clause
-(state_candidate/9) when the MACROP is added or loaded: for the planning state of
-kb/operators.pl, whose arm is at one pose holding one tool, the MACROP's at/2 and
-holding/2 preconditions and its purpose go into the clause head (so the clauses are
-indexed on them), its other preconditions are matched against only the facts of
-their kind, its constraints are calls to the static facts.  A lookup bumps one
-counter, a flag.
+*The index.*  An open store has a lookup index, over its learned MACROPs and the
+hand-written ones of kb/macrops.pl.  It holds, besides each MACROP's fields, its
+applicability test compiled into a clause (state_candidate/9) when the MACROP is added
+or loaded: for the planning state of kb/operators.pl, whose arm is at one pose holding
+one tool, the MACROP's at/2 and holding/2 preconditions and its purpose go into the
+clause head (so the clauses are indexed on them), its other preconditions are matched
+against only the facts of their kind, its constraints are calls to the static facts.
 
 *The facade's entry point.*  measurement_plan/9 is the Operation Planner for one
 measurement in a single call with a compact reply: the MACROP's number and the values
@@ -74,6 +50,10 @@ constraints that the bindings must satisfy.
 :- use_module(library(pairs)).
 :- use_module(library(readutil)).
 :- use_module(planner).
+:- use_module(macrop_generalize).
+:- use_module(macrop_store).
+:- reexport(macrop_generalize, [generalize_plan/5]).
+:- reexport(macrop_store, [save_store/1, store_macrops/2, store_counts/4]).
 :- use_module('../kb/macrops', []).
 
 :- use_module(library(aggregate)).
@@ -84,176 +64,12 @@ constraints that the bindings must satisfy.
                 planning_state_facts/3
               ]).
 
-% The open stores, in memory; save_store/1 writes one back to its file.  A lookup
-% bumps one flag: the hits of the MACROP found (hit_key/3) or the misses of the store;
-% the store's lookups and hits are the counts read from its file plus those bumps.
-:- dynamic stored/4.            % stored(File, Id, NameAndFormat, Fields)
-:- dynamic count_base/5.        % count_base(File, MissKey, Lookups, Hits, Misses): open
-:- dynamic counted/3.           % counted(File, Id, Hits0): Id's hits, Hits0 from the file
-:- dynamic generation/2.        % generation(File, G): changes when Ids may be reused
 % The lookup index of a store, in lookup order (fewest steps first, learned first):
 :- dynamic candidate/6.         % candidate(File, Id, Purpose, Pre, Constraints, Vars)
 :- dynamic candidate_plan/5.    % candidate_plan(File, Id, Vars, Steps, Adders)
 % ... and each MACROP's applicability compiled into a clause, for measurement_plan/9:
 :- dynamic state_candidate/9.   % state_candidate(File, Goal, Arm, Pose, Holding,
                                 %                 GoalConstraints, Id, HitKey, Vars)
-
-
-                 /*******************************
-                 *         GENERALIZATION       *
-                 *******************************/
-
-%!  generalize_plan(+Goals:list, +State:list, +Plan:list, +Options:list, -Macrop) is det.
-%
-%   Macrop is the generalization of Plan (steps as returned by planner:plan/4), which
-%   achieves Goals from State.
-%
-%   @error domain_error(plan_for_goals, Plan) if Plan does not achieve Goals from State
-%   @error domain_error(non_empty_plan, []) for an empty plan
-
-generalize_plan(Goals, State, Plan, Options, Macrop) :-
-    must_be(list(ground), Goals),
-    must_be(list(ground), State),
-    must_be(list, Plan),
-    (   Plan == []
-    ->  domain_error(non_empty_plan, Plan)
-    ;   true
-    ),
-    plan_domain(Options, Domain),
-    sort(State, State0),
-    maplist(step_ops(Domain), Plan, Ground, General),
-    simulate(Ground, General, 1, Domain, State0, [], Links, Final, Producers),
-    maplist(link, Links),
-    (   forall(member(G, Goals), memberchk(G, Final))
-    ->  true
-    ;   domain_error(plan_for_goals, Plan)
-    ),
-    overall_preconditions(Links, Pre),
-    overall_adders(Producers, Final, General, Add),
-    purpose(Goals, Producers, General, Purpose),
-    collect(General, 5, Unary),
-    collect(General, 6, Nary),
-    collect(General, 7, Res),
-    general_steps(Plan, General, Steps),
-    Goals = [First|_],
-    functor(First, Name, _),
-    term_variables(Pre-Purpose-Steps, Vars),
-    NameAndFormat =.. [Name|Vars],
-    Macrop = macrop(NameAndFormat,
-                    [ purpose(Purpose),
-                      preconditions(Pre),
-                      adders(Add),
-                      unary_constraints(Unary),
-                      n_ary_constraints(Nary),
-                      resources(Res),
-                      plan(Steps)
-                    ]).
-
-plan_domain(Options, Domain) :-
-    option(domain(Spec), Options, module(operators)),
-    (   Spec = planning_domain(_, _, _, _, _, _)
-    ->  Domain = Spec
-    ;   compile_domain(Spec, Domain)
-    ).
-
-%   step_ops(+Domain, +Step, -Ground, -General)
-%
-%   Ground is the operator instance of Step's action, General a fresh instance of the
-%   same operator with every parameter a variable.
-
-step_ops(Domain, step(_, Action, _), Ground, General) :-
-    once(domain_operator(Domain, Action, Ground)),
-    functor(Action, Name, Arity),
-    functor(Skeleton, Name, Arity),
-    once(domain_operator(Domain, Skeleton, General)).
-
-%   simulate(+Ground, +General, +N, +Domain, +State0, +Producers0, -Links, -Final,
-%            -Producers)
-%
-%   Run the ground steps from State0.  Producers maps each fact added so far to the
-%   general adder that made it.  Links pairs every general precondition with the
-%   general adder it was taken from, or with `initial`.
-
-simulate([], [], _, _, State, Producers, [], State, Producers).
-simulate([G|Gs], [V|Vs], N, Domain, State0, Producers0, Links, Final, Producers) :-
-    G = op(Action, PreG, _, _, _, _, _),
-    V = op(_, PreV, AddV, _, _, _, _),
-    (   forall(member(P, PreG), memberchk(P, State0))
-    ->  true
-    ;   domain_error(executable_plan, Action)
-    ),
-    foldl(precondition_link(Producers0), PreG, PreV, Links, Links1),
-    planner:apply_op_domain(Domain, G, State0, State1),
-    G = op(_, _, AddG, _, _, _, _),
-    foldl(produced(N), AddG, AddV, Producers0, Producers1),
-    include(still_holds(State1), Producers1, Producers2),
-    N1 is N + 1,
-    simulate(Gs, Vs, N1, Domain, State1, Producers2, Links1, Final, Producers).
-
-precondition_link(Producers, Fact, General, [General-From|Links], Links) :-
-    (   memberchk(Fact-produced(_, Adder), Producers)
-    ->  From = Adder
-    ;   From = initial
-    ).
-
-produced(N, Fact, Adder, Producers0, [Fact-produced(N, Adder)|Producers1]) :-
-    exclude(same_fact(Fact), Producers0, Producers1).
-
-same_fact(Fact, Fact0-_) :-
-    Fact0 == Fact.
-
-still_holds(State, Fact-_) :-
-    memberchk(Fact, State).
-
-link(_-initial) :- !.
-link(Pre-Adder) :-
-    Pre = Adder.
-
-%   The helpers below keep variable identity: no findall/3, which would copy.
-
-overall_preconditions(Links, Pre) :-
-    include(from_initial, Links, Initial),
-    pairs_keys(Initial, Pre0),
-    unique(Pre0, Pre).
-
-from_initial(_-From) :-
-    From == initial.
-
-overall_adders(Producers, _Final, _General, Add) :-
-    reverse(Producers, InOrder),
-    pairs_values(InOrder, Produced),
-    maplist(produced_adder, Produced, Add0),
-    unique(Add0, Add).
-
-produced_adder(produced(_, Adder), Adder).
-
-purpose(Goals, Producers, _General, Purpose) :-
-    foldl(goal_adder(Producers), Goals, Purpose0, []),
-    unique(Purpose0, Purpose).
-
-goal_adder(Producers, Goal, [Adder|Rest], Rest) :-
-    memberchk(Goal-produced(_, Adder), Producers), !.
-goal_adder(_, _, Rest, Rest).
-
-collect(General, Arg, Items) :-
-    foldl(op_items(Arg), General, Items0, []),
-    unique(Items0, Items).
-
-op_items(Arg, Op, Items, Rest) :-
-    arg(Arg, Op, Is),
-    append(Is, Rest, Items).
-
-%   unique(+List, -Set): List without later duplicates (==), order kept.
-
-unique([], []).
-unique([X|Xs], [X|Ys]) :-
-    exclude(==(X), Xs, Rest),
-    unique(Rest, Ys).
-
-general_steps([], [], []).
-general_steps([step(N, _, Preds)|Ss], [op(Action, _, _, _, _, _, _)|Os],
-              [step(N, Action, Preds)|Ts]) :-
-    general_steps(Ss, Os, Ts).
 
 
                  /*******************************
@@ -296,93 +112,27 @@ match_all([P|Ps], State) :-
 
 
                  /*******************************
-                 *             STORE            *
+                 *       STORE AND INDEX        *
                  *******************************/
 
 %!  open_store(+File) is det.
 %
 %   Load the MACROP store File (an empty store if the file does not exist yet),
-%   replacing what was loaded from it before.
+%   replacing what was loaded from it before, and index it for lookup.
 %
 %   @error syntax_error(...) if File is not a readable Prolog file
 %   @error domain_error(macrop_store_term(File), Term) for a term that is not a store's
 
 open_store(File) :-
-    must_be(atom, File),
-    close_store(File),
-    open_counts(File),
-    new_generation(File),
-    (   exists_file(File)
-    ->  read_file_to_terms(File, Terms, []),
-        maplist(load_term(File), Terms)
-    ;   true
-    ),
+    load_store(File),
     reindex(File).
-
-load_term(File, macrop(Id, Name, Fields, hits(Hits))) :- !,
-    must_be(positive_integer, Id),
-    must_be(list, Fields),
-    must_be(nonneg, Hits),
-    assertz(stored(File, Id, Name, Fields)),
-    set_hits(File, Id, Hits).
-load_term(File, store_counts(Lookups, Hits, Misses)) :- !,
-    must_be(nonneg, Lookups),
-    must_be(nonneg, Hits),
-    must_be(nonneg, Misses),
-    retract(count_base(File, MissKey, _, _, _)),
-    assertz(count_base(File, MissKey, Lookups, Hits, Misses)).
-load_term(File, written_hits(Name, Hits)) :- !,
-    set_hits(File, kb(Name), Hits).
-load_term(File, Term) :-
-    domain_error(macrop_store_term(File), Term).
-
-set_hits(File, Id, Hits) :-
-    hit_key(File, Id, Key),
-    flag(Key, _, Hits),
-    retractall(counted(File, Id, _)),
-    assertz(counted(File, Id, Hits)).
-
-%   hit_key(+File, +Id, -Key)
-%
-%   Key names the flag that counts the hits of MACROP Id of store File.  A flag that is
-%   not zero has a counted/3 clause, so that close_store/1 can reset it.
-
-hit_key(File, Id, Key) :-
-    format(atom(Key), '$macrop_hits ~w ~q', [File, Id]).
-
-%   open_counts(+File)
-%
-%   Mark store File open with its lookup, hit and miss counts at zero.
-
-open_counts(File) :-
-    format(atom(MissKey), '$macrop_misses ~w', [File]),
-    flag(MissKey, _, 0),
-    assertz(count_base(File, MissKey, 0, 0, 0)).
-
-%   close_counts(+File)
-%
-%   Forget the counts of store File: the hits of its MACROPs and its misses.
-
-close_counts(File) :-
-    forall(retract(counted(File, Id, _)),
-           ( hit_key(File, Id, Key), flag(Key, _, 0) )),
-    forall(retract(count_base(File, MissKey, _, _, _)),
-           flag(MissKey, _, 0)).
-
-new_generation(File) :-
-    flag(macrop_store_generation, G, G + 1),
-    retractall(generation(File, _)),
-    assertz(generation(File, G)).
 
 %!  close_store(+File) is det.
 %
-%   Forget the store File (without saving it).
+%   Forget the store File (without saving it) and its index.
 
 close_store(File) :-
-    must_be(atom, File),
-    retractall(stored(File, _, _, _)),
-    close_counts(File),
-    retractall(generation(File, _)),
+    forget_store(File),
     retractall(candidate(File, _, _, _, _, _)),
     retractall(candidate_plan(File, _, _, _, _)),
     retractall(state_candidate(File, _, _, _, _, _, _, _, _)).
@@ -395,76 +145,8 @@ close_store(File) :-
 %   @error existence_error(macrop_store, File) if File is not open
 
 clear_store(File) :-
-    must_be_open(File),
-    retractall(stored(File, _, _, _)),
-    close_counts(File),
-    open_counts(File),
-    new_generation(File),
+    reset_store(File),
     reindex(File).
-
-%!  save_store(+File) is det.
-%
-%   Write the open store File back to File (through a temporary file, so that a crash
-%   never leaves half a store).
-%
-%   @error existence_error(macrop_store, File) if File is not open
-
-save_store(File) :-
-    store_counts(File, Lookups, Hits, Misses),
-    store_macrops(File, Macrops),
-    findall(written_hits(Name, H),
-            ( counted(File, kb(Name), _), stored_hits(File, kb(Name), H) ),
-            Written),
-    atom_concat(File, '.tmp', Tmp),
-    setup_call_cleanup(open(Tmp, write, Out),
-                       write_store(Out, Lookups, Hits, Misses, Macrops, Written),
-                       close(Out)),
-    rename_file(Tmp, File).
-
-write_store(Out, Lookups, Hits, Misses, Macrops, Written) :-
-    format(Out, '%   Learned MACROPs of the ITA Operation Planner (prolog/macrop.pl).~n', []),
-    format(Out, '%   macrop(Id, NameAndFormat, Fields, hits(Hits)); read with open_store/1.~n~n', []),
-    portray_clause(Out, store_counts(Lookups, Hits, Misses)),
-    forall(member(W, Written), portray_clause(Out, W)),
-    nl(Out),
-    forall(member(M, Macrops), (portray_clause(Out, M), nl(Out))).
-
-must_be_open(File) :-
-    must_be(atom, File),
-    (   count_base(File, _, _, _, _)
-    ->  true
-    ;   existence_error(macrop_store, File)
-    ).
-
-%!  store_macrops(+File, -Macrops:list) is det.
-%
-%   Macrops are the `macrop(Id, NameAndFormat, Fields, hits(N))` of the open store File.
-
-store_macrops(File, Macrops) :-
-    must_be_open(File),
-    findall(macrop(Id, Name, Fields, hits(H)),
-            ( stored(File, Id, Name, Fields), stored_hits(File, Id, H) ),
-            Macrops).
-
-stored_hits(File, Id, Hits) :-
-    hit_key(File, Id, Key),
-    flag(Key, Hits, Hits).
-
-%!  store_counts(+File, -Lookups:integer, -Hits:integer, -Misses:integer) is det.
-%
-%   The lookups made in store File and how many found a MACROP (hand-written ones
-%   included) and how many did not.
-
-store_counts(File, Lookups, Hits, Misses) :-
-    must_be_open(File),
-    count_base(File, MissKey, Lookups0, Hits0, Misses0),
-    aggregate_all(sum(H - H0),
-                  ( counted(File, Id, H0), stored_hits(File, Id, H) ),
-                  NewHits),
-    flag(MissKey, NewMisses, NewMisses),
-    Lookups is Lookups0 + NewHits + NewMisses,
-    Hits is Hits0 + NewHits,
-    Misses is Misses0 + NewMisses.
 
 %!  add_macrop(+File, +Macrop, -Id:integer) is det.
 %
@@ -472,16 +154,10 @@ store_counts(File, Lookups, Hits, Misses) :-
 %   is there already (then Id is that one's number).
 
 add_macrop(File, macrop(Name, Fields), Id) :-
-    must_be_open(File),
-    (   stored(File, Id0, Name0, Fields0),
-        macrop(Name0, Fields0) =@= macrop(Name, Fields)
-    ->  Id = Id0
-    ;   (   aggregate_all(max(I), stored(File, I, _, _), Max)
-        ->  Id is Max + 1
-        ;   Id = 1
-        ),
-        assertz(stored(File, Id, Name, Fields)),
-        reindex(File)
+    store_macrop(File, Name, Fields, Stored),
+    (   Stored = new(Id)
+    ->  reindex(File)
+    ;   Stored = existing(Id)
     ).
 
 %   reindex(+File)
@@ -652,24 +328,9 @@ lookup_bindings(File, Goals, State, Domain, Facts, GoalConstraints, Id, Vars) :-
         append(Constraints, GoalConstraints, All),
         constraints_hold(Domain, Facts, All),
         ground(Vars)
-    ->  count(File, hit(Id))
-    ;   count(File, miss),
+    ->  count_lookup(File, hit(Id))
+    ;   count_lookup(File, miss),
         fail
-    ).
-
-count(File, hit(Id)) :-
-    hit_key(File, Id, Key),
-    count_hit(File, Id, Key).
-count(File, miss) :-
-    count_base(File, MissKey, _, _, _),
-    flag(MissKey, M, M + 1).
-
-count_hit(File, Id, Key) :-
-    flag(Key, N, N + 1),
-    (   N == 0,
-        \+ counted(File, Id, _)
-    ->  assertz(counted(File, Id, 0))
-    ;   true
     ).
 
 %!  operation_plan(+File, +Goals:list, +State:list, +Options:list, -Result) is det.
@@ -740,7 +401,7 @@ measurement_plan(File, Id, Kind, Tool, Arm, PoseSpec, Holding, Mode, Reply) :-
     pose_term(PoseSpec, Pose),
     measurement_goal(Id, Kind, Tool, Goal, Constraints),
     must_be_planning_state(Arm, Pose, Holding),
-    generation(File, Gen),
+    store_generation(File, Gen),
     (   Mode == lookup_first,
         state_lookup(File, Goal, Arm, Pose, Holding, Constraints, MacropId, Vars)
     ->  Reply = [macrop, Gen, MacropId, Vars]
@@ -761,7 +422,7 @@ measurement_plan(File, Id, Kind, Tool, Arm, PoseSpec, Holding, Mode, Reply) :-
 state_lookup(File, Goal, Arm, Pose, Holding, GoalConstraints, Id, Vars) :-
     (   state_candidate(File, Goal, Arm, Pose, Holding, GoalConstraints, Id, Key, Vars)
     ->  count_hit(File, Id, Key)
-    ;   count(File, miss),
+    ;   count_lookup(File, miss),
         fail
     ).
 

@@ -54,46 +54,6 @@ store_file(File) :-
 slra_state([ at(t3, approach_point(home)), holding(t3, none),
              location(slra_1, in_rack(slot_3)), tool_condition(slra_1, ok) ]).
 
-:- begin_tests(generalization).
-
-test(figure_4_reproduced, true(same_macrop(Macrop, Figure4))) :-
-    figure_4_problem(Goals, State),
-    plan(Goals, State, [], Plan),
-    generalize_plan(Goals, State, Plan, [], Macrop),
-    figure_4(Figure4).
-
-test(figure_4_plan_has_five_steps_in_a_chain,
-     true(Preds == [[], [1], [2], [3], [4]])) :-
-    figure_4_problem(Goals, State),
-    plan(Goals, State, [], Plan),
-    generalize_plan(Goals, State, Plan, [], macrop(_, Fields)),
-    memberchk(plan(Steps), Fields),
-    findall(P, member(step(_, _, P), Steps), Preds).
-
-test(hand_written_macrop_is_figure_4, true(same_macrop(macrop(N, F), Figure4))) :-
-    macrops:macrop(N, F),
-    figure_4(Figure4).
-
-test(shared_objects_become_one_variable, true(T1-T2 == T3-T3)) :-
-    slra_state(State),
-    Goals = [measured(slra_1, t3, meas(c))],
-    plan(Goals, State, [], Plan),
-    generalize_plan(Goals, State, Plan, [], macrop(_, Fields)),
-    memberchk(plan(Steps), Fields),
-    memberchk(step(_, pick_up(_, T1, _), _), Steps),
-    memberchk(step(_, slra_scan(T2, _, _), _), Steps),
-    memberchk(step(_, slra_measure(T3, _, _), _), Steps).
-
-test(empty_plan_is_an_error, error(domain_error(non_empty_plan, []))) :-
-    generalize_plan([g], [g], [], [], _).
-
-test(wrong_plan_is_an_error, error(domain_error(plan_for_goals, _))) :-
-    generalize_plan([measured(us_probe_1, t3, meas(z))],
-                    [at(t3, in_contact_point(meas(a))), holding(t3, us_probe_1)],
-                    [step(1, move_retract(t3, a), [])], [], _).
-
-:- end_tests(generalization).
-
 :- begin_tests(lookup).
 
 test(figure_4_lookup_binds_tool_and_points,

@@ -3,15 +3,14 @@
 from __future__ import annotations
 
 import pytest
-
 from doubles import FakeDevice
 
 from ita.errors import PrologError
 from ita.executive import (
     Command,
-    EventKind,
     ExecutiveError,
     FailureKind,
+    LogKind,
     PlanExecutive,
     ReplyKind,
     StreamId,
@@ -20,13 +19,13 @@ from ita.executive import (
     split,
 )
 from ita.logic.terms import Term, Var
-from ita.planning import OperationPlanner, Place, PlanStep, Pose, PoseKind, WorldState
+from ita.planning import OperationPlanner, Place, PlanStep, PoseKind, QualitativePose, WorldState
 from ita.sim.world import SimClock
 from ita.specs.model import MeasurementKind, MeasurementSpec
 
 ARM = StreamId("path_planner", "t3")
 SLRA = StreamId("vision", "slra_1")
-AT_A = Pose(PoseKind.CONTACT, Place.meas("a"))
+AT_A = QualitativePose(PoseKind.CONTACT, Place.meas("a"))
 
 
 def meas(i: str) -> Term:
@@ -171,7 +170,7 @@ def test_figure_4_plan_runs_and_reports_the_thickness(knowledge_base, figure_4_p
     assert report.results[-1] == Term("dimension", ("b", "us_probe_1", 2.51, 0.0))
     assert [o.step for o in report.outcomes] == [1, 2, 3, 4, 5]
     assert report.makespan == pytest.approx(1.0 + 2.0 + 1.0 + 1.0 + 1.0)
-    assert events(report, EventKind.WAIT) == [] and events(report, EventKind.CONTINUE) == []
+    assert events(report, LogKind.WAIT) == [] and events(report, LogKind.CONTINUE) == []
 
 
 def test_continue_is_sent_when_the_predecessor_on_the_other_stream_completes(knowledge_base, slra_plan):
@@ -179,8 +178,8 @@ def test_continue_is_sent_when_the_predecessor_on_the_other_stream_completes(kno
     report = executive(knowledge_base, arm, vision).execute(slra_plan)
     assert report.ok
     # arm: retract 0-1, move 1-3, move_view 3-5; the scan waits from 0 and goes on at 5
-    assert events(report, EventKind.WAIT) == [(0.0, str(SLRA), 4, (3,))]
-    assert events(report, EventKind.CONTINUE) == [(5.0, str(SLRA), 4, (3,))]
+    assert events(report, LogKind.WAIT) == [(0.0, str(SLRA), 4, (3,))]
+    assert events(report, LogKind.CONTINUE) == [(5.0, str(SLRA), 4, (3,))]
     assert vision.started == [(5.0, 4), (8.0, 5)]
     assert report.makespan == pytest.approx(8.5)
 
@@ -190,7 +189,7 @@ def test_waits_on_both_streams_continue_at_the_right_times(knowledge_base):
     report = executive(knowledge_base, arm, vision).execute(SCAN_AND_LEAVE)
     assert report.ok
     # move_view 0-2 | scan 2-5 | leave_view 5-7 and measure 5-5.5 together | move 7-9
-    assert events(report, EventKind.CONTINUE) == [(2.0, str(SLRA), 2, (1,)), (5.0, str(ARM), 3, (2,))]
+    assert events(report, LogKind.CONTINUE) == [(2.0, str(SLRA), 2, (1,)), (5.0, str(ARM), 3, (2,))]
     assert arm.started == [(0.0, 1), (5.0, 3), (7.0, 5)]
     assert vision.started == [(2.0, 2), (5.0, 4)]
     assert report.makespan == pytest.approx(9.0)
@@ -200,7 +199,7 @@ def test_independent_streams_overlap_in_simulated_time(knowledge_base):
     arm, vision = FakeDevice(lookahead=True, durations={"MOVE": 4.0}), FakeDevice(durations={"MEASURE": 3.0})
     report = executive(knowledge_base, arm, vision).execute(INDEPENDENT)
     assert report.ok
-    assert [(t, step) for t, _, step, _ in events(report, EventKind.SEND)] == [(0.0, 1), (0.0, 2), (4.0, 3)]
+    assert [(t, step) for t, _, step, _ in events(report, LogKind.SEND)] == [(0.0, 1), (0.0, 2), (4.0, 3)]
     assert report.makespan == pytest.approx(8.0)
     assert report.makespan < sum(o.finished_s - o.started_s for o in report.outcomes)
 
@@ -211,9 +210,9 @@ def test_the_arm_stream_receives_all_its_commands_at_plan_start(knowledge_base):
     report = executive(knowledge_base, arm, vision).execute(SCAN_AND_LEAVE)
     assert arm.queued == [(0.0, streams.stream(ARM).items)]  # WAIT included: the planner rests there
     assert vision.queued == []                                # vision: one by one
-    assert events(report, EventKind.QUEUED) == [(0.0, str(ARM), None, (1, 3, 5))]
-    first_send = next(e for e in report.events if e.kind is EventKind.SEND)
-    queued = next(e for e in report.events if e.kind is EventKind.QUEUED)
+    assert events(report, LogKind.QUEUED) == [(0.0, str(ARM), None, (1, 3, 5))]
+    first_send = next(e for e in report.events if e.kind is LogKind.SEND)
+    queued = next(e for e in report.events if e.kind is LogKind.QUEUED)
     assert report.events.index(queued) < report.events.index(first_send)
 
 
@@ -264,12 +263,12 @@ def test_a_silent_device_times_out_and_stops_the_plan(knowledge_base, slra_plan)
     assert failure.command.name == "SCAN" and failure.command.stream == SLRA
     assert failure.reply.kind is ReplyKind.TIMEOUT and failure.reply.payload is None
     assert failure.at_s == pytest.approx(5.0 + 60.0)  # sent at the CONTINUE, time-out 60 s
-    assert events(report, EventKind.TIMEOUT) == [(65.0, str(SLRA), 4, 60.0)]
+    assert events(report, LogKind.TIMEOUT) == [(65.0, str(SLRA), 4, 60.0)]
     assert failure.completed == (1, 2, 3) and failure.cancelled == (5,)
-    assert events(report, EventKind.CANCELLED) == [(65.0, str(SLRA), 5, "not sent")]
+    assert events(report, LogKind.CANCELLED) == [(65.0, str(SLRA), 5, "not sent")]
     assert "time-out" in failure.reason and "slra_scan(slra_1, t3, b)" in failure.reason
     assert failure.plan is slra_plan and failure.events == report.events
-    assert report.events[-1].kind is EventKind.PLAN_STOPPED
+    assert report.events[-1].kind is LogKind.PLAN_STOPPED
 
 
 def test_a_late_reply_is_a_time_out_at_the_deadline(knowledge_base, figure_4_plan):
@@ -289,7 +288,7 @@ def test_an_exception_reply_stops_the_plan_and_cancels_the_rest(knowledge_base):
     assert failure.kind is FailureKind.EXCEPTION and failure.step.number == 3
     assert failure.reply.payload == bump and failure.at_s == pytest.approx(7.0)
     # vision was measuring (5-15): aborted; the arm's last move never sent
-    assert events(report, EventKind.CANCELLED) == [
+    assert events(report, LogKind.CANCELLED) == [
         (7.0, str(ARM), 5, "not sent"), (7.0, str(SLRA), 4, "aborted")]
     assert failure.cancelled == (4, 5) and failure.completed == (1, 2)
     assert arm.stopped == [7.0] and vision.stopped == [7.0]

@@ -108,7 +108,7 @@ def test_slra_view_groups_share_one_frame(prepared, builtin_part) -> None:
 def test_view_group_pixels_are_the_most_a_member_asks_for(prepared, builtin_part) -> None:
     """Every group's frame has, per axis, the most pixels any member's `scan_for` asks for;
     the bulkhead's small fastener holes (5 mm) get finer position frames than ctx.shape."""
-    from ita.geometry.reasoner import group_pixels
+    from ita.geometry.build import group_pixels
     from ita.vision.context import VisionContext
     from ita.vision.scan import scan_for
 
@@ -211,7 +211,7 @@ def test_tilted_approach_directions_keep_their_angle_off_the_normal():
     normal, spread about it; tilt 0 is the normal itself."""
     import math
 
-    from ita.geometry.reasoner import TILT_AZIMUTHS, _tilted
+    from ita.geometry.build import TILT_AZIMUTHS, _tilted
 
     normals = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, -0.6, 0.8]])
     assert np.array_equal(_tilted(normals, 0.0)[0], normals)

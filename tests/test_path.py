@@ -18,7 +18,7 @@ from ita.errors import InputError
 from ita.kinematics import arm_model, link_segments, move_time, tcp_poses
 from ita.path.lift import Effort, Lifter, path_free, segments_free
 from ita.path.motion import ConfigChecker, MotionChecker, sweep_bounds
-from ita.path.planner import HOME, PathPlanner, PlannerSettings, Reason, planners_for
+from ita.path.planner import HOME, PathFailure, PathPlanner, PlannerSettings, planners_for
 from ita.path.problems import (
     Problem,
     generate_problems,
@@ -87,14 +87,14 @@ def test_start_outside_the_limits_is_refused(planner_for):
     start = np.array(HOME)
     start[0] = 3.0
     r = planner.plan(start, np.array(HOME), tool)
-    assert not r.ok and r.reason is Reason.START_OUT_OF_LIMITS and r.trajectory is None
+    assert not r.ok and r.reason is PathFailure.START_OUT_OF_LIMITS and r.trajectory is None
 
 
 def test_start_in_collision_names_what_it_hits(planner_for):
     planner, tool = planner_for("us_probe_1")
     start = _colliding(planner, tool, np.random.default_rng(0))
     r = planner.plan(start, np.array(HOME), tool)
-    assert not r.ok and r.reason is Reason.START_IN_COLLISION
+    assert not r.ok and r.reason is PathFailure.START_IN_COLLISION
     assert "hits" in r.message and len(r.waypoints) == 0
 
 
@@ -103,7 +103,7 @@ def test_goal_out_of_reach_is_unreachable(planner_for):
     pose = np.eye(4)
     pose[:3, 3] = [5.0, 0.0, 1.0]
     r = planner.plan(np.array(HOME), pose, tool)
-    assert not r.ok and r.reason is Reason.GOAL_UNREACHABLE and "out_of_reach" in r.message
+    assert not r.ok and r.reason is PathFailure.GOAL_UNREACHABLE and "out_of_reach" in r.message
 
 
 def test_goal_outside_the_limits_is_unreachable(planner_for):
@@ -111,7 +111,7 @@ def test_goal_outside_the_limits_is_unreachable(planner_for):
     goal = np.array(HOME)
     goal[4] = 3.0
     r = planner.plan(np.array(HOME), goal, tool)
-    assert not r.ok and r.reason is Reason.GOAL_UNREACHABLE
+    assert not r.ok and r.reason is PathFailure.GOAL_UNREACHABLE
 
 
 def test_touching_the_part_is_a_goal_in_collision(planner_for, cell, specs):
@@ -122,7 +122,7 @@ def test_touching_the_part_is_a_goal_in_collision(planner_for, cell, specs):
 
     on_surface = measurement_poses(cell.part, np.array([spec.point]), np.array([spec.normal]), tool)[0]
     r = planner.plan(np.array(HOME), on_surface, tool)
-    assert not r.ok and r.reason is Reason.GOAL_IN_COLLISION and "part" in r.message
+    assert not r.ok and r.reason is PathFailure.GOAL_IN_COLLISION and "part" in r.message
 
 
 def test_effort_bound_gives_no_path_within_effort(wall_scene):
@@ -130,7 +130,7 @@ def test_effort_bound_gives_no_path_within_effort(wall_scene):
     strict = PathPlanner(planner.model, planner.tree, planner.checker,
                          PlannerSettings(max_rounds=0, fallback_iterations=0))
     r = strict.plan(start, goal)
-    assert not r.ok and r.reason is Reason.NO_PATH_WITHIN_EFFORT and "0 subgoal rounds" in r.message
+    assert not r.ok and r.reason is PathFailure.NO_PATH_WITHIN_EFFORT and "0 subgoal rounds" in r.message
 
 
 def test_no_path_at_all_is_no_path_within_effort_after_the_fallback(cell):
@@ -150,7 +150,7 @@ def test_no_path_at_all_is_no_path_within_effort_after_the_fallback(cell):
     waist_zero[:, 0] = 0.0
     assert not planner.config_free(waist_zero).any()
     r = planner.plan(start, goal)
-    assert not r.ok and r.reason is Reason.NO_PATH_WITHIN_EFFORT
+    assert not r.ok and r.reason is PathFailure.NO_PATH_WITHIN_EFFORT
     assert r.stats["sampled"] == 1500 and "1500 sampling iterations" in r.message
 
 
@@ -239,7 +239,7 @@ def test_a_swing_the_subgoals_miss_is_found_by_the_fallback(planner_for):
     two_level = PathPlanner(planner.model, planner.tree, planner.checker,
                             dataclasses.replace(planner.settings, fallback_iterations=0), planner.tubes)
     alone = two_level.plan(start, goal, tool)
-    assert not alone.ok and alone.reason is Reason.NO_PATH_WITHIN_EFFORT
+    assert not alone.ok and alone.reason is PathFailure.NO_PATH_WITHIN_EFFORT
     r = planner.plan(start, goal, tool)
     assert r.ok and r.stats["sampled"] > 0
     np.testing.assert_allclose(r.waypoints[[0, -1]], [start, goal], atol=1e-12)
@@ -441,7 +441,7 @@ def test_tool_point_speed_limit_is_kept(wall_scene, planner_for):
 
 
 def test_the_planner_makes_the_controllers_trajectory(planner_for):
-    from ita.robot.trajectory import TimedTrajectory
+    from ita.robot.waypoints import TimedTrajectory
 
     planner, _ = planner_for(None)
     w = np.array([HOME, np.array(HOME) + 0.3, np.array(HOME) + [0.6, 0.3, 0.3, 0.3, 0.0, 0.3]])

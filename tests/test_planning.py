@@ -8,10 +8,10 @@ from ita.logic.terms import Term
 from ita.planning import (
     NoPlanError,
     OperationPlanner,
-    PlanSource,
     Place,
-    Pose,
+    PlanSource,
     PoseKind,
+    QualitativePose,
     WorldState,
     store_path,
 )
@@ -38,7 +38,7 @@ def tool(kind: MeasurementKind) -> str:
     return "us_probe_1" if kind in US_KINDS else "slra_1"
 
 
-AT_A = Pose(PoseKind.CONTACT, Place.meas("a"))
+AT_A = QualitativePose(PoseKind.CONTACT, Place.meas("a"))
 EMPTY = WorldState()
 PROBE_AT_A = WorldState(pose=AT_A, holding="us_probe_1")
 SLRA_AT_A = WorldState(pose=AT_A, holding="slra_1")
@@ -126,10 +126,10 @@ def test_goal_constraint_keeps_an_ultrasonic_macrop_from_an_slra_measurement(pla
 
 def test_final_state_chains_measurements(planner):
     first = planner.plan_measurement(spec("b", MeasurementKind.WEB_THICKNESS), EMPTY, "us_probe_1")
-    assert first.final_state == WorldState(pose=Pose(PoseKind.CONTACT, Place.meas("b")),
+    assert first.final_state == WorldState(pose=QualitativePose(PoseKind.CONTACT, Place.meas("b")),
                                            holding="us_probe_1")
     second = planner.plan_measurement(spec("c", MeasurementKind.HOLE_DIAMETER), first.final_state, "slra_1")
-    assert second.final_state == WorldState(pose=Pose(PoseKind.VIEWING, Place.meas("c")), holding="slra_1")
+    assert second.final_state == WorldState(pose=QualitativePose(PoseKind.VIEWING, Place.meas("c")), holding="slra_1")
     assert ("put_down", ("t3", "us_probe_1", "slot_1")) in actions(second)
 
 

@@ -8,13 +8,13 @@ import pytest
 from ita.kinematics import flange_poses, move_time
 from ita.robot import (
     CONTROLLER,
-    ReplyStatus,
+    MotionStatus,
     RobotController,
     TimedTrajectory,
     ToolChanger,
     from_waypoints,
 )
-from ita.robot.trajectory import profile_position, profile_time
+from ita.robot.waypoints import profile_position, profile_time
 from ita.sim.faults import Fault, FaultSet
 from ita.sim.world import SimWorld
 
@@ -91,7 +91,7 @@ def test_driving_into_something_stops_with_a_bump(ctl, goal, obstacle):
     world = ctl.world
     traj = from_waypoints(world.model, [READY, goal])
     reply = ctl.execute(traj)
-    assert reply.status is ReplyStatus.BUMP and not reply.ok
+    assert reply.status is MotionStatus.BUMP and not reply.ok
     assert reply.contact.obstacle == obstacle
     assert reply.contact.moving.startswith("link")
     assert 0.0 < reply.time_s < traj.duration
@@ -105,7 +105,7 @@ def test_allowed_contact_is_not_a_bump(ctl):
     world = ctl.world
     traj = from_waypoints(world.model, [READY, INTO_FIXTURE])
     reply = ctl.execute(traj, allowed=["fixture_beam_high"])
-    assert reply.status is ReplyStatus.BUMP and reply.contact.obstacle != "fixture_beam_high"
+    assert reply.status is MotionStatus.BUMP and reply.contact.obstacle != "fixture_beam_high"
     world.set_q(READY)
     assert ctl.execute(traj, allowed=list(world.bodies)).ok
 
@@ -116,18 +116,18 @@ def test_joint_limits_are_refused_before_moving(ctl):
     bad[1] = world.model.upper[1] + 0.05
     t0 = world.clock.now
     reply = ctl.execute(TimedTrajectory(np.array([0.0, 10.0]), np.array([READY, bad])))
-    assert reply.status is ReplyStatus.JOINT_LIMIT and reply.joint == "j2"
+    assert reply.status is MotionStatus.JOINT_LIMIT and reply.joint == "j2"
     assert reply.time_s == 0.0 and world.clock.now == t0
     np.testing.assert_allclose(world.q, READY)
     fast = READY + np.array([0.0, 0.0, 0.0, 0.0, 0.0, 1.0])
     reply = ctl.execute(TimedTrajectory(np.array([0.0, 0.1]), np.array([READY, fast])))
-    assert reply.status is ReplyStatus.JOINT_LIMIT and reply.joint == "j6" and "speed" in reply.message
+    assert reply.status is MotionStatus.JOINT_LIMIT and reply.joint == "j6" and "speed" in reply.message
 
 
 def test_trajectory_must_start_at_the_arm(ctl):
     far = READY + 0.2
     reply = ctl.execute(from_waypoints(ctl.world.model, [far, READY]))
-    assert reply.status is ReplyStatus.REJECTED
+    assert reply.status is MotionStatus.REJECTED
 
 
 def _tcp_errors(ctl, moves):
@@ -167,7 +167,7 @@ def test_silent_controller_times_out_without_moving(ctl):
     traj = from_waypoints(world.model, [READY, READY + 0.1])
     t0 = world.clock.now
     reply = ctl.execute(traj)
-    assert reply.status is ReplyStatus.TIMEOUT and reply.q is None
+    assert reply.status is MotionStatus.TIMEOUT and reply.q is None
     assert reply.time_s == pytest.approx(traj.duration + ctl.reply_timeout_s)
     assert world.clock.now - t0 == pytest.approx(reply.time_s)
     np.testing.assert_allclose(world.q, READY)
@@ -185,11 +185,11 @@ def test_tool_pick_up_and_put_down(ctl):
     lifted = world.q + np.array([0.0, -0.2, 0.0, 0.0, 0.0, 0.0])
     assert ctl.execute(from_waypoints(world.model, [world.q, lifted])).ok
     np.testing.assert_allclose(world.tool_pose("us_probe_1"), world.flange_pose(), atol=1e-6)
-    assert changer.pick_up("us_probe_2").status is ReplyStatus.REJECTED
+    assert changer.pick_up("us_probe_2").status is MotionStatus.REJECTED
     reply = changer.put_down()
     assert reply.ok, reply
     assert world.held is None
     np.testing.assert_allclose(world.tool_pose("us_probe_1"), world.cell.slot_of("us_probe_1").pose.matrix(),
                                atol=1e-6)
-    assert changer.put_down().status is ReplyStatus.REJECTED
-    assert changer.pick_up("no_such_tool").status is ReplyStatus.REJECTED
+    assert changer.put_down().status is MotionStatus.REJECTED
+    assert changer.pick_up("no_such_tool").status is MotionStatus.REJECTED

@@ -7,6 +7,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from ita.geometry.configurations import POSE_OK, measurement_configurations
 from ita.kinematics import arm_model, move_time, tcp_poses
 from ita.logic.terms import Term
 from ita.sequence.cost import (
@@ -14,9 +15,7 @@ from ita.sequence.cost import (
     COUPLING_S,
     INTERIM_COST,
     MOTION_TIME_COST,
-    POSE_OK,
     flange_move_seconds,
-    measurement_configurations,
     motion_time_tour,
     pose_facts,
     rack_configurations,

@@ -7,9 +7,9 @@ from collections import Counter
 import numpy as np
 import pytest
 
+from ita.geometry.configurations import contact_poses
 from ita.logic.terms import Term
 from ita.sequence.partition import (
-    contact_poses,
     feature_kinds_of,
     partition_specs,
     reach_facts,

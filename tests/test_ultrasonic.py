@@ -13,10 +13,10 @@ import numpy as np
 import pytest
 import trimesh
 
+from ita.archive import Decision, decide
 from ita.kinematics import choose_nearest, ik_tool, measurement_poses
 from ita.part import truth as truth_mod
 from ita.sensors.ultrasonic import (
-    Decision,
     GaugeException,
     GaugeFailure,
     GaugeSpec,
@@ -24,7 +24,6 @@ from ita.sensors.ultrasonic import (
     Reading,
     UltrasonicGauge,
     check_expected,
-    decide,
     interpret,
 )
 from ita.sim.faults import Fault, FaultSet

@@ -18,10 +18,10 @@ from ita.sensors.slra_frame import RangeFrame
 from ita.sim.slra import SlraParams, SlraScene, simulate_frame
 from ita.specs.model import MeasurementKind as K
 from ita.specs.model import MeasurementSpec
-from ita.vision.context import Reason, VisionContext
+from ita.vision.context import VisionContext, VisionFailure
 from ita.vision.measure import measure
-from ita.vision.scan import scan_for
 from ita.vision.regions import planar_regions
+from ita.vision.scan import scan_for
 from ita.workcell.model import Box, Pose
 from tests.test_slra import PLACEMENT, looking_down
 
@@ -94,19 +94,19 @@ def test_occluded_when_a_box_stands_in_front(plate_scene):
     blocker = Box("blocker", Pose((0.0, 0.0, 0.2)), (0.1, 0.1, 0.01))
     scene = SlraScene(plate_scene.mesh.copy(), PLACEMENT, boxes=[blocker])
     reply = measure(_frame(scene, HD, ctx), HD, ctx)
-    assert not reply.ok and reply.reason is Reason.OCCLUDED
+    assert not reply.ok and reply.reason is VisionFailure.OCCLUDED
 
 
 def test_out_of_view_when_the_feature_is_not_in_the_window(plate_scene):
     ctx = _ctx(NOMINAL_HOLE, POCKET)
     reply = measure(_frame(plate_scene, HD, ctx, x_mm=30.0), HD, ctx)
-    assert not reply.ok and reply.reason is Reason.OUT_OF_VIEW
+    assert not reply.ok and reply.reason is VisionFailure.OUT_OF_VIEW
 
 
 def test_too_few_pixels_when_the_returns_drop_out(plate_scene):
     ctx = _ctx(NOMINAL_HOLE, POCKET)
     reply = measure(_frame(plate_scene, HD, ctx, params=SlraParams(dropout_rate=0.995)), HD, ctx)
-    assert not reply.ok and reply.reason is Reason.TOO_FEW_PIXELS
+    assert not reply.ok and reply.reason is VisionFailure.TOO_FEW_PIXELS
 
 
 def test_fit_residual_on_a_garbage_frame(plate_scene):
@@ -115,14 +115,14 @@ def test_fit_residual_on_a_garbage_frame(plate_scene):
     noise = np.random.default_rng(5).uniform(-2e-3, 2e-3, good.range_m.shape)
     garbage = RangeFrame(good.range_m + noise, good.intensity, good.pose, good.geometry)
     reply = measure(garbage, HD, ctx)
-    assert not reply.ok and reply.reason is Reason.FIT_RESIDUAL
+    assert not reply.ok and reply.reason is VisionFailure.FIT_RESIDUAL
 
 
 def test_kinds_the_slra_does_not_measure_are_refused(plate_scene):
     ctx = _ctx(NOMINAL_HOLE, POCKET)
     web = MeasurementSpec("WT-P1-1", K.WEB_THICKNESS, "P1", (50.0, 50.0, 2.5), (0, 0, 1), 2.5, -0.127, 0.127)
     reply = measure(_frame(plate_scene, HD, ctx), web, ctx)
-    assert not reply.ok and reply.reason is Reason.NOT_MEASURABLE
+    assert not reply.ok and reply.reason is VisionFailure.NOT_MEASURABLE
 
 
 def test_planar_regions_find_the_rib_top_and_the_web(rib_scene):

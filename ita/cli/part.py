@@ -22,7 +22,7 @@ def part() -> None:
 def info(part_dir: Path | None, as_json: bool) -> None:
     """Print the part's size, its features and specs counted by kind."""
     from ita.logic.bridge import KnowledgeBase
-    from ita.offline.reach import spec_reach
+    from ita.offline.spec_reach import spec_reach
     from ita.workcell import workcell_for
     from ita.part.store import load_part
     from ita.part.summary import summarize

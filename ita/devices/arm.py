@@ -33,6 +33,7 @@ import numpy as np
 from ita.executive.adapters import Completion, PoseResolver
 from ita.executive.commands import Command, Reply, Wait
 from ita.logic.terms import Term
+from ita.robot import RobotController, ToolChanger, from_waypoints
 
 __all__ = ["CONTACT_SPEED", "RECOVER_SECONDS", "RETRACT_SPEED", "SPRING_N_PER_M", "ArmDevice", "exception_reply"]
 
@@ -65,7 +66,6 @@ class ArmDevice:
 
     def __init__(self, world: Any, poses: PoseResolver, planner_for: Callable[[str | None], tuple[Any, Any]],
                  *, extra: Mapping[str, Handler] = (), controller: Any = None) -> None:
-        from ita.robot import RobotController, ToolChanger
 
         self.world = world
         self.poses = poses
@@ -201,7 +201,6 @@ class ArmDevice:
         return exception_reply(status.upper(), f"{command.text}: {reply.message}", reply.joint or status)
 
     def _straight(self, command: Command) -> Reply:
-        from ita.robot import from_waypoints
 
         world = self.world
         try:

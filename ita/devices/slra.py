@@ -32,6 +32,13 @@ from ita.devices.data import MeasuredValue, ScanData, spec_of_message
 from ita.executive.adapters import Completion, PoseResolver
 from ita.executive.commands import Command, Reply, Wait
 from ita.logic.terms import Term
+from ita.robot import RobotController, from_waypoints
+from ita.robot.controller import joint_offset
+from ita.sensors.slra_frame import ScanGeometry
+from ita.sim.slra import SlraParams, simulate_frame
+from ita.vision.context import VisionException, VisionFailure
+from ita.vision.measure import measure_frames
+from ita.vision.scan import frames_for
 
 __all__ = ["REAPPROACH_M", "VISION_SECONDS", "SlraDevice"]
 
@@ -45,12 +52,11 @@ REAPPROACH_M = 0.02
 def _guarded_measure(measure: Callable[..., Any], frames: Any, spec: Any, vctx: Any) -> Any:
     """Vision's reply; an error inside Vision becomes a NOT_MEASURABLE reply naming it
     (a device reports failures, it never raises)."""
-    from ita.vision.context import Reason, VisionException
 
     try:
         return measure(frames, spec, vctx)
     except Exception as exc:  # noqa: BLE001 - any fault of the vision code is a failed measurement
-        return VisionException(spec.id, Reason.NOT_MEASURABLE, f"vision error {type(exc).__name__}: {exc}")
+        return VisionException(spec.id, VisionFailure.NOT_MEASURABLE, f"vision error {type(exc).__name__}: {exc}")
 
 
 def _value(spec_id: str, reply: Any) -> MeasuredValue:
@@ -68,8 +74,6 @@ class SlraDevice:
     def __init__(self, world: Any, scene: Any, poses: PoseResolver, vision_ctx: Any,
                  specs: Mapping[str, Any], rng: np.random.Generator, *, params: Any = None,
                  wanted: Callable[[str], bool] | None = None, controller: Any = None) -> None:
-        from ita.robot import RobotController
-        from ita.sim.slra import SlraParams
 
         self.world = world
         self.scene = scene
@@ -105,8 +109,6 @@ class SlraDevice:
 
     # -- commands ----------------------------------------------------------------------
     def _scan(self, command: Command, now: float) -> Completion:
-        from ita.sensors.slra_frame import ScanGeometry
-        from ita.sim.slra import simulate_frame
 
         world = self.world
         tool = world.held_tool
@@ -147,7 +149,6 @@ class SlraDevice:
 
     def _frame_plan(self, group: Any) -> Any:
         """The frames the group's wanted members need (the most any of them needs)."""
-        from ita.vision.scan import frames_for
 
         plans = [frames_for(self.specs[m], self.vctx) for m in self._members(group, group.anchor) if m in self.specs]
         return max(plans, key=lambda p: p.count) if plans else frames_for(self.specs[group.anchor], self.vctx)
@@ -155,8 +156,6 @@ class SlraDevice:
     def _reapproach(self, q_view: np.ndarray, view_pose: Any) -> Any:
         """Back off REAPPROACH_M along the line of sight and return to q_view (6,): the
         controller's reply (its time; the arm settles with a new repeatability draw)."""
-        from ita.robot import from_waypoints
-        from ita.robot.controller import joint_offset
 
         world = self.world
         pose = np.asarray(view_pose, dtype=float)
@@ -167,8 +166,6 @@ class SlraDevice:
         return self.controller.execute(traj, command="reapproach")
 
     def _measure(self, command: Command, now: float) -> Completion:
-        from ita.vision.measure import measure_frames
-        from ita.vision.scan import frames_for
 
         spec_id = spec_of_message(command.message) or ""
         held = self.world.held

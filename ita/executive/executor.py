@@ -50,8 +50,8 @@ if TYPE_CHECKING:
     from ita.logic.bridge import KnowledgeBase
 
 __all__ = [
-    "Event",
-    "EventKind",
+    "LogEvent",
+    "LogKind",
     "ExecutionFailure",
     "ExecutionReport",
     "FailureKind",
@@ -71,7 +71,7 @@ class Clock(Protocol):
     def advance(self, seconds: float) -> float: ...
 
 
-class EventKind(str, Enum):
+class LogKind(str, Enum):
     """What happened.  Payloads: QUEUED the stream's items' step numbers; SEND the
     message; WAIT and CONTINUE the steps waited for; REPLY (reply payload, result);
     EXCEPTION the reply payload (or (payload, expected pattern) for a reply that does
@@ -92,11 +92,11 @@ class EventKind(str, Enum):
 
 
 @dataclass(frozen=True)
-class Event:
+class LogEvent:
     """One entry of the executive's log; `stream` and `step` None for plan events."""
 
     sim_time: float
-    kind: EventKind
+    kind: LogKind
     stream: StreamId | None = None
     step: int | None = None
     payload: Any = None
@@ -165,7 +165,7 @@ class ExecutionFailure:
     world: Mapping[str, Any]
     completed: tuple[int, ...]
     cancelled: tuple[int, ...]
-    events: tuple[Event, ...]
+    events: tuple[LogEvent, ...]
 
     @property
     def reason(self) -> str:
@@ -204,7 +204,7 @@ class ExecutionReport:
     started_s: float
     finished_s: float
     outcomes: tuple[StepOutcome, ...]
-    events: tuple[Event, ...]
+    events: tuple[LogEvent, ...]
     failure: ExecutionFailure | None = None
 
     @property
@@ -288,20 +288,20 @@ def run_streams(
     steps = {s.number: s for s in streams.steps}
     now = float(start_s if start_s is not None else (clock.now if clock is not None else 0.0))
     started = now
-    events: list[Event] = []
+    events: list[LogEvent] = []
     outcomes: list[StepOutcome] = []
     completed: set[int] = set()
     pending: list[_Pending] = []  # heap of (time, stream index, step, command, reply or None)
     failure_info: _Failed | None = None
 
-    def log(kind: EventKind, run: _Stream | None = None, step: int | None = None, payload: Any = None) -> None:
-        events.append(Event(now, kind, None if run is None else run.commands.stream, step, payload))
+    def log(kind: LogKind, run: _Stream | None = None, step: int | None = None, payload: Any = None) -> None:
+        events.append(LogEvent(now, kind, None if run is None else run.commands.stream, step, payload))
 
-    log(EventKind.PLAN_START, payload=len(steps))
+    log(LogKind.PLAN_START, payload=len(steps))
     for run in runs:
         if run.adapter.lookahead:
             run.adapter.begin(run.items, now)
-            log(EventKind.QUEUED, run, payload=run.commands.steps)
+            log(LogKind.QUEUED, run, payload=run.commands.steps)
 
     while True:
         for run in runs:
@@ -322,7 +322,7 @@ def run_streams(
         stuck = [r for r in runs if not r.finished]
         if stuck:  # cannot happen for a split plan; a guard against malformed StreamPlans
             raise ExecutiveError(f"streams {[str(r.commands.stream) for r in stuck]} blocked for ever")
-        log(EventKind.PLAN_DONE)
+        log(LogKind.PLAN_DONE)
         return ExecutionReport(plan if plan is not None else streams.steps, started, now,
                                tuple(outcomes), tuple(events))
 
@@ -332,18 +332,18 @@ def run_streams(
     for run in runs:
         run.adapter.stop(now)
         if run.running is not None and run is not failed:
-            log(EventKind.CANCELLED, run, run.running.step, "aborted")
+            log(LogKind.CANCELLED, run, run.running.step, "aborted")
             cancelled.append(run.running.step)
         for item in run.items[run.next_item:]:
             if isinstance(item, Command):
-                log(EventKind.CANCELLED, run, item.step, "not sent")
+                log(LogKind.CANCELLED, run, item.step, "not sent")
                 cancelled.append(item.step)
     world = {str(r.commands.stream): r.adapter.snapshot() for r in runs}
     failure_stub = ExecutionFailure(
         kind, now, plan if plan is not None else streams.steps, steps[command.step], command, reply,
         positions, world, tuple(sorted(completed)), tuple(sorted(cancelled)), (),
     )
-    log(EventKind.PLAN_STOPPED, payload=failure_stub.reason)
+    log(LogKind.PLAN_STOPPED, payload=failure_stub.reason)
     failure = replace(failure_stub, events=tuple(events))
     return ExecutionReport(failure.plan, started, now, tuple(outcomes), tuple(events), failure)
 
@@ -356,14 +356,14 @@ def _advance(run: _Stream, now: float, completed: set[int], pending: list[_Pendi
         if isinstance(item, Wait):
             if run.blocked is not item:
                 run.blocked = item
-                log(EventKind.WAIT, run, item.step, item.waits_for)
+                log(LogKind.WAIT, run, item.step, item.waits_for)
             if not completed.issuperset(item.waits_for):
                 return
-            log(EventKind.CONTINUE, run, item.step, item.waits_for)
+            log(LogKind.CONTINUE, run, item.step, item.waits_for)
             run.blocked = None
             run.next_item += 1
             continue
-        log(EventKind.SEND, run, item.step, item.message)
+        log(LogKind.SEND, run, item.step, item.message)
         completion = run.adapter.start(item, now)
         if completion.at < now:
             raise ExecutiveError(f"{run.commands.stream}: step {item.step} ends at {completion.at} "
@@ -381,20 +381,20 @@ def _receive(run: _Stream, command: Command, reply: Reply | None, now: float, co
              outcomes: list[StepOutcome], log: _Log) -> _Failed | None:
     """Take a stream's reply (None: its time-out); the failure if the plan must stop."""
     if reply is None:
-        log(EventKind.TIMEOUT, run, command.step, command.timeout_s)
+        log(LogKind.TIMEOUT, run, command.step, command.timeout_s)
         reply = Reply(ReplyKind.TIMEOUT, None, f"no reply within {command.timeout_s:g} s")
         return FailureKind.TIMEOUT, run, command, reply
     if reply.kind is ReplyKind.TIMEOUT:  # the device's own time-out (a silent controller)
-        log(EventKind.TIMEOUT, run, command.step, reply.payload)
+        log(LogKind.TIMEOUT, run, command.step, reply.payload)
         return FailureKind.TIMEOUT, run, command, reply
     if reply.kind is ReplyKind.EXCEPTION:
-        log(EventKind.EXCEPTION, run, command.step, reply.payload)
+        log(LogKind.EXCEPTION, run, command.step, reply.payload)
         return FailureKind.EXCEPTION, run, command, reply
     result = command.result_of(reply.payload)
     if result is None:
-        log(EventKind.EXCEPTION, run, command.step, (reply.payload, command.reply))
+        log(LogKind.EXCEPTION, run, command.step, (reply.payload, command.reply))
         return FailureKind.UNEXPECTED_REPLY, run, command, reply
-    log(EventKind.REPLY, run, command.step, (reply.payload, result))
+    log(LogKind.REPLY, run, command.step, (reply.payload, result))
     outcomes.append(StepOutcome(command.step, command, run.started_s, now, reply, result))
     completed.add(command.step)
     run.done.append(command.step)

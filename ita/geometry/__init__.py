@@ -6,10 +6,20 @@
     reasoner = GeometricReasoner(mkb, cell, specs)
     reasoner.resolve(in_contact_point(meas(Id)))   # Target(q, pose): the Executive's PoseResolver
 
-Modules: :mod:`~ita.geometry.mkb` (the values and their file), :mod:`~ita.geometry.reasoner`
-(building the MKB from constraints and preferences; resolving plan terms).
+Modules: :mod:`~ita.geometry.mkb` (the values and their file), :mod:`~ita.geometry.build`
+(building the MKB from constraints and preferences), :mod:`~ita.geometry.reasoner`
+(resolving plan terms), :mod:`~ita.geometry.configurations` (candidate tool poses and the
+one configuration per measurement, shared with the Sequence Planner's cost).
 """
 
+from ita.geometry.build import (
+    GROUP_GROWTH,
+    PRESS_M,
+    build_mkb,
+    mkb_digest,
+    rack_configurations,
+    view_groups,
+)
 from ita.geometry.mkb import (
     MKB_VERSION,
     MeasurementKB,
@@ -19,16 +29,7 @@ from ita.geometry.mkb import (
     mkb_path,
     save_mkb,
 )
-from ita.geometry.reasoner import (
-    GROUP_GROWTH,
-    PRESS_M,
-    GeometricReasoner,
-    Target,
-    build_mkb,
-    mkb_digest,
-    rack_configurations,
-    view_groups,
-)
+from ita.geometry.reasoner import GeometricReasoner, Target
 
 __all__ = [
     "GROUP_GROWTH",

@@ -197,7 +197,7 @@ def prepare(part_dir: Path | None, progress: Callable[[str], None] = lambda _msg
     Raises InputError (with file, line, field) when the part or its specs are bad.
     """
     from ita.logic.bridge import KnowledgeBase
-    from ita.offline.reach import spec_reach
+    from ita.offline.spec_reach import spec_reach
     from ita.workcell import workcell_for
     from ita.part.store import load_part
     from ita.part.summary import summarize

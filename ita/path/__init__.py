@@ -21,10 +21,10 @@ takes an ArmModel, a RegionTree and an ArmChecker and hands plain callables
 
 from ita.path.planner import (
     HOME,
+    PathFailure,
     PathPlanner,
     PathResult,
     PlannerSettings,
-    Reason,
     arm_with_tool,
     checker_for,
     planners_for,
@@ -38,7 +38,7 @@ __all__ = [
     "PathPlanner",
     "PathResult",
     "PlannerSettings",
-    "Reason",
+    "PathFailure",
     "TimedTrajectory",
     "arm_with_tool",
     "checker_for",

@@ -32,18 +32,10 @@ from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
 from ita.collision import ArmChecker
-from ita.collision.kernels import (
-    _seg_box_d2,
-    _seg_point_d2,
-    _seg_seg_d2,
-    _slab,
-    check_arm,
-    pair_gap,
-)
+from ita.collision.kernels import check_arm, pair_gap, tube_clearance
 from ita.kinematics import ArmModel
 
 FloatArray = NDArray[np.float64]
-SPHERE, TUBE = 0, 1
 
 
 class ConfigChecker:
@@ -198,63 +190,6 @@ def _configs_clear(q, margin, moving, lower, upper, base, origins, axes, flange_
 
 
 @njit(cache=True)
-def _region_distance(p0, p1, r, n, kind, pos, rot, half, rad, bound, a, d, bp):
-    """m: surface distance of the tube (p0, p1, r) from region n, <= 0 where they meet.
-    a, d (3,), bp (8,): workspace."""
-    k = kind[n]
-    if k == SPHERE:
-        return np.sqrt(_seg_point_d2(p0, p1, pos[n])) - bound[n] - r
-    if k == TUBE:
-        axis = rot[n, :, 0] * half[n, 0]
-        return np.sqrt(_seg_seg_d2(p0, p1, pos[n] - axis, pos[n] + axis)) - rad[n] - r
-    for i in range(3):
-        a[i] = rot[n, 0, i] * (p0[0] - pos[n, 0]) + rot[n, 1, i] * (p0[1] - pos[n, 1]) + rot[n, 2, i] * (p0[2] - pos[n, 2])
-        d[i] = rot[n, 0, i] * (p1[0] - p0[0]) + rot[n, 1, i] * (p1[1] - p0[1]) + rot[n, 2, i] * (p1[2] - p0[2])
-    h = half[n]
-    if _slab(a, d, h[0], h[1], h[2], 0.0):
-        return -rad[n] - r
-    return np.sqrt(_seg_box_d2(a, d, h, bp)) - rad[n] - r
-
-
-@njit(cache=True)
-def _tube_clearance(p0, p1, r, cap, kind, pos, rot, half, rad, bound, solid, obj, active, child_ptr, child_idx,
-                    roots, stack, a, d, bp, skip):
-    """m: the tube's surface distance from the nearest solid region (not of the objects
-    skip (objects,)), or cap if none is nearer; <= 0 if it meets one.  A region's
-    children lie within it (as for `first_hit`), so a region farther than the nearest
-    solid found so far is not entered."""
-    best = cap
-    sp = 0
-    for i in range(roots.shape[0] - 1, -1, -1):
-        stack[sp] = roots[i]
-        sp += 1
-    while sp > 0:
-        sp -= 1
-        n = stack[sp]
-        if not active[n]:
-            continue
-        if solid[n] and obj[n] >= 0 and obj[n] < skip.shape[0] and skip[obj[n]]:
-            continue
-        if np.sqrt(_seg_point_d2(p0, p1, pos[n])) - bound[n] - r >= best:
-            continue
-        g = _region_distance(p0, p1, r, n, kind, pos, rot, half, rad, bound, a, d, bp)
-        if g >= best:
-            continue
-        if solid[n]:
-            best = g
-            if best <= 0.0:
-                return best
-            continue
-        lo, hi = child_ptr[n], child_ptr[n + 1]
-        if sp + (hi - lo) > stack.shape[0]:
-            return -1.0           # cannot happen for a tree; conservative if it did
-        for j in range(hi - 1, lo - 1, -1):
-            stack[sp] = child_idx[j]
-            sp += 1
-    return best
-
-
-@njit(cache=True)
 def _axis_distance(frame, axis, ends):
     """m: the farthest of a tube's ends (2, 3) from a joint's axis (through frame's
     origin along frame's rotation of axis)."""
@@ -311,7 +246,7 @@ def _clearance_step(segs, need, floor, speed, pspeed, radii, cyl, world, ignore,
         if not world[k]:
             continue
         cap = max(speed[k] * need, 2.0 * floor)
-        c = _tube_clearance(segs[k, 0], segs[k, 1], radii[k], cap, kind, pos, rot, half, rad, bound, solid, obj,
+        c = tube_clearance(segs[k, 0], segs[k, 1], radii[k], cap, kind, pos, rot, half, rad, bound, solid, obj,
                             active, child_ptr, child_idx, roots, stack, a, d, bp, ignore[k])
         if c <= 0.0:
             return 0.0, c

@@ -56,13 +56,13 @@ from ita.path.sampling import rrt_connect
 from ita.path.smooth import estimate_durations, reshape_path, shortcut, time_parameterize
 from ita.path.trajectory import TimedTrajectory
 from ita.path.visibility import VisibilityGraph, build_graph
-from ita.workcell.model import ToolSpec, Workcell
+from ita.workcell.model import HOME_Q, ToolSpec, Workcell
 
 FloatArray = NDArray[np.float64]
-HOME = (0.0, -0.6, 0.9, 0.0, 0.9, 0.0)   # rad: arm folded back, wrist down, clear of the cell
+HOME = HOME_Q   # the workcell model's default home: arm folded back, wrist down, clear of the cell
 
 
-class Reason(str, Enum):
+class PathFailure(str, Enum):
     """Why a query has no path; the value is the spelling in reports."""
 
     GOAL_UNREACHABLE = "goal_unreachable"
@@ -127,7 +127,7 @@ class PathResult:
     trajectory: the timed motion; seconds: planning time (all of it); stats: counts."""
 
     ok: bool
-    reason: Reason | None
+    reason: PathFailure | None
     message: str
     waypoints: FloatArray
     route: FloatArray
@@ -243,7 +243,7 @@ class PathPlanner:
 
     # ---- queries ---------------------------------------------------------------------
     def goal_configs(self, q_start: FloatArray, goal: ArrayLike, tool: ToolSpec | None
-                     ) -> tuple[FloatArray, Reason | None, str]:
+                     ) -> tuple[FloatArray, PathFailure | None, str]:
         """Free goal configurations (m, 6), quickest from q_start (estimated blended
         duration) first, those within the motion check's floor of contact (reachable
         only by moving straight out of it: `MotionChecker.clear`) last;
@@ -252,9 +252,9 @@ class PathPlanner:
         g = np.asarray(goal, dtype=float)
         if g.shape == (self.model.dof,):
             if not self.model.within_limits(g):
-                return np.zeros((0, 6)), Reason.GOAL_UNREACHABLE, "the goal configuration is outside the joint limits"
+                return np.zeros((0, 6)), PathFailure.GOAL_UNREACHABLE, "the goal configuration is outside the joint limits"
             if not ctx.config_free(g)[0]:
-                return np.zeros((0, 6)), Reason.GOAL_IN_COLLISION, f"the goal configuration hits {self._culprit(g, ctx)}"
+                return np.zeros((0, 6)), PathFailure.GOAL_IN_COLLISION, f"the goal configuration hits {self._culprit(g, ctx)}"
             return g[None], None, ""
         if g.shape[-2:] != (4, 4):
             raise ValueError(f"goal must be a configuration (6,) or tool poses (..., 4, 4), got {g.shape}")
@@ -262,10 +262,10 @@ class PathPlanner:
         q = ik.q[ik.valid]
         if len(q) == 0:
             status = ik.flatten_batch().status(()) if ik.shape else ik.status(())
-            return np.zeros((0, 6)), Reason.GOAL_UNREACHABLE, f"no joint solution within the limits ({status.value})"
+            return np.zeros((0, 6)), PathFailure.GOAL_UNREACHABLE, f"no joint solution within the limits ({status.value})"
         free = ctx.config_free(q)
         if not free.any():
-            return np.zeros((0, 6)), Reason.GOAL_IN_COLLISION, f"every joint solution of the goal hits something: {self._culprits(q, ctx)}"
+            return np.zeros((0, 6)), PathFailure.GOAL_IN_COLLISION, f"every joint solution of the goal hits something: {self._culprits(q, ctx)}"
         q = q[free]
         direct = estimate_durations(self.model, np.stack([np.broadcast_to(q_start, q.shape), q], axis=1), ctx.tcp)
         # solutions within micrometres of contact last
@@ -282,9 +282,9 @@ class PathPlanner:
         ctx = self.context(tool)
         start = np.asarray(q_start, dtype=float).reshape(self.model.dof)
         if not self.model.within_limits(start):
-            return self._fail(Reason.START_OUT_OF_LIMITS, "the start configuration is outside the joint limits", t0)
+            return self._fail(PathFailure.START_OUT_OF_LIMITS, "the start configuration is outside the joint limits", t0)
         if not ctx.config_free(start)[0]:
-            return self._fail(Reason.START_IN_COLLISION, f"the start configuration hits {self._culprit(start, ctx)}", t0)
+            return self._fail(PathFailure.START_IN_COLLISION, f"the start configuration hits {self._culprit(start, ctx)}", t0)
         goals, reason, message = self.goal_configs(start, goal, tool)
         if reason is not None:
             return self._fail(reason, message, t0)
@@ -304,7 +304,7 @@ class PathPlanner:
         if path is None:
             path = self._sample(start, everywhere, ctx, stats)
         if path is None:
-            return self._fail(Reason.NO_PATH_WITHIN_EFFORT,
+            return self._fail(PathFailure.NO_PATH_WITHIN_EFFORT,
                               f"no collision-free path within {effort.rounds} subgoal rounds and "
                               f"{stats['sampled']} sampling iterations ({time.perf_counter() - effort.started:.2f} s)",
                               t0, route, stats)
@@ -440,7 +440,7 @@ class PathPlanner:
         return ", ".join(f"{k} ({v})" for k, v in sorted(counts.items(), key=lambda kv: -kv[1]))
 
     @staticmethod
-    def _fail(reason: Reason, message: str, t0: float, route: FloatArray | None = None,
+    def _fail(reason: PathFailure, message: str, t0: float, route: FloatArray | None = None,
               stats: dict | None = None) -> PathResult:
         empty = np.zeros((0, 6))
         return PathResult(False, reason, message, empty, np.zeros((0, 3)) if route is None else route,
@@ -474,4 +474,6 @@ def workcell_planner(cell: Workcell, part: Any | None, held: str | None = None,
     tubes = arm_tubes(cell.arm.urdf, bare.link_names)
     model = tubes.apply(bare)
     checker = tubes.checker(tree, mount=[cell.pedestal.name])
+    if settings is None:
+        settings = PlannerSettings(home=tuple(cell.arm.home))
     return PathPlanner(model, tree, checker, settings, tubes), tool

@@ -4,7 +4,7 @@ A `TimedTrajectory` is knots (times (m,) s from 0, strictly increasing; q (m, do
 between knots the controller interpolates linearly, so a builder puts knots densely
 enough that the straight pieces follow the intended profile.  A builder may also say
 when the path's waypoints are passed (`vias`, s) and at which of them the arm is at rest
-(`stops`); the controller ignores both.  `ita.robot.trajectory` re-exports it beside its
+(`stops`); the controller ignores both.  `ita.robot.waypoints` re-exports it beside its
 simple rest-to-rest builder.
 """
 

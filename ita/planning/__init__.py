@@ -19,7 +19,7 @@ from ita.planning.operation import (
     StoreCounts,
     store_path,
 )
-from ita.planning.state import Place, Pose, PoseKind, WorldState
+from ita.planning.state import Place, PoseKind, QualitativePose, WorldState
 
 __all__ = [
     "MacropInfo",
@@ -29,7 +29,7 @@ __all__ = [
     "PlanSource",
     "PlanStep",
     "Place",
-    "Pose",
+    "QualitativePose",
     "PoseKind",
     "StoreCounts",
     "WorldState",

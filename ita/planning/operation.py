@@ -24,7 +24,7 @@ from typing import TYPE_CHECKING, Any, Callable
 from ita.errors import ItaError
 from ita.logic.terms import Term, Var
 from ita.paths import ita_home
-from ita.planning.state import NOTHING, Place, Pose, PoseKind, WorldState
+from ita.planning.state import NOTHING, Place, PoseKind, QualitativePose, WorldState
 
 if TYPE_CHECKING:
     from ita.logic.bridge import KnowledgeBase
@@ -229,13 +229,13 @@ def _variable_index(template: Any) -> int | None:
     return None
 
 
-def _pose_builder(template: Any) -> Callable[[list[Any]], Pose]:
+def _pose_builder(template: Any) -> Callable[[list[Any]], QualitativePose]:
     """A function from the MACROP's bindings to the pose `template`, built directly
-    (the same value and errors as ``Pose.from_term`` of the plugged term)."""
+    (the same value and errors as ``QualitativePose.from_term`` of the plugged term)."""
     build, ground = _builder(template)
     if ground:
         try:
-            constant = Pose.from_term(build(()))
+            constant = QualitativePose.from_term(build(()))
         except ValueError:
             pass
         else:
@@ -246,14 +246,14 @@ def _pose_builder(template: Any) -> Callable[[list[Any]], Pose]:
         if isinstance(place, Term) and len(place.args) == 1 and place.name != "$VAR":
             name, (arg_build, _) = place.name, _builder(place.args[0])
 
-            def pose(values: list[Any]) -> Pose:
+            def pose(values: list[Any]) -> QualitativePose:
                 arg = arg_build(values)
                 if isinstance(arg, str):
-                    return Pose(kind, Place(name, arg))
-                return Pose.from_term(build(values))  # raises the error it always raised
+                    return QualitativePose(kind, Place(name, arg))
+                return QualitativePose.from_term(build(values))  # raises the error it always raised
 
             return pose
-    return lambda values: Pose.from_term(build(values))
+    return lambda values: QualitativePose.from_term(build(values))
 
 
 _POSE_KINDS = {k.value: k for k in PoseKind}
@@ -267,7 +267,7 @@ class _Template:
     name: str                        # the MACROP's name, e.g. m3
     nvars: int
     steps: tuple[_Builder, ...]
-    at: Callable[[list[Any]], Pose] | None = None  # the final pose, from an adder at(Arm, Pose)
+    at: Callable[[list[Any]], QualitativePose] | None = None  # the final pose, from an adder at(Arm, QualitativePose)
     holding: _Builder | None = None  # the final tool, from an adder holding(Arm, Tool)
 
     @classmethod

@@ -66,14 +66,14 @@ class Place:
 
 
 @dataclass(frozen=True)
-class Pose:
+class QualitativePose:
     """A qualitative pose of the arm's tool point: `kind` of `place`."""
 
     kind: PoseKind
     place: Place
 
     @classmethod
-    def home(cls) -> "Pose":
+    def home(cls) -> "QualitativePose":
         return cls(PoseKind.APPROACH, Place("home"))
 
     def to_term(self) -> Term:
@@ -86,7 +86,7 @@ class Pose:
         return [self.kind.value, self.place.name, self.place.arg]
 
     @classmethod
-    def from_term(cls, value: Any) -> "Pose":
+    def from_term(cls, value: Any) -> "QualitativePose":
         if not (isinstance(value, Term) and len(value.args) == 1):
             raise ValueError(f"not a pose: {value!r}")
         return cls(PoseKind(value.name), Place.from_term(value.args[0]))
@@ -100,7 +100,7 @@ class WorldState:
     """The arm `arm` at `pose`, holding the tool `holding` (None: empty hand)."""
 
     arm: str = "t3"
-    pose: Pose = field(default_factory=Pose.home)
+    pose: QualitativePose = field(default_factory=QualitativePose.home)
     holding: str | None = None
 
     def holding_atom(self) -> str:

@@ -5,24 +5,24 @@
     reply = controller.execute(from_waypoints(world.model, [world.q, q_goal]))
     reply = ToolChanger(controller).pick_up("us_probe_1")
 
-Every command answers with a `Reply`: DONE with the time taken, or an exception reply
+Every command answers with a `MotionReply`: DONE with the time taken, or an exception reply
 (BUMP, TIMEOUT, JOINT_LIMIT, REJECTED) saying what went wrong; nothing is raised.
 """
 
 from ita.robot.controller import (
     CONTROLLER,
-    Reply,
-    ReplyStatus,
+    MotionReply,
+    MotionStatus,
     RobotController,
     joint_offset,
 )
 from ita.robot.toolchanger import ToolChanger
-from ita.robot.trajectory import TimedTrajectory, from_waypoints
+from ita.robot.waypoints import TimedTrajectory, from_waypoints
 
 __all__ = [
     "CONTROLLER",
-    "Reply",
-    "ReplyStatus",
+    "MotionReply",
+    "MotionStatus",
     "RobotController",
     "TimedTrajectory",
     "ToolChanger",

@@ -1,7 +1,7 @@
 """Robot controls: execute a timed joint trajectory on the simulated arm and reply.
 
     controller = RobotController(world)                 # world: ita.sim.world.SimWorld
-    reply = controller.execute(trajectory)              # a Reply, never an exception
+    reply = controller.execute(trajectory)              # a MotionReply, never an exception
     if reply.ok: ... reply.time_s ...
     else: reply.status (BUMP / TIMEOUT / JOINT_LIMIT / REJECTED), reply.contact, reply.joint
 
@@ -29,7 +29,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ita.kinematics import ArmModel, flange_poses
-from ita.robot.trajectory import TimedTrajectory
+from ita.robot.waypoints import TimedTrajectory
 from ita.sim.faults import Fault
 from ita.sim.world import Contact, SimWorld
 
@@ -39,7 +39,7 @@ _START_TOLERANCE = 0.01         # rad: how far a trajectory may start from the a
 _LIMIT_TOLERANCE = 1e-9         # rad, and relative for speeds
 
 
-class ReplyStatus(str, Enum):
+class MotionStatus(str, Enum):
     """How a command ended.  DONE is the normal reply; the others are exception replies."""
 
     DONE = "done"
@@ -50,7 +50,7 @@ class ReplyStatus(str, Enum):
 
 
 @dataclass(frozen=True)
-class Reply:
+class MotionReply:
     """The controller's answer to one command.
 
     time_s: simulated time from the command to the reply; q: joint angles at the reply
@@ -58,7 +58,7 @@ class Reply:
     fault (JOINT_LIMIT); message: one line for people.
     """
 
-    status: ReplyStatus
+    status: MotionStatus
     command: str
     time_s: float
     q: tuple[float, ...] | None
@@ -69,7 +69,7 @@ class Reply:
     @property
     def ok(self) -> bool:
         """Whether this is the normal reply."""
-        return self.status is ReplyStatus.DONE
+        return self.status is MotionStatus.DONE
 
 
 class RobotController:
@@ -96,13 +96,13 @@ class RobotController:
         return 1.0 / self.rate_hz
 
     def execute(self, trajectory: TimedTrajectory, *, allowed: Iterable[str] = (),
-                command: str = "move") -> Reply:
-        """Run `trajectory` from the arm's current joints; the Reply says how it went."""
+                command: str = "move") -> MotionReply:
+        """Run `trajectory` from the arm's current joints; the MotionReply says how it went."""
         world = self.world
         if world.faults.has(Fault.CONTROLLER_SILENT, CONTROLLER):
             wait = trajectory.duration + self.reply_timeout_s
             world.clock.advance(wait)
-            return Reply(ReplyStatus.TIMEOUT, command, wait, None,
+            return MotionReply(MotionStatus.TIMEOUT, command, wait, None,
                          message=f"no reply from the controller within {wait:.1f} s")
         problem = self._check(trajectory)
         if problem is not None:
@@ -124,29 +124,29 @@ class RobotController:
         if hits:
             return self._bump(command, trajectory.duration, hits)
         world.clock.advance(trajectory.duration)
-        return Reply(ReplyStatus.DONE, command, trajectory.duration, tuple(map(float, world.q)))
+        return MotionReply(MotionStatus.DONE, command, trajectory.duration, tuple(map(float, world.q)))
 
-    def _bump(self, command: str, t: float, hits: list[Contact]) -> Reply:
+    def _bump(self, command: str, t: float, hits: list[Contact]) -> MotionReply:
         self.world.clock.advance(t)
         worst = min(hits, key=lambda c: c.distance)
-        return Reply(ReplyStatus.BUMP, command, t, tuple(map(float, self.world.q)), contact=worst,
+        return MotionReply(MotionStatus.BUMP, command, t, tuple(map(float, self.world.q)), contact=worst,
                      message=f"{worst.moving} touched {worst.obstacle} at {t:.3f} s")
 
-    def _check(self, trajectory: TimedTrajectory) -> Reply | None:
+    def _check(self, trajectory: TimedTrajectory) -> MotionReply | None:
         model = self.world.model
         q = self.world.q
         names = model.joint_names
         if trajectory.q.shape[1] != model.dof:
-            return Reply(ReplyStatus.REJECTED, "", 0.0, tuple(q), message="wrong number of joints")
+            return MotionReply(MotionStatus.REJECTED, "", 0.0, tuple(q), message="wrong number of joints")
         gap = np.abs(trajectory.start - q)
         if gap.max() > _START_TOLERANCE:
             j = int(np.argmax(gap))
-            return Reply(ReplyStatus.REJECTED, "", 0.0, tuple(q), joint=names[j],
+            return MotionReply(MotionStatus.REJECTED, "", 0.0, tuple(q), joint=names[j],
                          message=f"trajectory starts {gap[j]:.4f} rad from the arm at {names[j]}")
         outside = (trajectory.q < model.lower - _LIMIT_TOLERANCE) | (trajectory.q > model.upper + _LIMIT_TOLERANCE)
         if outside.any():
             k, j = map(int, np.argwhere(outside)[0])
-            return Reply(ReplyStatus.JOINT_LIMIT, "", 0.0, tuple(q), joint=names[j],
+            return MotionReply(MotionStatus.JOINT_LIMIT, "", 0.0, tuple(q), joint=names[j],
                          message=f"{names[j]} = {trajectory.q[k, j]:.4f} rad at {trajectory.times[k]:.3f} s "
                                  f"is outside [{model.lower[j]:.4f}, {model.upper[j]:.4f}]")
         if len(trajectory.times) > 1:
@@ -154,7 +154,7 @@ class RobotController:
             over = speed > model.velocity * (1.0 + 1e-6)
             if over.any():
                 j = int(np.argmax(speed / model.velocity))
-                return Reply(ReplyStatus.JOINT_LIMIT, "", 0.0, tuple(q), joint=names[j],
+                return MotionReply(MotionStatus.JOINT_LIMIT, "", 0.0, tuple(q), joint=names[j],
                              message=f"{names[j]} speed {speed[j]:.3f} rad/s exceeds {model.velocity[j]:.3f}")
         return None
 

@@ -3,7 +3,7 @@
     gauge = UltrasonicGauge(device)          # device: a GaugeDevice (the simulator's, or a real one)
     gauge.apply_couplant()                   # from the approach point, before contact
     reply = gauge.measure()                  # a Reading or a GaugeException, never a made-up value
-    decide(reply.thickness_mm, reply.expanded_uncertainty, spec.low_limit, spec.high_limit)
+    ita.archive.decide(reply.thickness_mm, reply.expanded_uncertainty, spec.low_limit, spec.high_limit)
 
 Wire level: the gauge box answers each pulse with a `RawEcho` (status word, thickness,
 echo amplitude, dwell).  `interpret` checks it and turns it into a `Reading` or an
@@ -16,9 +16,8 @@ find the cause by tests (a cal-block reading, fresh couplant, a re-approach).
 Uncertainty: a Reading's standard uncertainty comes from the gauge's data sheet and
 calibration certificate (`GaugeSpec`), never from the part: the calibrated sound
 velocity's relative uncertainty, the stated repeatability and the display resolution,
-combined in quadrature.  `decide` applies ISO 14253-1 with U = k u (k = 2): conformance
-is proven only inside the tolerance shrunk by U, nonconformance only outside it grown
-by U; in between the result is UNCERTAIN.
+combined in quadrature; U = k u (k = 2) is what the ISO 14253-1 decision
+(ita.archive.decide) shrinks and grows the tolerance by.
 """
 
 from __future__ import annotations
@@ -195,25 +194,6 @@ class UltrasonicGauge:
     def measure(self) -> GaugeReply:
         """One pulse: a Reading or a GaugeException."""
         return interpret(self.device.pulse(), self.spec)
-
-
-class Decision(str, Enum):
-    """ISO 14253-1 decision on a measured value with its expanded uncertainty."""
-
-    CONFORMS = "conforms"
-    DOES_NOT_CONFORM = "does_not_conform"
-    UNCERTAIN = "uncertain"
-
-
-def decide(value: float, expanded_uncertainty: float, low: float, high: float) -> Decision:
-    """ISO 14253-1: CONFORMS inside [low + U, high - U], DOES_NOT_CONFORM outside
-    [low - U, high + U], else UNCERTAIN."""
-    u = abs(expanded_uncertainty)
-    if low + u <= value <= high - u:
-        return Decision.CONFORMS
-    if value < low - u or value > high + u:
-        return Decision.DOES_NOT_CONFORM
-    return Decision.UNCERTAIN
 
 
 def _finite(x: object) -> bool:

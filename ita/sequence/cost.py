@@ -5,21 +5,9 @@
     s = cost.transfer(workcell, "slra_1", "us_probe_1")   # one tool change, s
 
 Motion time (:data:`MOTION_TIME_COST`).  Each measurement gets ONE joint configuration
-of the workcell's arm, chosen before the ordering (:func:`measurement_configurations`):
-
-1. candidates: the tool poses that take the measurement (ita.kinematics.tool_poses):
-   :data:`ROLLS` rolls about the normal; for the SLRA also the stand-offs of its working
-   range that the reach test tries (the nominal one preferred); for the bent probe on a
-   rib's width both side walls (ita.sequence.partition.contact_poses).  Every exact
-   inverse-kinematics solution of every candidate within the joint limits is a choice.
-2. the group's common branch: the IK branch (shoulder, elbow, wrist) that the most
-   measurements of the group can use (ties: the first in slot order, front/up/j5 >= 0);
-   its reference configuration: the joint-wise median of each measurement's solution in
-   that branch furthest from the joint limits (``choose_centred``).
-3. per measurement: the solution in the common branch quickest to reach from the
-   reference (``choose_nearest``); a measurement without one in that branch takes the
-   quickest of all its solutions.  So neighbours share a branch, a roll and a j6 turn, and
-   stay away from the joint limits.
+of the workcell's arm, chosen before the ordering
+(ita.geometry.configurations.measurement_configurations: candidate poses, the group's
+common IK branch, the solution nearest its reference).
 
 The tour matrix is then ``timing.move_time_matrix`` over [rack slot, measurements]: each
 joint's trapezoidal rest-to-rest time under its velocity and acceleration limits, the
@@ -29,7 +17,8 @@ parked in its rack slot (the flange at the slot's pose, the tool coupled): the t
 there (pick-up) and ends there (put back).
 
 Tool changes (:func:`rack_seconds`): putting a tool back = unlock the coupling
-(:data:`COUPLING_S`) and lift the empty flange :data:`RACK_LIFT_M` straight up; the
+(:data:`COUPLING_S`) and lift the empty flange the rack's approach_m back along the slot's
+axis (straight up); the
 move to above the next slot; picking a tool up = lower the flange onto it and lock the
 coupling.  The moves are joint-space move times (flange chord cap); the coupling time is
 a stated constant.
@@ -48,44 +37,38 @@ tests and comparisons, labelled as not the arm's motion time.
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 import numpy as np
 from numpy.typing import NDArray
 
+from ita.geometry.configurations import (
+    POSE_OK,
+    WRIST_MARGIN,
+    candidate_poses,
+    measurement_configurations,
+)
 from ita.kinematics import (
     ArmModel,
-    IKSolutions,
     arm_model,
     choose_centred,
     choose_nearest,
     ik_flange,
     ik_tool,
-    measurement_poses,
     move_time_matrix,
-    roll_angles,
-    slot_count,
 )
 from ita.logic.terms import Term
-from ita.sequence.partition import contact_poses, reach_facts
-from ita.specs.model import MeasurementKind, MeasurementSpec, Tool
+from ita.sequence.partition import reach_facts
+from ita.specs.model import MeasurementSpec, Tool
 
 if TYPE_CHECKING:
     from ita.workcell.model import ToolSpec, Workcell
 
 FloatArray = NDArray[np.float64]
 
-#: rolls about the normal tried per tool pose (evenly over a turn)
-ROLLS = 12
 #: seconds to lock or to unlock the tool changer's coupling (a stated constant)
 COUPLING_S = 1.0
-#: metres the empty flange rises above a rack slot between tools
-RACK_LIFT_M = 0.10
-#: IK solutions with |j5| below this (rad) are not used (0: the exact limits only)
-WRIST_MARGIN = 0.0
-#: the pose fact's verdict for a measurement with a configuration (kb/tools.pl)
-POSE_OK = "reachable"
 
 TourCost = Callable[["Workcell", "ToolSpec", Sequence[MeasurementSpec]], np.ndarray]
 TransferCost = Callable[["Workcell", "str | None", "str | None"], float]
@@ -113,113 +96,20 @@ class CostModel:
 
 # -- the motion-time model -----------------------------------------------------------------
 
-@dataclass(frozen=True, eq=False)
-class Configurations:
-    """One arm configuration per measurement of a tool (see the module docstring).
-
-    q: ``(n, 6) float`` rad, nan where `found` is False; found: ``(n,) bool``;
-    status: per measurement :data:`POSE_OK` or the IK status of the candidate nearest to
-    having a solution (``out_of_reach``, ``joint_limits``, ``wrist_singularity``);
-    branch: the common IK branch (0..7, slot order of ita.kinematics.ik); q_ref: ``(6,)``
-    its reference configuration (nan when no measurement has a solution);
-    in_branch: ``(n,) bool`` whether the chosen solution is in the common branch.
-    """
-
-    q: FloatArray
-    found: NDArray[np.bool_]
-    status: tuple[str, ...]
-    branch: int
-    q_ref: FloatArray
-    in_branch: NDArray[np.bool_]
-
-
-def standoffs_to_try(tool: ToolSpec, samples: int) -> FloatArray:
-    """Stand-offs (k,) m of a tool, the nominal one first, then `samples` evenly over its
-    range (the reach test's samples, ita.workcell.reach); (1,) for a contact probe."""
-    if tool.standoff_max > tool.standoff_min:
-        extra = np.linspace(tool.standoff_min, tool.standoff_max, max(samples, 2))
-        return np.concatenate([[tool.standoff_nominal], extra[~np.isclose(extra, tool.standoff_nominal)]])
-    return np.array([tool.standoff_nominal])
-
-
-def candidate_poses(workcell: Workcell, tool: ToolSpec,
-                    specs: Sequence[MeasurementSpec]) -> tuple[FloatArray, NDArray[np.bool_]]:
-    """World TCP poses ``(n, c, 4, 4)`` that take each measurement with `tool`, and
-    ``(n, c) bool`` which of them are preferred (the nominal stand-off).
-
-    The ultrasonic probe: both contact poses of ita.sequence.partition.contact_poses
-    (different only on a rib's width) x :data:`ROLLS` rolls.  The SLRA: the spec point
-    seen along its normal at :func:`standoffs_to_try` x :data:`ROLLS` rolls.
-    """
-    n = len(specs)
-    rolls = roll_angles(ROLLS)
-    if tool.tool_class is Tool.ULTRASONIC:
-        pa, na, pb, nb = contact_poses(specs)
-        side_a = measurement_poses(workcell.part, pa, na, tool, rolls, standoff=0.0)
-        side_b = measurement_poses(workcell.part, pb, nb, tool, rolls, standoff=0.0)
-        two_sided = np.array([s.kind is MeasurementKind.STIFFENER_WIDTH for s in specs], dtype=bool)
-        poses = np.concatenate([side_a, side_b], axis=1)
-        preferred = np.ones(poses.shape[:2], dtype=bool)
-        preferred[~two_sided, len(rolls):] = False  # the same pose twice: count it once
-        return poses, preferred
-    points = np.array([s.point for s in specs], dtype=float).reshape(-1, 3)
-    normals = np.array([s.normal for s in specs], dtype=float).reshape(-1, 3)
-    standoffs = standoffs_to_try(tool, workcell.reach.standoff_samples)
-    poses = np.concatenate([measurement_poses(workcell.part, points, normals, tool, rolls, standoff=float(d))
-                            for d in standoffs], axis=1)
-    preferred = np.zeros((n, poses.shape[1]), dtype=bool)
-    preferred[:, : len(rolls)] = True
-    return poses, preferred
-
-
-def measurement_configurations(workcell: Workcell, model: ArmModel, tool: ToolSpec,
-                               specs: Sequence[MeasurementSpec]) -> Configurations:
-    """Choose one configuration per measurement (steps 1 to 3 of the module docstring)."""
-    n = len(specs)
-    if n == 0:
-        empty = np.zeros((0, model.dof))
-        return Configurations(empty, np.zeros(0, bool), (), 0, np.full(model.dof, np.nan), np.zeros(0, bool))
-    poses, preferred = candidate_poses(workcell, tool, specs)
-    ik = ik_tool(model, poses, tool.tcp.matrix(), WRIST_MARGIN)             # batch (n, c), K slots
-    flat = ik.flatten_batch()                                                # batch (n,), c*K slots
-    k = slot_count(model)
-    # a preferred candidate's solutions when there are any, else all of them
-    pref = ik.valid & preferred[..., None]
-    use = np.where(pref.any(axis=(1, 2))[:, None, None], pref, ik.valid).reshape(n, -1)
-    branch_of = (np.arange(flat.valid.shape[1]) % k) // (k // 8)             # (c*K,) branch 0..7
-    per_branch = np.array([(use & (branch_of == b)).any(axis=1).sum() for b in range(8)])
-    branch = int(np.argmax(per_branch))
-    in_common = use & (branch_of == branch)
-    q_ref = np.full(model.dof, np.nan)
-    if in_common.any():
-        centred, has = choose_centred(model, _masked(flat, in_common))
-        q_ref = np.median(centred[has], axis=0)
-    choose_from = np.where(in_common.any(axis=1)[:, None], in_common, use)
-    ref = q_ref if np.isfinite(q_ref).all() else np.zeros(model.dof)
-    q, found = choose_nearest(model, _masked(flat, choose_from), ref)
-    status = tuple(POSE_OK if f else s.value for f, s in zip(found, flat.statuses()))
-    return Configurations(q, found, status, branch, q_ref, found & in_common.any(axis=1))
-
-
-def _masked(solutions: IKSolutions, keep: NDArray[np.bool_]) -> IKSolutions:
-    """The solutions with only the `keep` slots valid."""
-    return replace(solutions, valid=solutions.valid & keep)
-
-
 def rack_configurations(workcell: Workcell, model: ArmModel, tool_name: str) -> tuple[FloatArray, FloatArray]:
     """``(6,)`` configurations at `tool_name`'s rack slot: coupled (the flange at the slot's
-    pose; the solution furthest from the joint limits) and :data:`RACK_LIFT_M` above it
+    pose; the solution furthest from the joint limits) and the rack's approach_m above it
     (the solution quickest to reach from the coupled one).  ValueError when the arm
     cannot reach the slot."""
     slot = workcell.slot_of(tool_name).pose.matrix()
     above = slot.copy()
-    above[2, 3] += RACK_LIFT_M
+    above[:3, 3] -= workcell.rack.approach_m * slot[:3, 2]      # back along the slot's axis: up
     q_slot, ok = choose_centred(model, ik_flange(model, slot, WRIST_MARGIN))
     if not ok:
         raise ValueError(f"the arm cannot reach the rack slot of {tool_name!r}")
     q_above, ok = choose_nearest(model, ik_flange(model, above, WRIST_MARGIN), q_slot)
     if not ok:
-        raise ValueError(f"the arm cannot reach {RACK_LIFT_M} m above the rack slot of {tool_name!r}")
+        raise ValueError(f"the arm cannot reach {workcell.rack.approach_m} m above the rack slot of {tool_name!r}")
     return q_slot, q_above
 
 
@@ -347,8 +237,8 @@ INTERIM_COST = CostModel(
 COST_MODELS: dict[str, CostModel] = {m.name: m for m in (MOTION_TIME_COST, INTERIM_COST)}
 
 __all__ = [
-    "COST_MODELS", "COUPLING_S", "INTERIM_COST", "MOTION_TIME_COST", "POSE_OK", "RACK_LIFT_M", "ROLLS",
-    "Configurations", "CostModel", "candidate_poses", "euclidean_slot_seconds", "euclidean_tcp_seconds",
-    "flange_move_seconds", "measurement_configurations", "motion_time_tour", "pose_facts",
-    "rack_configurations", "rack_seconds", "slot_position", "standoffs_to_try", "tool_points_world",
+    "COST_MODELS", "COUPLING_S", "INTERIM_COST", "MOTION_TIME_COST",
+    "CostModel", "euclidean_slot_seconds", "euclidean_tcp_seconds",
+    "flange_move_seconds", "motion_time_tour", "pose_facts",
+    "rack_configurations", "rack_seconds", "slot_position", "tool_points_world",
 ]

@@ -14,7 +14,8 @@ groups the answers::
 Facts (see kb/tools.pl): ``reach(ToolType, Verdict)`` from the arm's geometric reach test
 (ita.workcell.reach_report) for the pose the measurement needs with that tool type.  The
 ultrasonic probe touches the spec point, except for a rib's width, where it touches the
-rib's side wall a little below the top (either side; the better verdict counts).  A
+rib's side wall a little below the top (either side; the better verdict counts:
+ita.geometry.configurations.contact_poses).  A
 later facts function may add ``pose(ToolType, Verdict)`` from the inverse kinematics:
 pass it as `facts` in place of :func:`reach_facts`.
 """
@@ -28,15 +29,14 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ita.geometry.configurations import contact_poses
 from ita.logic.terms import Term
-from ita.specs.model import MeasurementKind, MeasurementSpec, Tool
+from ita.specs.model import MeasurementSpec, Tool
 
 if TYPE_CHECKING:
     from ita.logic.bridge import KnowledgeBase
     from ita.workcell.model import Workcell
 
-#: the probe touches a rib's side wall this far below the rib's top (mm)
-RIB_CONTACT_BELOW_TOP_MM = 8.0
 #: feature kind sent for a spec whose feature the part does not describe
 UNKNOWN_FEATURE = "unknown"
 
@@ -106,27 +106,6 @@ def term_text(value: Any) -> str:
 def feature_kinds_of(features: Iterable[Any]) -> dict[str, str]:
     """Feature id -> feature kind spelling, for a part's features."""
     return {f.id: f.kind.value for f in features}
-
-
-def contact_poses(specs: Sequence[MeasurementSpec]) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Where the ultrasonic probe must touch for each spec: two candidate poses.
-
-    Returns (points_a, normals_a, points_b, normals_b), each ``(n, 3) float``, part frame,
-    mm.  For most kinds both candidates are the spec's point and normal; for a rib's
-    width they are the two side walls, :data:`RIB_CONTACT_BELOW_TOP_MM` below the top,
-    normals along -/+ the measuring direction.
-    """
-    p = np.array([s.point for s in specs], dtype=float).reshape(-1, 3)
-    nrm = np.array([s.normal for s in specs], dtype=float).reshape(-1, 3)
-    pa, na, pb, nb = p.copy(), nrm.copy(), p.copy(), nrm.copy()
-    for i, s in enumerate(specs):
-        if s.kind is MeasurementKind.STIFFENER_WIDTH and s.direction is not None:
-            d = np.asarray(s.direction, dtype=float)
-            below = p[i] - nrm[i] * RIB_CONTACT_BELOW_TOP_MM
-            half = 0.5 * s.nominal
-            pa[i], na[i] = below - d * half, -d
-            pb[i], nb[i] = below + d * half, d
-    return pa, na, pb, nb
 
 
 def reach_facts(workcell: Workcell, specs: Sequence[MeasurementSpec]) -> list[list[Term]]:

@@ -89,7 +89,7 @@ class CouplantSpot:
 
 
 @dataclass(frozen=True)
-class WorldState:
+class SimSnapshot:
     """What `SimWorld.saved_state` saves and restores."""
 
     q: tuple[float, ...]
@@ -185,12 +185,12 @@ class SimWorld:
     def __exit__(self, *exc: object) -> None:
         self.close()
 
-    def state(self) -> WorldState:
+    def state(self) -> SimSnapshot:
         """A snapshot of the world's state (not the clock)."""
-        return WorldState(tuple(map(float, self.q)), self.held, self.couplant,
+        return SimSnapshot(tuple(map(float, self.q)), self.held, self.couplant,
                           tuple(map(float, self.drift_m)))  # type: ignore[arg-type]
 
-    def restore(self, state: WorldState) -> None:
+    def restore(self, state: SimSnapshot) -> None:
         """Put the world back into a snapshot: tools parked or held, joints, couplant, drift."""
         if self.held is not None and self.held != state.held:
             self.detach()

@@ -12,7 +12,7 @@ from __future__ import annotations
 from typing import Any
 
 from ita.archive import Event
-from ita.executive import EventKind as XKind
+from ita.executive import LogKind
 from ita.executive.commands import term_text
 from ita.logic.terms import Term
 
@@ -40,9 +40,9 @@ def archive_events(report: Any, plan_no: int) -> list[Event]:
     names: dict[int, str] = {}
     ends: dict[int, float] = {}
     for e in report.events:
-        if e.kind is XKind.SEND:
+        if e.kind is LogKind.SEND:
             names[e.step] = e.payload.name if isinstance(e.payload, Term) else str(e.payload)
-        elif e.kind in (XKind.REPLY, XKind.EXCEPTION, XKind.TIMEOUT, XKind.CANCELLED) and e.step is not None:
+        elif e.kind in (LogKind.REPLY, LogKind.EXCEPTION, LogKind.TIMEOUT, LogKind.CANCELLED) and e.step is not None:
             ends.setdefault(e.step, e.sim_time)
     out: list[Event] = []
     for e in report.events:
@@ -50,25 +50,25 @@ def archive_events(report: Any, plan_no: int) -> list[Event]:
         name = names.get(step) if step is not None else None
         stream = _stream_name(e.stream, name)
         cmd = f"{plan_no}.{step}"
-        if e.kind is XKind.SEND:
+        if e.kind is LogKind.SEND:
             payload = {"cmd": cmd, "name": name.lower(), "category": _CATEGORY.get(name, "other"),
                        "message": term_text(e.payload)}
             if step in ends:
                 payload["end"] = ends[step]
             out.append(Event("command", stream, e.sim_time, payload))
-        elif e.kind is XKind.REPLY:
+        elif e.kind is LogKind.REPLY:
             reply, result = e.payload
             out.append(Event("reply", stream, e.sim_time, {"cmd": cmd, "status": "ok", "reply": term_text(reply),
                                                             "result": term_text(result)}))
-        elif e.kind in (XKind.EXCEPTION, XKind.TIMEOUT):
-            status = "timeout" if e.kind is XKind.TIMEOUT else "exception"
+        elif e.kind in (LogKind.EXCEPTION, LogKind.TIMEOUT):
+            status = "timeout" if e.kind is LogKind.TIMEOUT else "exception"
             out.append(Event("reply", stream, e.sim_time, {"cmd": cmd, "status": status}))
-        elif e.kind is XKind.WAIT:
+        elif e.kind is LogKind.WAIT:
             out.append(Event("wait", stream, e.sim_time, {"on": [f"{plan_no}.{s}" for s in e.payload], "cmd": cmd}))
-        elif e.kind is XKind.CONTINUE:
+        elif e.kind is LogKind.CONTINUE:
             out.append(Event("continue", stream, e.sim_time, {"on": [f"{plan_no}.{s}" for s in e.payload],
                                                               "cmd": cmd}))
-        elif e.kind is XKind.CANCELLED:
+        elif e.kind is LogKind.CANCELLED:
             out.append(Event("cancelled", stream, e.sim_time, {"cmd": cmd, "how": str(e.payload)}))
     if report.failure is not None:
         f = report.failure

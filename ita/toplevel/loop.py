@@ -36,7 +36,10 @@ from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any
 
 from ita.archive import Event, Outcome, Result, RunStatus
+from ita.archive.timeline import breakdown, intervals, span
+from ita.devices.arm import RECOVER_SECONDS
 from ita.planning.state import WorldState
+from ita.sequence.next_step import next_step, the_arm
 from ita.toplevel.events import archive_events
 from ita.toplevel.measure import MeasureOutcome, MeasureStatus, measure_one
 from ita.toplevel.signals import RunSignals, StopNow
@@ -156,7 +159,6 @@ class TopLevel:
 
     # -- the run -----------------------------------------------------------------------------
     def run(self, on_progress: Callable[[Progress], None] | None = None) -> RunSummary:
-        from ita.sequence.next_step import next_step
 
         s = self.session
         wall0 = time.perf_counter()
@@ -221,14 +223,12 @@ class TopLevel:
 
     def breakdown(self) -> dict[str, float]:
         """The run's cycle-time breakdown from its recorded events (ita.archive.timeline)."""
-        from ita.archive.timeline import breakdown, intervals, span
 
         events = self.archive.events(self.run_id)
         start, end = span(events)
         return breakdown(intervals(events, end), start, end)
 
     def _arm_name(self) -> str:
-        from ita.sequence.next_step import the_arm
 
         return the_arm(self.session.kb)
 
@@ -293,7 +293,6 @@ class TopLevel:
         events.append(Event("plan_end", "top", out.t1, {"spec": out.spec_id, "status": "failed",
                                                         "recovered_arm": out.recovered_arm}))
         if out.recovered_arm:
-            from ita.devices.arm import RECOVER_SECONDS
 
             events.append(Event("recovery", "arm", out.t1, {"how": "jog back to the last free configuration",
                                                             "duration": RECOVER_SECONDS}))

@@ -22,7 +22,8 @@ from typing import TYPE_CHECKING, Any
 
 from ita.devices.data import MeasuredValue, measured_values, scan_frames
 from ita.logic.terms import Term
-from ita.planning.state import NOTHING, Place, Pose, PoseKind, WorldState
+from ita.planning import NoPlanError
+from ita.planning.state import NOTHING, Place, PoseKind, QualitativePose, WorldState
 
 if TYPE_CHECKING:
     from ita.executive import ExecutionReport
@@ -82,9 +83,9 @@ def state_after(plan: Any, report: Any) -> WorldState:
             continue
         try:
             if r.name == "moved" and len(r.args) == 2:
-                pose = Pose.from_term(r.args[1])
+                pose = QualitativePose.from_term(r.args[1])
             elif r.name == "contact" and len(r.args) == 3:
-                pose = Pose(PoseKind.CONTACT, Place.from_term(r.args[1]))
+                pose = QualitativePose(PoseKind.CONTACT, Place.from_term(r.args[1]))
             elif r.name == "tool_location" and len(r.args) == 2 and isinstance(r.args[1], Term):
                 holding = str(r.args[0]) if r.args[1].name == "on_arm" else None
         except ValueError:
@@ -115,7 +116,6 @@ def _dimension(spec_id: str, report: Any) -> MeasuredValue | None:
 def measure_one(session: Session, spec_id: str, state: WorldState, tool: str) -> MeasureOutcome:
     """Plan, execute and read back measurement `spec_id` with `tool` from `state` (see the
     module docstring).  The simulated clock ends at the plan's end."""
-    from ita.planning import NoPlanError
 
     spec = session.specs[spec_id]
     clock = session.world.clock

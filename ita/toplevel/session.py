@@ -16,6 +16,22 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ita.devices import ArmDevice, GaugeCommands, SlraDevice
+from ita.executive import PlanExecutive
+from ita.geometry import GeometricReasoner
+from ita.logic.bridge import KnowledgeBase
+from ita.offline.prepare import prepare_inspection
+from ita.part.store import load_part
+from ita.path import planners_for
+from ita.planning import OperationPlanner, store_path
+from ita.sensors.ultrasonic import UltrasonicGauge
+from ita.sequence.plan import planning_context
+from ita.sequence.store import apply_tool_marks, load_tool_marks
+from ita.sim.slra import SlraScene
+from ita.sim.ultrasonic import UltrasonicSim
+from ita.sim.world import SimWorld
+from ita.vision.context import VisionContext
+
 if TYPE_CHECKING:
     from ita.devices import ArmDevice, SlraDevice
     from ita.executive import PlanExecutive
@@ -75,21 +91,6 @@ def open_session(part_dir: Path | None = None, *, seed: int = 0,
                  progress: Callable[[str], None] = lambda _m: None) -> Session:
     """Load everything a run needs; prepare the part first (sequence plan, MKB, MACROPs)
     when what is stored is missing or stale."""
-    from ita.devices import ArmDevice, GaugeCommands, SlraDevice
-    from ita.executive import PlanExecutive
-    from ita.geometry import GeometricReasoner
-    from ita.logic.bridge import KnowledgeBase
-    from ita.offline.prepare import prepare_inspection
-    from ita.part.store import load_part
-    from ita.path import planners_for
-    from ita.planning import OperationPlanner, store_path
-    from ita.sensors.ultrasonic import UltrasonicGauge
-    from ita.sequence.plan import planning_context
-    from ita.sequence.store import apply_tool_marks, load_tool_marks
-    from ita.sim.slra import SlraScene
-    from ita.sim.ultrasonic import UltrasonicSim
-    from ita.sim.world import SimWorld
-    from ita.vision.context import VisionContext
 
     t0 = time.perf_counter()
     progress("loading the knowledge bases and the part")

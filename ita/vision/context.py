@@ -84,7 +84,7 @@ MAX_DATUM_HOLES = 6      # a fastener hole registers on at most this many neighb
 POSE_DATUM_FRAMES = 16   # re-approaches averaged for a position whose only datum is the pose
 
 
-class Reason(str, Enum):
+class VisionFailure(str, Enum):
     """Why a measurement could not be made."""
 
     OUT_OF_VIEW = "out_of_view"
@@ -99,7 +99,7 @@ class VisionException:
     """The reply when a measurement cannot be made: the reason and what was seen."""
 
     spec_id: str
-    reason: Reason
+    reason: VisionFailure
     detail: str = ""
     ok = False
 
@@ -125,7 +125,7 @@ VisionReply = Union[VisionResult, VisionException]  # noqa: UP007 (a runtime ali
 
 
 class VisionFail(Exception):
-    def __init__(self, reason: Reason, detail: str):
+    def __init__(self, reason: VisionFailure, detail: str):
         super().__init__(detail)
         self.reason, self.detail = reason, detail
 

@@ -12,7 +12,7 @@ from numpy.typing import NDArray
 from ita.part.model import FlangeSegment, Hole, HoleRole, Stiffener
 from ita.specs.model import MeasurementKind as K
 from ita.specs.model import MeasurementSpec
-from ita.vision.context import BLUR_MM, EDGE_CORRELATION, Reason, VisionContext, VisionFail, VisionResult
+from ita.vision.context import BLUR_MM, EDGE_CORRELATION, VisionContext, VisionFail, VisionFailure, VisionResult
 from ita.vision.fit import (
     LineFit,
     fit_parallel_planes,
@@ -84,7 +84,7 @@ def _web_plane(view: View, c: FloatArray, u: FloatArray, v: FloatArray, u_range,
     mid = c + 0.5 * (u_range[0] + u_range[1]) * u
     z_web = ctx.web_at(mid)
     if z_web is None:
-        raise VisionFail(Reason.NOT_MEASURABLE, f"no pocket floor beside the feature at {tuple(np.round(mid, 1))}")
+        raise VisionFail(VisionFailure.NOT_MEASURABLE, f"no pocket floor beside the feature at {tuple(np.round(mid, 1))}")
     patch, region = rect_patch(view, name, c, u, v, u_range, v_range, z_web)
     _, used = fit_face(view, patch, region, z_web)
     return patch.take(view.points)[used], z_web
@@ -158,10 +158,10 @@ def _stiffener(view: View, spec: MeasurementSpec, rib: Stiffener, ctx: VisionCon
                 webs.append(_web_plane(view, p, side * across, along, (half + b + 1.0, half + b + 11.0), span, ctx,
                                        f"web {'left' if side < 0 else 'right'}"))
             except VisionFail as exc:
-                if exc.reason is not Reason.NOT_MEASURABLE and exc.reason is not Reason.TOO_FEW_PIXELS:
+                if exc.reason is not VisionFailure.NOT_MEASURABLE and exc.reason is not VisionFailure.TOO_FEW_PIXELS:
                     raise
         if not webs:
-            raise VisionFail(Reason.TOO_FEW_PIXELS, "no web visible beside the rib")
+            raise VisionFail(VisionFailure.TOO_FEW_PIXELS, "no web visible beside the rib")
         value, unc, diag = _height(patch.take(view.points)[top_px], webs, ctx)
         return VisionResult(spec.id, spec.kind, value, unc, diag)
     lines = []

@@ -70,7 +70,7 @@ from numpy.typing import NDArray
 from ita.sensors.slra_frame import RangeFrame
 from ita.specs.model import MeasurementKind as K
 from ita.specs.model import MeasurementSpec
-from ita.vision.context import Reason, VisionContext, VisionException, VisionFail, VisionReply, VisionResult
+from ita.vision.context import VisionContext, VisionException, VisionFail, VisionFailure, VisionReply, VisionResult
 from ita.vision.kinds import MEASURERS
 from ita.vision.patches import View
 
@@ -82,7 +82,7 @@ def measure(frame: RangeFrame, spec: MeasurementSpec, ctx: VisionContext) -> Vis
     entry = MEASURERS.get(spec.kind)
     feature = ctx.features.get(spec.feature)
     if entry is None or not isinstance(feature, entry[0]):
-        return VisionException(spec.id, Reason.NOT_MEASURABLE,
+        return VisionException(spec.id, VisionFailure.NOT_MEASURABLE,
                                f"the SLRA does not measure {spec.kind.value} of {spec.feature!r}")
     try:
         return entry[1](View(frame, ctx.placement), spec, feature, ctx)
@@ -98,7 +98,7 @@ def measure_frames(frames: Sequence[RangeFrame], spec: MeasurementSpec, ctx: Vis
     neighbours' own errors) as it is.  Other kinds: the first frame.  More than half of
     the frames failing is the first failure's reply."""
     if not frames:
-        return VisionException(spec.id, Reason.NOT_MEASURABLE, "no frame")
+        return VisionException(spec.id, VisionFailure.NOT_MEASURABLE, "no frame")
     if len(frames) == 1 or spec.kind is not K.HOLE_POSITION:
         return measure(frames[0], spec, ctx)
     replies = [measure(f, spec, ctx) for f in frames]

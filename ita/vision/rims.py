@@ -29,9 +29,9 @@ from ita.vision.context import (
     MIX_RANGE_MM,
     OCCLUDER_MM,
     SURFACE_BAND_MM,
-    Reason,
     VisionContext,
     VisionFail,
+    VisionFailure,
 )
 from ita.vision.fit import (
     CircleFit,
@@ -60,7 +60,7 @@ def rect_patch(view: View, name: str, c: FloatArray, u: FloatArray, v: FloatArra
     corners = np.array([np.append(c + s * u + t * v, z) for s in u_range for t in v_range])
     patch = place_patch(view, name, corners)
     if patch is None:
-        raise VisionFail(Reason.OUT_OF_VIEW, f"patch {name!r} is outside the frame")
+        raise VisionFail(VisionFailure.OUT_OF_VIEW, f"patch {name!r} is outside the frame")
     q = nominal_points(view, patch, z)[..., :2] - c
     s, t = q @ u, q @ v
     region = (s >= u_range[0]) & (s <= u_range[1]) & (t >= v_range[0]) & (t <= v_range[1])
@@ -77,16 +77,16 @@ def fit_face(view: View, patch: Patch, region: NDArray[np.bool_], z: float) -> t
         front = valid & (p[..., 2] > z + OCCLUDER_MM)
         near = valid & (np.abs(p[..., 2] - z) < SURFACE_BAND_MM)
     if n_region and front.sum() > MAX_OCCLUDED * n_region:
-        raise VisionFail(Reason.OCCLUDED, f"{int(front.sum())} of {n_region} pixels of {patch.name!r} are "
+        raise VisionFail(VisionFailure.OCCLUDED, f"{int(front.sum())} of {n_region} pixels of {patch.name!r} are "
                     f"more than {OCCLUDER_MM} mm in front of the face")
     if near.sum() < MIN_PLANE_PIXELS:
-        raise VisionFail(Reason.TOO_FEW_PIXELS, f"{int(near.sum())} valid pixels on {patch.name!r} "
+        raise VisionFail(VisionFailure.TOO_FEW_PIXELS, f"{int(near.sum())} valid pixels on {patch.name!r} "
                     f"(of {n_region}; need {MIN_PLANE_PIXELS})")
     fit = fit_plane(p[near])
     if fit is None:
-        raise VisionFail(Reason.TOO_FEW_PIXELS, f"no plane on {patch.name!r}")
+        raise VisionFail(VisionFailure.TOO_FEW_PIXELS, f"no plane on {patch.name!r}")
     if fit.rms > MAX_PLANE_RMS_MM:
-        raise VisionFail(Reason.FIT_RESIDUAL, f"plane on {patch.name!r}: rms {fit.rms:.3f} mm > {MAX_PLANE_RMS_MM}")
+        raise VisionFail(VisionFailure.FIT_RESIDUAL, f"plane on {patch.name!r}: rms {fit.rms:.3f} mm > {MAX_PLANE_RMS_MM}")
     with np.errstate(invalid="ignore"):
         near &= np.abs(p[..., 2] - (fit.coef[0] * p[..., 0] + fit.coef[1] * p[..., 1] + fit.coef[2])) < 3.5 * fit.rms
     return fit, near
@@ -171,7 +171,7 @@ def fit_rim(view: View, hole: Hole, name: str, min_coverage: float = math.pi,
     rc = view.pixel_of(corners)
     centre_rc = view.pixel_of(np.append(c, z)[None])
     if not view.geometry.contains(centre_rc).all():
-        raise VisionFail(Reason.OUT_OF_VIEW, f"centre of {hole.id} is outside the frame")
+        raise VisionFail(VisionFailure.OUT_OF_VIEW, f"centre of {hole.id} is outside the frame")
     rc = np.clip(rc, 0, [h - 1, w - 1])
     patch = Patch(name, int(rc[:, 0].min()), int(np.ceil(rc[:, 0].max())) + 1, int(rc[:, 1].min()),
                   int(np.ceil(rc[:, 1].max())) + 1, np.ones((1, 1), bool))
@@ -179,7 +179,7 @@ def fit_rim(view: View, hole: Hole, name: str, min_coverage: float = math.pi,
     rho = np.hypot(q[..., 0], q[..., 1])
     in_view_share = _circle_in_view(view, c, r, z)
     if in_view_share < 0.5:
-        raise VisionFail(Reason.OUT_OF_VIEW, f"only {in_view_share:.0%} of {hole.id}'s rim is in the frame")
+        raise VisionFail(VisionFailure.OUT_OF_VIEW, f"only {in_view_share:.0%} of {hole.id}'s rim is in the frame")
     annulus = (rho > r + b) & (rho < outer)
     near, near_px = fit_face(view, patch, annulus, z)
     far_r = max(r - b, 0.5 * r)
@@ -200,14 +200,14 @@ def fit_rim(view: View, hole: Hole, name: str, min_coverage: float = math.pi,
     elif len(xy):
         xy, wall_u = _past_the_wall(xy, c, tilt, hole.depth)
     if len(xy) < MIN_EDGE_POINTS:
-        raise VisionFail(Reason.TOO_FEW_PIXELS, f"{len(xy)} rim points of {hole.id} (need {MIN_EDGE_POINTS})")
+        raise VisionFail(VisionFailure.TOO_FEW_PIXELS, f"{len(xy)} rim points of {hole.id} (need {MIN_EDGE_POINTS})")
     fit = fit_circle(xy) if radius is None else fit_circle_fixed_radius(xy, radius)
     if fit is None or fit.coverage < min_coverage:
-        raise VisionFail(Reason.TOO_FEW_PIXELS, f"rim points of {hole.id} cover {math.degrees(fit.coverage) if fit else 0:.0f}"
+        raise VisionFail(VisionFailure.TOO_FEW_PIXELS, f"rim points of {hole.id} cover {math.degrees(fit.coverage) if fit else 0:.0f}"
                     f" deg of the circle (need {math.degrees(min_coverage):.0f})")
     px = view.pixel_mm(float(np.median(view.plane_range(near.coef, patch.take(view.dirs)))))
     if fit.rms > MAX_EDGE_RMS_MM + 0.5 * px:
-        raise VisionFail(Reason.FIT_RESIDUAL, f"rim of {hole.id}: rms {fit.rms:.3f} mm")
+        raise VisionFail(VisionFailure.FIT_RESIDUAL, f"rim of {hole.id}: rms {fit.rms:.3f} mm")
     # several surfaces beyond the rim (a rib under the hole) break the two-surface model of
     # the mixed pixels: a type-B term, sized on such holes, instead of a false precision
     z_far = patch.take(view.points)[..., 2][far_region]
@@ -301,11 +301,11 @@ def fit_edge(view: View, near: PlaneFit, near_px, patch: Patch, region_band, far
     if nominal is not None and len(xy):
         xy = _straighten(xy, nominal)
     if len(xy) < MIN_EDGE_POINTS:
-        raise VisionFail(Reason.TOO_FEW_PIXELS, f"{len(xy)} points on edge {name!r} (need {MIN_EDGE_POINTS})")
+        raise VisionFail(VisionFailure.TOO_FEW_PIXELS, f"{len(xy)} points on edge {name!r} (need {MIN_EDGE_POINTS})")
     fit = fit_line(xy)
     px = view.pixel_mm(float(np.median(view.plane_range(near.coef, patch.take(view.dirs)))))
     if fit is None or fit.rms > MAX_EDGE_RMS_MM + 0.5 * px:
-        raise VisionFail(Reason.FIT_RESIDUAL, f"edge {name!r}: rms {fit.rms if fit else float('nan'):.3f} mm")
+        raise VisionFail(VisionFailure.FIT_RESIDUAL, f"edge {name!r}: rms {fit.rms if fit else float('nan'):.3f} mm")
     return fit, {"mode": mode, "points": fit.n, "rms": fit.rms, "pixel_mm": px, "xy": xy}
 
 

@@ -26,8 +26,10 @@ from ita.workcell.model import (
     Box,
     JointLimits,
     PartPlacement,
+    HOME_Q,
     PROBE_HOLDER_RADIUS,
     PROBE_SHAFT_RADIUS,
+    RACK_APPROACH_M,
     Pose,
     Rack,
     RackSlot,
@@ -196,6 +198,7 @@ def _read_arm(r: _Reader, robot: dict[str, Any], base_dir: Path) -> ArmSpec | No
     repeat_mm = r.number(robot, "repeatability_mm", "robot.repeatability_mm", low=0.0, strict_low=True)
     speed = r.number(robot, "max_tool_speed", "robot.max_tool_speed", low=0.0, strict_low=True, high=10.0)
     accel = r.vector(robot, "acceleration", "robot.acceleration", n=len(ARM_JOINTS), positive=True)
+    home = r.vector(robot, "home_rad", "robot.home_rad", n=len(ARM_JOINTS)) if "home_rad" in robot else HOME_Q
     if not urdf_name:
         return None
     urdf = (base_dir / urdf_name).resolve()
@@ -204,7 +207,7 @@ def _read_arm(r: _Reader, robot: dict[str, Any], base_dir: Path) -> ArmSpec | No
         return None
     limits, kinematics = parsed
     joints = JointLimits(limits.names, limits.lower, limits.upper, limits.velocity, accel, limits.effort)
-    return ArmSpec(name, urdf, base, joints, kinematics, flange, payload, repeat_mm / 1000.0, speed)
+    return ArmSpec(name, urdf, base, joints, kinematics, flange, payload, repeat_mm / 1000.0, speed, tuple(home))
 
 
 def _read_urdf(r: _Reader, urdf: Path, flange: str) -> tuple[JointLimits, ArmKinematics] | None:
@@ -370,7 +373,9 @@ def _read_rack(r: _Reader, rack: dict[str, Any], tool_names: set[str]) -> Rack:
         slots.append(RackSlot(slot_name, pose, tool))
     if not slots:
         r.fail("rack.slot", "the rack needs at least one [[rack.slot]]")
-    return Rack(name, box, tuple(slots))
+    approach = r.number(rack, "approach_m", "rack.approach_m", low=0.0, strict_low=True, high=1.0,
+                        default=RACK_APPROACH_M)
+    return Rack(name, box, tuple(slots), approach)
 
 
 def _read_reach(r: _Reader, data: dict[str, Any]) -> ReachParams:

@@ -16,6 +16,11 @@ from ita.specs.model import Tool
 from ita.workcell import frames
 
 Vec3 = tuple[float, float, float]
+
+#: the arm's home configuration (rad) unless a workcell.toml says otherwise (robot.home_rad)
+HOME_Q = (0.0, -0.6, 0.9, 0.0, 0.9, 0.0)
+#: the flange above a rack slot along its axis at a tool change (m), unless rack.approach_m says
+RACK_APPROACH_M = 0.15
 Quat = tuple[float, float, float, float]
 
 
@@ -40,11 +45,6 @@ class Pose:
         """Homogeneous transform (4, 4)."""
         return frames.homogeneous(self.rotation(), self.position)
 
-    def compose(self, other: "Pose") -> "Pose":
-        """This pose followed by `other` expressed in this pose's frame (self * other)."""
-        m = self.matrix() @ other.matrix()
-        q = frames.matrix_to_quaternion(m[:3, :3])
-        return Pose(tuple(map(float, m[:3, 3])), tuple(map(float, q)))  # type: ignore[arg-type]
 
 
 @dataclass(frozen=True)
@@ -111,7 +111,8 @@ class ArmKinematics:
 
 @dataclass(frozen=True)
 class ArmSpec:
-    """The 6-DOF arm `t3`: its model file, base pose, limits and performance."""
+    """The 6-DOF arm `t3`: its model file, base pose, limits and performance; home: the
+    configuration (rad) it starts and parks in, folded back clear of the cell."""
 
     name: str
     urdf: Path
@@ -122,6 +123,7 @@ class ArmSpec:
     payload_kg: float
     repeatability_m: float
     max_tool_speed: float
+    home: tuple[float, ...] = HOME_Q
 
 
 @dataclass(frozen=True)
@@ -152,15 +154,6 @@ class PartPlacement:
     def normals_to_world(self, normals: np.ndarray) -> np.ndarray:
         """World directions (n, 3) of part directions (n, 3) (unit in, unit out)."""
         return frames.rotate_vectors(normals, self.rotation_matrix())
-
-    def envelope_box(self) -> Box:
-        """The part's bounding box as a world Box named "part_envelope"."""
-        lo = np.asarray(self.envelope_min_mm, dtype=float)
-        hi = np.asarray(self.envelope_max_mm, dtype=float)
-        centre = self.to_world((lo + hi)[None, :] / 2.0)[0]
-        q = frames.matrix_to_quaternion(self.rotation_matrix())
-        size = tuple(float(s) for s in (hi - lo) * self.scale)
-        return Box("part_envelope", Pose(tuple(map(float, centre)), tuple(map(float, q))), size)  # type: ignore[arg-type]
 
 
 #: A contact probe's shape (the simulator's and the collision model's one definition):
@@ -265,11 +258,14 @@ class RackSlot:
 
 @dataclass(frozen=True)
 class Rack:
-    """The tool rack: a box and its slots."""
+    """The tool rack: a box and its slots; approach_m: how far back along a slot's axis
+    (above it: the tools hang tip down) the flange stands before and after a tool change
+    (the tool changer's path, the Geometric Reasoner's rack pose, the sequence cost)."""
 
     name: str
     box: Box
     slots: tuple[RackSlot, ...]
+    approach_m: float = RACK_APPROACH_M
 
 
 @dataclass(frozen=True)
