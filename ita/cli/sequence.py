@@ -330,7 +330,7 @@ def why(spec_id: str, part_dir: Path | None, tree: bool) -> None:
                    "default: the fast-tsp library, within about 0.1 % of the optimum.")
 @click.option("--time-budget", type=click.FloatRange(min=0), default=None,
               help="Wall-clock seconds for the default method to search (default: 1 ms a node, "
-                   "0.05 to 0.95 s).  Above 20 nodes its tours may differ from run to run.")
+                   "0.05 to 0.9 s).  Above 20 nodes its tours may differ from run to run.")
 @click.option("--json", "as_json", is_flag=True, help="Print a JSON object instead of text.")
 @reports_errors
 def tsp(file: Path, method: str, time_budget: float | None, as_json: bool) -> None:

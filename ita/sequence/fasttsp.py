@@ -43,7 +43,7 @@ LEVELS = 65535  # fast-tsp's largest distance (16-bit unsigned)
 EXACT_NODES = 20  # fast-tsp solves problems of up to this many nodes exactly (Held-Karp)
 SECONDS_PER_NODE = 0.001  # budget when none is given: 1 ms a node ...
 MIN_SECONDS = 0.05  # ... at least this ...
-MAX_SECONDS = 0.95  # ... and at most this (the TSPLIB target is 1 s an instance, overheads included)
+MAX_SECONDS = 0.9  # ... and at most this (the TSPLIB target is 1 s an instance, overheads included)
 ASYM_REAL = 4095  # asymmetric: levels of a real cost ...
 ASYM_DUMMY = 8191  # ... of a dummy's barred arc ...
 ASYM_JOIN = 8192  # ... and K, added to every arc out_i - in_j
@@ -67,12 +67,12 @@ def order(cost: np.ndarray, start: int | None, end: int | None,
     import fast_tsp  # slow-ish import, only when ordering
 
     D = np.asarray(cost, dtype=np.float64)
-    symmetric = bool(np.allclose(D, D.T, rtol=1e-12, atol=0.0))
-    if symmetric:
-        D = np.maximum(D, D.T)  # equal both ways (allclose is not ==), and so its levels
+    symmetric = bool(np.array_equal(D, D.T))
+    if not symmetric and np.allclose(D, D.T, rtol=1e-12, atol=0.0):
+        symmetric, D = True, np.maximum(D, D.T)  # equal both ways, and so its levels
     classes = merge_interchangeable(D, symmetric, start, end)
     keep = np.array([_leader(c, start, end) for c in classes], dtype=np.int64)
-    R = D[np.ix_(keep, keep)]
+    R = D if len(keep) == D.shape[0] and np.all(keep == np.arange(len(keep))) else D[np.ix_(keep, keep)]
     where = {int(v): k for k, v in enumerate(keep)}
     s = None if start is None else where[start]
     e = None if end is None else where[end]
@@ -90,11 +90,16 @@ def merge_interchangeable(D: np.ndarray, symmetric: bool, start: int | None,
     and a fixed end closes its own (a class never holds both); classes are listed by
     their smallest member.
     """
-    key = D if symmetric else np.hstack([D, D.T])
-    key = np.ascontiguousarray(key) + 0.0  # -0.0 -> 0.0, so equal rows have equal bytes
-    found: dict[bytes, list[int]] = {}
-    for i in range(D.shape[0]):
-        found.setdefault(key[i].tobytes(), []).append(i)
+    n = D.shape[0]
+    found: dict[bytes | int, list[int]] = {}
+    maybe = np.count_nonzero(D == 0, axis=1) > 1  # a twin is at zero cost (besides oneself)
+    if maybe.any():
+        rows = D[maybe] if symmetric else np.hstack([D[maybe], D.T[maybe]])
+        rows = rows + 0.0  # -0.0 -> 0.0, so equal rows have equal bytes
+        for i, row in zip(np.flatnonzero(maybe), rows):
+            found.setdefault(row.tobytes(), []).append(int(i))
+    for i in np.flatnonzero(~maybe):
+        found[int(i)] = [int(i)]
     classes = []
     for members in found.values():
         if start is not None and end is not None and start != end and start in members and end in members:
@@ -124,21 +129,20 @@ def levels(R: np.ndarray, top: int) -> np.ndarray:
     are multiplied by an integer, so their order is kept exactly; others are scaled so
     the largest takes ``top``.
     """
-    X = R.copy()
-    off = ~np.eye(X.shape[0], dtype=bool)
-    low = float(X[off].min()) if off.any() else 0.0
-    if low < 0:
-        X[off] -= low
+    X = R
+    if X.size and X.min() < 0:
+        off = ~np.eye(X.shape[0], dtype=bool)
+        X = np.where(off, X - X[off].min(), 0.0)
     high = float(X.max()) if X.size else 0.0
     if high <= 0:
         return np.zeros(X.shape, dtype=np.int64)
-    if np.array_equal(X, np.rint(X)) and high <= top:
+    if high <= top and np.array_equal(X, np.rint(X)):
         factor = float(top // int(high))
     else:
         factor = top / high
     out = np.rint(X * factor).astype(np.int64)
     np.fill_diagonal(out, 0)
-    return np.minimum(out, top)
+    return out
 
 
 def _order_reduced(fast_tsp, R: np.ndarray, s: int | None, e: int | None, symmetric: bool,

@@ -14,7 +14,7 @@ its reverse-direction cost.  Methods (an explicit registry, :data:`METHODS`):
 ``default``
     fast-tsp (MIT; ita.sequence.fasttsp): a library's Or-opt and Lin-Kernighan style
     local search on the same matrix, scaled to its 16-bit integers, for a wall-clock
-    budget of 1 ms a node (0.05 to 0.95 s) unless ``time_budget`` is given.  Mean gap
+    budget of 1 ms a node (0.05 to 0.9 s) unless ``time_budget`` is given.  Mean gap
     0.02 %, worst 0.3 % on the 14 TSPLIB instances of ``bench/tsp.py``.  Symmetric
     matrices directly, asymmetric ones through Jonker and Volgenant's transform.
 
@@ -120,7 +120,7 @@ def solve_tour(
     ``coords``: ``(n, d) float`` positions for the classic method's convex hull (``d >= 2``;
     projected on their best-fit plane when ``d > 2``).  ``start``/``end``: fix the ends
     of an open path (see the module docstring).  ``time_budget``: wall-clock seconds the
-    default method searches for (``None``: 1 ms a node, 0.05 to 0.95 s); the classic
+    default method searches for (``None``: 1 ms a node, 0.05 to 0.9 s); the classic
     method ignores it.  Raises ``ValueError`` on bad arguments.
     """
     t0 = time.perf_counter()
