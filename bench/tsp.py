@@ -100,7 +100,8 @@ def plan_sized_ordering(method: str, n: int = 1000, seed: int = 1) -> dict:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--tsplib", type=Path, default=DEFAULT_TSPLIB,
-                        help="folder with *.tsp and optima.csv (default: ../shared/tsplib beside the checkout)")
+                        help="folder with *.tsp and optima.csv (default: ../shared/tsplib beside "
+                             "the checkout)")
     parser.add_argument("--out", type=Path, default=DEFAULT_OUT)
     parser.add_argument("--methods", default="default,classic")
     parser.add_argument("--no-peers", action="store_true")
@@ -191,7 +192,8 @@ def main() -> None:
     args.out.write_text(json.dumps({
         "machine": {"python": platform.python_version(), "processor": platform.machine(),
                     "cpus": __import__("os").cpu_count()},
-        "tsplib": str(args.tsplib), "targets": {"mean_gap_percent": TARGET_MEAN_GAP, "seconds": TARGET_SECONDS},
+        "tsplib": str(args.tsplib),
+        "targets": {"mean_gap_percent": TARGET_MEAN_GAP, "seconds": TARGET_SECONDS},
         "first_call_seconds": first_call, "instances": rows, "summary": summary,
         "plan_sized": plan,
     }, indent=2) + "\n")
