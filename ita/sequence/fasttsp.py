@@ -16,13 +16,14 @@ reads the answer back:
    costs keep 65534 of the 65535 levels.
 3. An asymmetric matrix goes through Jonker and Volgenant's transform: node i becomes
    the pair (in_i, out_i) joined at no cost, ``out_i - in_j`` costs ``K + c(i, j)`` and
-   in-in or out-out pairs the top level (with ``K`` above every real cost a tour that
-   splits a pair has an improving 2-opt move); up to 10 nodes the constants are chosen so
-   that fast-tsp's exact solution is exact for the asymmetric problem too.
+   in-in or out-out pairs the top level (with ``K`` above every real cost, splitting a
+   pair does not pay in the usual 2-opt moves; the tour is checked); up to 10 nodes the
+   constants are chosen so that fast-tsp's exact solution is exact for the asymmetric
+   problem too.  Real costs then get 4096 levels (up to 10 nodes, 1192 to 16384).
 4. Costs become integers: a matrix of integers that fits is multiplied by an integer
    (TSPLIB's are solved exactly), any other is scaled so its largest cost takes the top
-   level (the motion-time matrices: 66 us a level).  The tour is costed on the float
-   matrix.
+   level (the bulkhead's motion-time matrices: about 70 us a level).  The tour is costed
+   on the float matrix.
 5. The tour is read back, checked (a permutation, the pairs and the dummy where they
    belong: :func:`order` returns None otherwise) and put in a canonical form: a closed
    symmetric tour runs towards the smaller of its first node's two neighbours.
