@@ -148,7 +148,6 @@ class PlanningContext:
     method: str = "default"
     cost_model: CostModel = MOTION_TIME_COST
     facts: FactsFunction = pose_facts
-    seed: int = 0
     _facts_cache: dict = field(default_factory=dict, repr=False)
 
     def spec_facts(self) -> list:
@@ -237,7 +236,7 @@ def order_group(ctx: PlanningContext, tool: str, spec_ids: Sequence[str],
         cost = tour_cost(matrix, order, closed=True)
         return PlannedGroup(tool, spec.tool_class.value, tuple(keep), float(cost))
     coords = np.vstack([slot_position(ctx.workcell, tool)[None, :], tool_points_world(ctx.workcell, spec, specs)])
-    tour = solve_tour(matrix, method=ctx.method, coords=coords, start=0, end=0, seed=ctx.seed)
+    tour = solve_tour(matrix, method=ctx.method, coords=coords, start=0, end=0)
     order = tuple(ids[k - 1] for k in tour.order if k != 0)
     return PlannedGroup(tool, spec.tool_class.value, order, float(tour.cost))
 

@@ -12,13 +12,11 @@ its reverse-direction cost.  Methods (an explicit registry, :data:`METHODS`):
     hull needs coordinates (``coords``, ``(n, 2)``, or ``(n, d)`` projected on their
     best-fit plane); without them it starts from cheapest insertion instead.
 ``default``
-    the same insertion start, then iterated local search: 2-opt, Or-opt and segment
-    swaps (the pure 3-opt move) over the 10 nearest neighbours with don't-look bits,
-    kicked by random double bridges (most within a window of 50 positions, one in 16 cut
-    next to a node's neighbours), a kicked tour kept while within one average edge of the
-    best (record-to-record acceptance).  Mean gap 0.3 %, worst 1.3 % on the 14 TSPLIB
-    instances of ``bench/tsp.py``, about 0.9 s CPU at 1300 nodes.  Own code compiled with
-    numba (BSD-2-Clause); no solver library.
+    fast-tsp (MIT; ita.sequence.fasttsp): a library's Or-opt and Lin-Kernighan style
+    local search on the same matrix, scaled to its 16-bit integers, for a wall-clock
+    budget of 1 ms a node (0.05 to 0.9 s) unless ``time_budget`` is given.  Mean gap
+    0.02 %, worst 0.3 % on the 14 TSPLIB instances of ``bench/tsp.py``.  Symmetric
+    matrices directly, asymmetric ones through Jonker and Volgenant's transform.
 
 Closed tours and open paths: with ``start`` (and/or ``end``) the result is an open path
 that begins at ``start`` (ends at ``end``) and its cost has no closing edge.  This is done
@@ -26,8 +24,9 @@ with a dummy node tied at no cost to the path's ends, so both methods solve a cl
 ``start == end`` asks for a closed tour listed from ``start``.
 
 Tiny problems (at most 7 nodes, counting the dummy) are solved exactly by enumeration.
-For a given ``seed`` the result is deterministic unless ``time_budget`` is given, which
-makes the default run until the budget is spent (so its result then depends on speed).
+``classic`` is deterministic.  ``default`` is deterministic up to 20 nodes (fast-tsp then
+solves exactly); above that fast-tsp has no seed and a wall-clock deadline, so two solves
+may differ (nearly always in equal-cost ways): a stored plan fixes the order of its runs.
 """
 
 from __future__ import annotations
@@ -39,23 +38,15 @@ from typing import Callable
 
 import numpy as np
 
+from ita.sequence import fasttsp
 from ita.sequence.construct import (
     cheapest_insertion,
     convex_hull_insertion,
-        neighbour_lists,
+    neighbour_lists,
 )
-from ita.sequence.localsearch import (
-    LOG_CAPACITY,
-    activate_all,
-    iterated_local_search,
-    local_search,
-)
+from ita.sequence.localsearch import activate_all, local_search
 
 EXACT_UP_TO = 7  # nodes (with the dummy) solved by enumeration
-NEIGHBOURS = 10  # candidate list length of the default method
-KICK_WINDOW = 50  # positions spanned by a double-bridge kick
-FAR_KICK_EVERY = 16  # one kick in this many cuts next to a node's neighbours instead
-SLACK_EDGES = 1.0  # a kicked tour may be this many average edges longer than the best
 
 
 @dataclass(frozen=True)
@@ -75,8 +66,24 @@ class Tour:
 
 
 @dataclass(frozen=True)
+class OrderingProblem:
+    """What a method orders.
+
+    ``D``: ``(n, n) float`` costs, zero diagonal; ``coords``: ``(n, d)`` or ``None``;
+    ``start``/``end``: the fixed ends of an open path (both ``None``: a closed tour);
+    ``time_budget``: seconds for the default method, or ``None``.
+    """
+
+    D: np.ndarray
+    coords: np.ndarray | None
+    start: int | None
+    end: int | None
+    time_budget: float | None
+
+
+@dataclass(frozen=True)
 class SearchSpace:
-    """What a method works on: a closed-tour problem, perhaps with a dummy node.
+    """What the classic search works on: a closed-tour problem, perhaps with a dummy node.
 
     ``D``: ``(m, m) float`` costs (``m = n + 1`` with a dummy at index ``n``);
     ``coords``: ``(n, d)`` or ``None``; ``symmetric``: ``D == D.T``.
@@ -87,8 +94,6 @@ class SearchSpace:
     coords: np.ndarray | None
     symmetric: bool
     has_dummy: bool
-    time_budget: float | None
-    seed: int
 
 
 def tour_cost(cost: np.ndarray, order: tuple[int, ...] | np.ndarray, closed: bool = True) -> float:
@@ -109,15 +114,14 @@ def solve_tour(
     start: int | None = None,
     end: int | None = None,
     time_budget: float | None = None,
-    seed: int = 0,
 ) -> Tour:
     """Order the ``n`` nodes of ``cost`` (``(n, n) float``, maybe asymmetric) into a short tour.
 
     ``coords``: ``(n, d) float`` positions for the classic method's convex hull (``d >= 2``;
     projected on their best-fit plane when ``d > 2``).  ``start``/``end``: fix the ends
-    of an open path (see the module docstring).  ``time_budget``: seconds the default
-    method searches for (``None``: a fixed amount of search that grows with ``n``, about
-    1 s at 1000 nodes, deterministic).  Raises ``ValueError`` on bad arguments.
+    of an open path (see the module docstring).  ``time_budget``: wall-clock seconds the
+    default method searches for (``None``: 1 ms a node, 0.05 to 0.9 s); the classic
+    method ignores it.  Raises ``ValueError`` on bad arguments.
     """
     t0 = time.perf_counter()
     if method not in METHODS:
@@ -135,14 +139,19 @@ def solve_tour(
         raise ValueError(f"time_budget must be >= 0, got {time_budget}")
 
     closed = start is None and end is None or (start is not None and start == end)
-    space = _search_space(D, coords, None if closed else start, None if closed else end,
-                          time_budget, seed)
-    if space.D.shape[0] <= EXACT_UP_TO:
-        tour = _exact(space.D)
+    problem = OrderingProblem(D, coords, None if closed else start, None if closed else end, time_budget)
+    if n + (not closed) <= EXACT_UP_TO:
+        order = _exact_order(problem)
     else:
-        tour = METHODS[method](space)
-    order = _read_order(tour, space, start, end, closed)
-    return Tour(order=order, cost=tour_cost(D, order, closed), method=method,
+        order = METHODS[method](problem)
+    if closed:
+        k = order.index(start if start is not None else 0)
+        order = order[k:] + order[:k]
+    # The methods guarantee these; a failure here is a bug, not bad input.
+    assert sorted(order) == list(range(n)), "the order is not a permutation of the nodes"
+    assert closed or start is None or order[0] == start, "open path does not begin at start"
+    assert closed or end is None or order[-1] == end, "open path does not end at end"
+    return Tour(order=tuple(order), cost=tour_cost(D, order, closed), method=method,
                 seconds=time.perf_counter() - t0, closed=closed)
 
 
@@ -159,14 +168,14 @@ def _checked_matrix(cost: np.ndarray) -> np.ndarray:
     return D
 
 
-def _search_space(D: np.ndarray, coords: np.ndarray | None, start: int | None, end: int | None,
-                  time_budget: float | None, seed: int) -> SearchSpace:
+def _search_space(problem: OrderingProblem) -> SearchSpace:
     """Add a dummy node for an open path: free to reach from the path's end, free to leave
     to its start, and so dear elsewhere (more than any tour) that it sits between them."""
+    D, coords, start, end = problem.D, problem.coords, problem.start, problem.end
     n = D.shape[0]
     symmetric = bool(np.allclose(D, D.T, rtol=1e-12, atol=0.0))
     if start is None and end is None:
-        return SearchSpace(D, n, coords, symmetric, False, time_budget, seed)
+        return SearchSpace(D, n, coords, symmetric, False)
     big = (n + 1) * (float(np.abs(D).max()) + 1.0)
     X = np.zeros((n + 1, n + 1))
     X[:n, :n] = D
@@ -183,28 +192,28 @@ def _search_space(D: np.ndarray, coords: np.ndarray | None, start: int | None, e
         if end is not None:
             X[end, n] = 0.0
     X[n, n] = 0.0
-    return SearchSpace(X, n, coords, symmetric, True, time_budget, seed)
+    return SearchSpace(X, n, coords, symmetric, True)
 
 
-def _read_order(tour: np.ndarray, space: SearchSpace, start: int | None, end: int | None,
-                closed: bool) -> tuple[int, ...]:
-    """Turn a closed tour of the search space into the caller's order."""
+def _read_order(tour: np.ndarray, space: SearchSpace, start: int | None, end: int | None) -> list[int]:
+    """Turn a closed tour of the search space into an open path, or a closed tour from node 0."""
     n = space.n
     tour = [int(v) for v in tour]
-    if space.has_dummy:
-        k = tour.index(n)
-        order = tour[k + 1:] + tour[:k]
-        if space.symmetric and ((start is not None and order[0] != start)
-                                or (start is None and order[-1] != end)):
-            order.reverse()
-    else:
-        first = start if start is not None else 0
-        k = tour.index(first)
-        order = tour[k:] + tour[:k]
-    # The dummy's costs force these; a failure here is a bug, not bad input.
-    assert start is None or order[0] == start, "open path does not begin at start"
-    assert end is None or closed or order[-1] == end, "open path does not end at end"
-    return tuple(order)
+    if not space.has_dummy:
+        k = tour.index(0)
+        return tour[k:] + tour[:k]
+    k = tour.index(n)
+    order = tour[k + 1:] + tour[:k]
+    if space.symmetric and ((start is not None and order[0] != start)
+                            or (start is None and order[-1] != end)):
+        order.reverse()
+    return order
+
+
+def _exact_order(problem: OrderingProblem) -> list[int]:
+    """The optimal order of a tiny problem (``n`` plus the dummy at most ``EXACT_UP_TO``)."""
+    space = _search_space(problem)
+    return _read_order(_exact(space.D), space, problem.start, problem.end)
 
 
 def _exact(D: np.ndarray) -> np.ndarray:
@@ -219,9 +228,8 @@ def _exact(D: np.ndarray) -> np.ndarray:
 
 
 def _workspace(m: int) -> tuple[np.ndarray, ...]:
-    """Queue, queue state, in-queue flags, reversal log and its counter for ``m`` nodes."""
-    return (np.zeros(m, np.int64), np.zeros(2, np.int64), np.zeros(m, np.bool_),
-            np.zeros((LOG_CAPACITY, 2), np.int64), np.zeros(1, np.int64))
+    """Queue, queue state and in-queue flags of the local search for ``m`` nodes."""
+    return np.zeros(m, np.int64), np.zeros(2, np.int64), np.zeros(m, np.bool_)
 
 
 def _eps(D: np.ndarray) -> float:
@@ -257,71 +265,37 @@ def _insertion_start(space: SearchSpace) -> np.ndarray:
     return tour
 
 
-def classic(space: SearchSpace) -> np.ndarray:
+def classic_search(space: SearchSpace) -> np.ndarray:
     """Convex hull (or cheapest) insertion, then 2-opt and Or-opt to a local optimum: ``(m,) int``."""
     D = space.D
     tour = np.ascontiguousarray(_insertion_start(space), dtype=np.int64)
     pos = _positions(tour)
     neigh = neighbour_lists(D, D.shape[0] - 1)  # every node: exhaustive neighbourhoods
-    queue, qstate, inq, log, nlog = _workspace(D.shape[0])
+    queue, qstate, inq = _workspace(D.shape[0])
     eps = _eps(D)
     while True:
         activate_all(tour, queue, qstate, inq)
-        local_search(D, neigh, tour, pos, space.symmetric, eps, True, False, False, queue, qstate, inq, log, nlog)
+        local_search(D, neigh, tour, pos, space.symmetric, eps, True, False, queue, qstate, inq)
         activate_all(tour, queue, qstate, inq)
-        gain = local_search(D, neigh, tour, pos, space.symmetric, eps, False, True, False,
-                            queue, qstate, inq, log, nlog)
+        gain = local_search(D, neigh, tour, pos, space.symmetric, eps, False, True, queue, qstate, inq)
         if gain >= -eps:
             return tour
 
 
-def default_kicks(m: int) -> int:
-    """Kicks the default method makes on ``m`` nodes when no time budget is given."""
-    return 60 * m + 2000
+def classic(problem: OrderingProblem) -> list[int]:
+    """The seed's method: convex hull insertion, then 2-opt and Or-opt (Golden et al. 1980)."""
+    space = _search_space(problem)
+    return _read_order(classic_search(space), space, problem.start, problem.end)
 
 
-def default(space: SearchSpace) -> np.ndarray:
-    """Insertion start, then iterated 2-opt + Or-opt + segment-swap local search: ``(m,) int``."""
-    D = space.D
-    m = D.shape[0]
-    tour = np.ascontiguousarray(_insertion_start(space), dtype=np.int64)
-    pos = _positions(tour)
-    neigh = neighbour_lists(D, NEIGHBOURS)
-    queue, qstate, inq, log, nlog = _workspace(m)
-    eps = _eps(D)
-    rng = np.array([_seed_state(space.seed)], dtype=np.uint64)
-    activate_all(tour, queue, qstate, inq)
-    local_search(D, neigh, tour, pos, space.symmetric, eps, True, True, True, queue, qstate, inq, log, nlog)
-    cost = tour_cost(D, tour)
-    args = (D, neigh, tour, pos, space.symmetric, eps)
-    slack = SLACK_EDGES * cost / m
-    work = (KICK_WINDOW, FAR_KICK_EVERY, slack, rng, queue, qstate, inq, log, nlog)
-    if space.time_budget is None:
-        iterated_local_search(*args, cost, default_kicks(m), *work)
-        return tour
-    deadline = time.perf_counter() + space.time_budget
-    chunk = 100
-    while True:
-        now = time.perf_counter()
-        if now >= deadline:
-            return tour
-        t = now
-        cost = iterated_local_search(*args, cost, chunk, *work)
-        spent = time.perf_counter() - t
-        # aim at about 20 ms per call so the deadline is overshot by little
-        chunk = int(max(10, min(chunk * 4, chunk * 0.02 / max(spent, 1e-6))))
+def default(problem: OrderingProblem) -> list[int]:
+    """fast-tsp on the same matrix (ita.sequence.fasttsp); the classic search in the
+    never-seen case that fast-tsp's tour breaks the reduction to its symmetric form."""
+    order = fasttsp.order(problem.D, problem.start, problem.end, problem.time_budget)
+    return list(order) if order is not None else classic(problem)
 
 
-def _seed_state(seed: int) -> int:
-    """A non-zero 64-bit generator state from any int seed (splitmix64)."""
-    z = (seed * 0x9E3779B97F4A7C15 + 0x9E3779B97F4A7C15) & 0xFFFFFFFFFFFFFFFF
-    z = ((z ^ (z >> 30)) * 0xBF58476D1CE4E5B9) & 0xFFFFFFFFFFFFFFFF
-    z = ((z ^ (z >> 27)) * 0x94D049BB133111EB) & 0xFFFFFFFFFFFFFFFF
-    z ^= z >> 31
-    return z or 1
-
-
-METHODS: dict[str, Callable[[SearchSpace], np.ndarray]] = {
+METHODS: dict[str, Callable[[OrderingProblem], list[int]]] = {
     "classic": classic,
     "default": default,
 }
