@@ -288,6 +288,120 @@ static_operator(refill_couplant(Arm),
     ]).
 
 
+% --- the Exception Handler's tests and repairs (kb/faults.pl names them) ---------------
+
+% Reading the couplant station's level (a float gauge on the reservoir).
+static_operator(check_couplant(Arm),
+    [ preconditions([ at(Arm, approach_point(couplant_station)) ]),
+      adders([ couplant_checked(couplant_station) ]),
+      unary_constraints([ type(Arm, arm) ]),
+      n_ary_constraints([]),
+      resources([ Arm, couplant_station ]),
+      message_pattern('LEVEL'(couplant_station)),
+      command_stream(command_stream(path_planner, Arm)),
+      reply_pattern('LEVEL'(Percent)),
+      result_pattern(couplant_level(Percent))
+    ]).
+
+% Re-homing the arm and querying the robot controller.
+static_operator(query_controller(Arm),
+    [ preconditions([]),
+      adders([ controller_checked(Arm) ]),
+      unary_constraints([ type(Arm, arm) ]),
+      n_ary_constraints([]),
+      resources([ Arm ]),
+      message_pattern('QUERY'(controller)),
+      command_stream(command_stream(path_planner, Arm)),
+      reply_pattern('READY'),
+      result_pattern(controller_ready(Arm))
+    ]).
+
+% Resetting (power-cycling) the robot controller.
+static_operator(reset_controller(Arm),
+    [ preconditions([]),
+      adders([ controller_reset(Arm) ]),
+      unary_constraints([ type(Arm, arm) ]),
+      n_ary_constraints([]),
+      resources([ Arm ]),
+      message_pattern('RESET'(controller)),
+      command_stream(command_stream(path_planner, Arm)),
+      reply_pattern('DONE'),
+      result_pattern(controller_reset(Arm))
+    ]).
+
+% Purging the dispenser of the probe in hand at the couplant station.
+static_operator(purge_dispenser(Tool, Arm),
+    [ preconditions([ holding(Arm, Tool),
+                      at(Arm, approach_point(couplant_station)) ]),
+      adders([ dispenser_purged(Tool) ]),
+      unary_constraints([ type(Arm, arm),
+                          type(Tool, us_tool) ]),
+      n_ary_constraints([]),
+      resources([ Tool, Arm, couplant_station ]),
+      message_pattern('PURGE'(Tool)),
+      command_stream(command_stream(path_planner, Arm)),
+      reply_pattern('DONE'),
+      result_pattern(dispenser_purged(Tool))
+    ]).
+
+% Cleaning the window of the SLRA in hand at the couplant station's wiper.
+static_operator(clean_window(Tool, Arm),
+    [ preconditions([ holding(Arm, Tool),
+                      at(Arm, approach_point(couplant_station)) ]),
+      adders([ window_clean(Tool) ]),
+      unary_constraints([ type(Arm, arm),
+                          type(Tool, slra_tool) ]),
+      n_ary_constraints([]),
+      resources([ Tool, Arm, couplant_station ]),
+      message_pattern('CLEAN'(Tool)),
+      command_stream(command_stream(path_planner, Arm)),
+      reply_pattern('DONE'),
+      result_pattern(window_clean(Tool))
+    ]).
+
+% Reseating a sensor's cable (the cell's supervisor, between measurements).
+static_operator(reseat_cable(Arm, Device),
+    [ preconditions([]),
+      adders([ cable_reseated(Device) ]),
+      unary_constraints([ type(Arm, arm) ]),
+      n_ary_constraints([]),
+      resources([ Arm, Device ]),
+      message_pattern('RESEAT'(Device)),
+      command_stream(command_stream(path_planner, Arm)),
+      reply_pattern('DONE'),
+      result_pattern(cable_reseated(Device))
+    ]).
+
+% Re-calibrating the arm on the calibration block.
+static_operator(recalibrate_arm(Arm),
+    [ preconditions([ at(Arm, approach_point(cal_block)),
+                      holding(Arm, none) ]),
+      adders([ arm_calibrated(Arm) ]),
+      unary_constraints([ type(Arm, arm) ]),
+      n_ary_constraints([]),
+      resources([ Arm ]),
+      message_pattern('RECALIBRATE'(cal_block)),
+      command_stream(command_stream(path_planner, Arm)),
+      reply_pattern('DONE'),
+      result_pattern(arm_calibrated(Arm))
+    ]).
+
+% Re-scanning a measurement's feature from a second stand-off.
+static_operator(rescan(Tool, Arm, Id),
+    [ preconditions([ at(Arm, viewing_pose(meas(Id))),
+                      holding(Arm, Tool) ]),
+      adders([ rescanned(Tool, meas(Id)) ]),
+      unary_constraints([ type(Arm, arm),
+                          type(Tool, slra_tool) ]),
+      n_ary_constraints([]),
+      resources([ Tool, Arm ]),
+      message_pattern('RESCAN'(patches(meas(Id)))),
+      command_stream(command_stream(vision, Tool)),
+      reply_pattern('VALUE'(Val, Sigma)),
+      result_pattern(dimension(Id, Tool, Val, Sigma))
+    ]).
+
+
                  /*******************************
                  *      DEDUCTIVE OPERATORS     *
                  *******************************/
@@ -340,6 +454,14 @@ criticality(tool_condition(_, _), 6).
 criticality(measured(_, _, _), 5).
 criticality(calibrated(_), 5).
 criticality(couplant_refilled(_), 5).
+criticality(couplant_checked(_), 5).
+criticality(controller_checked(_), 5).
+criticality(controller_reset(_), 5).
+criticality(dispenser_purged(_), 5).
+criticality(window_clean(_), 5).
+criticality(cable_reseated(_), 5).
+criticality(arm_calibrated(_), 5).
+criticality(rescanned(_, _), 5).
 criticality(location(_, _), 4).
 criticality(slot_free(_), 4).
 criticality(holding(_, _), 3).

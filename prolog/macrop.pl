@@ -11,6 +11,8 @@
             lookup/5,                   % +File, +Goals, +State, +Options, -Plan
             operation_plan/5,           % +File, +Goals, +State, +Options, -Result
             measurement_plan/9,         % +File, +Id, +Kind, +Tool, +Arm, +Pose, +Holding, +Mode, -Reply
+            goal_plan/6,                % +File, +Goals, +Arm, +Pose, +Holding, -Reply
+            repair_plan/6,              % +File, +Actions, +Arm, +Pose, +Holding, -Reply
             macrop_template/3,          % +File, +Id, -Template
             macrop_rows/2,              % +File, -Rows
             macrop_text/3               % +File, +Id, -Text
@@ -411,6 +413,85 @@ measurement_plan(File, Id, Kind, Tool, Arm, PoseSpec, Holding, Mode, Reply) :-
         plan_result([Goal], State, Options, Result),
         planned_reply(Result, File, Goal, State, Options, Gen, Reply)
     ).
+
+%!  goal_plan(+File, +Goals:list, +Arm, +Pose, +Holding, -Reply) is det.
+%
+%   The Operation Planner for any goals (the Exception Handler's tests and repairs, e.g.
+%   `[calibrated(us_probe_1)]`, `[couplant_refilled(couplant_station)]`) from the state
+%   of Arm at Pose holding Holding: MACROP lookup in store File first, else plan,
+%   generalize and store (operation_plan/5).  Reply is `[Source, Plan, FinalPose,
+%   FinalHolding]` (Source `macrop` or `scratch`, Plan the steps `step(N, Action,
+%   Predecessors)`, the arm's pose and tool after it) or `[no_plan, ReasonText]`.
+%
+%   @error existence_error(macrop_store, File) if File is not open
+
+goal_plan(File, Goals, Arm, PoseSpec, Holding, Reply) :-
+    must_be_open(File),
+    must_be(list, Goals),
+    pose_term(PoseSpec, Pose),
+    must_be_planning_state(Arm, Pose, Holding),
+    planning_state(Arm, Pose, Holding, State),
+    operators_domain(Domain),
+    operation_plan(File, Goals, State, [domain(Domain)], Result),
+    (   Result = no_plan(Reason)
+    ->  format(atom(Text), '~q', [Reason]),
+        Reply = [no_plan, Text]
+    ;   (   Result = macrop(_, Plan) -> Source = macrop ; Result = planned(_, Plan), Source = scratch ),
+        msort(Plan, Ordered),
+        foldl(apply_step(Domain), Ordered, State, Final),
+        (   memberchk(at(Arm, FinalPose), Final) -> true ; FinalPose = Pose ),
+        (   memberchk(holding(Arm, FinalHolding), Final) -> true ; FinalHolding = Holding ),
+        Reply = [Source, Plan, FinalPose, FinalHolding]
+    ).
+
+%!  repair_plan(+File, +Actions:list, +Arm, +Pose, +Holding, -Reply) is det.
+%
+%   Plan repair (the seed's authors' wish: reuse what of a failed plan is still valid):
+%   Actions are the steps of a failed plan that did not complete, in order, and the arm
+%   is now at Pose holding Holding.  When the first of them cannot run from this state,
+%   a plan for its preconditions goes before them (goal_plan/6); the rest are checked by
+%   running them on the planning state.  Reply is `[ok, Prefix, FinalPose, FinalHolding]`
+%   (Prefix the steps of that plan, `[]` when none is needed) or `[invalid, Text]` when
+%   the remaining steps cannot run even so (then replan).
+%
+%   @error existence_error(macrop_store, File) if File is not open
+
+repair_plan(File, Actions, Arm, PoseSpec, Holding, Reply) :-
+    must_be_open(File),
+    must_be(list, Actions),
+    pose_term(PoseSpec, Pose),
+    must_be_planning_state(Arm, Pose, Holding),
+    planning_state(Arm, Pose, Holding, State),
+    operators_domain(Domain),
+    (   Actions = [First|_],
+        domain_operator(Domain, First, op(_, Pre, _, _, _, _, _))
+    ->  exclude(holds_in(State), Pre, Missing),
+        (   Missing == []
+        ->  Prefix = [], State1 = State
+        ;   operation_plan(File, Missing, State, [domain(Domain)], Result),
+            (   Result = macrop(_, Prefix0) -> true ; Result = planned(_, Prefix0) ),
+            msort(Prefix0, Prefix),
+            foldl(apply_step(Domain), Prefix, State, State1)
+        )
+    ->  (   catch(foldl(run_action(Domain), Actions, State1, Final), _, fail)
+        ->  (   memberchk(at(Arm, FinalPose), Final) -> true ; FinalPose = Pose ),
+            (   memberchk(holding(Arm, FinalHolding), Final) -> true ; FinalHolding = Holding ),
+            Reply = [ok, Prefix, FinalPose, FinalHolding]
+        ;   Reply = [invalid, 'the remaining steps cannot run from the new state']
+        )
+    ;   Reply = [invalid, 'no plan reaches the preconditions of the first remaining step']
+    ).
+
+apply_step(Domain, step(_, Action, _), State0, State) :-
+    apply_action(Domain, Action, State0, State).
+
+holds_in(State, Fact) :-
+    memberchk(Fact, State).
+
+run_action(Domain, Action, State0, State) :-
+    domain_operator(Domain, Action, op(_, Pre, _, _, _, _, _)),
+    forall(member(P, Pre), memberchk(P, State0)),
+    apply_action(Domain, Action, State0, State).
 
 %   state_lookup(+File, +Goal, +Arm, +Pose, +Holding, +GoalConstraints, -Id, -Vars)
 %   is semidet.

@@ -1,6 +1,7 @@
 """`ita inspect`, `ita continue`, `ita monitor`: run an inspection, continue one, watch one.
 
     ita inspect [--part DIR] [--limit N] [--seed S] [--runs-dir DIR] [--json]
+                [--faults RATE] [--fault-kinds K,...] [--inject FAULT[@TARGET][:after=S]]
     ita continue RUN [--runs-dir DIR] [--json]
     ita monitor RUN [--stop | --interrupt] [--once] [--interval S] [--runs-dir DIR]
 
@@ -80,9 +81,23 @@ def _summary_text(summary: Any) -> str:
     return "\n".join(lines)
 
 
+def _attach_injector(session: Any, archive: Any, run_id: str) -> None:
+    """Switch the run's fault injection on (its settings' "faults"), logging apart."""
+    from ita.sim.inject import FaultInjector, InjectionPlan, injected_log
+
+    spec = archive.run(run_id).settings.get("faults")
+    if not spec:
+        return
+    plan = InjectionPlan.parse(spec.get("rate", 0.0), ",".join(spec.get("kinds", [])) or None,
+                               spec.get("scripted", []), spec.get("seed", 0))
+    injector = FaultInjector(session.world, plan, injected_log(archive.path.parent, run_id), poses=session.reasoner)
+    session.arm.injector = session.slra.injector = injector
+
+
 def _run(session: Any, archive: Any, run_id: str, as_json: bool, view: LiveView) -> None:
     from ita.toplevel import RunSignals, TopLevel
 
+    _attach_injector(session, archive, run_id)
     with RunSignals(message=sys.stderr) as signals:
         summary = TopLevel(session, archive, run_id, signals).run(on_progress=view)
     if as_json:
@@ -100,22 +115,39 @@ def _run(session: Any, archive: Any, run_id: str, as_json: bool, view: LiveView)
 @click.option("--seed", type=int, default=0, show_default=True, help="Seed of the simulated workcell.")
 @runs_dir_option
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON at the end.")
+@click.option("--faults", "fault_rate", type=float, default=0.0, show_default=True, metavar="RATE",
+              help="Inject faults: each command meets one with probability RATE (0..1), drawn from the "
+                   "simulator's fault modes; deterministic for a --seed.  Logged apart in the runs "
+                   "directory's faults/ (only scoring reads it).")
+@click.option("--fault-kinds", default=None, metavar="K,...",
+              help="The fault kinds --faults draws from (default all injectable: broken_probe, worn_probe, "
+                   "dry_couplant, empty_couplant, sensor_garbage, transient, controller_silent, obstacle, "
+                   "dirty_window).")
+@click.option("--inject", "scripts", multiple=True, metavar="FAULT[@TARGET][:after=S]",
+              help="Script one fault, e.g. broken_probe@us_probe_1:after=120 (simulated seconds); repeatable.")
 @reports_errors
-def inspect(part_dir: Path | None, limit: int | None, seed: int, runs_dir: Path | None, as_json: bool) -> None:
+def inspect(part_dir: Path | None, limit: int | None, seed: int, runs_dir: Path | None, as_json: bool,
+            fault_rate: float, fault_kinds: str | None, scripts: tuple[str, ...]) -> None:
     """Inspect the part (in the simulated workcell): every measurement of the sequence
     plan, planned, executed, measured and recorded in the runs archive as it is made.
 
-    Prepares the part first when needed (sequence plan, MKB, MACROPs).  Ctrl-C once
-    interrupts after the current measurement; twice stops at once.
+    Prepares the part first when needed (sequence plan, MKB, MACROPs).  A measurement
+    that fails goes to the Exception Handler (diagnosis by tests in the cell, recovery,
+    a second attempt).  Ctrl-C once interrupts after the current measurement; twice stops
+    at once.  Exit codes: 0 completed; 3 interrupted or stopped (ita continue RUN); 2 bad
+    input.  --seed is the simulator's noise (and the fault injection's draws).
     """
     from ita.archive import Archive, archive_path
+    from ita.sim.inject import InjectionPlan
     from ita.toplevel import open_session, start_run
 
+    injection = InjectionPlan.parse(fault_rate, fault_kinds, scripts, seed)   # bad options fail before any work
     view = LiveView()
     session = open_session(part_dir, seed=seed, progress=lambda m: view.note(f"{m} ..."))
     try:
         with Archive.open(archive_path(runs_dir)) as archive:
-            run_id = start_run(session, archive, limit=limit)
+            run_id = start_run(session, archive, limit=limit,
+                               settings={"faults": injection.to_dict()} if injection.active else None)
             view.note(f"run {run_id}: {archive.run(run_id).total} measurements of {session.ctx.part_name} "
                       f"(set up in {session.setup_seconds:.1f} s)")
             _run(session, archive, run_id, as_json, view)

@@ -76,8 +76,9 @@ class ArmDevice:
         self._ready: dict[int, Completion] = {}        # step -> Completion computed with an earlier one
         self.last_free_q = np.array(world.q)
         self.planning_seconds = 0.0
+        self.injector: Any = None           # ita.sim.inject.FaultInjector, when faults are injected
         self.stats: dict[str, float] = {"moves": 0, "move_s": 0.0, "contact_s": 0.0, "gauge_s": 0.0,
-                                         "tool_change_s": 0.0}
+                                         "tool_change_s": 0.0, "station_s": 0.0}
         own: dict[str, tuple[Handler, str | None]] = {
             "RETRACT": (self._straight, "contact_s"), "CONTACT": (self._straight, "contact_s"),
             "PICKUP": (self._tool, "tool_change_s"), "PUTDOWN": (self._tool, "tool_change_s"),
@@ -85,12 +86,19 @@ class ArmDevice:
         self.handlers: dict[str, tuple[Handler, str | None]] = {
             **own, **{name: (h, "gauge_s") for name, h in dict(extra).items()}}
 
+    def add_handlers(self, handlers: Mapping[str, Handler], stat: str) -> None:
+        """More commands on this stream (the stations'), their time counted under `stat`."""
+        self.stats.setdefault(stat, 0.0)
+        self.handlers.update({name: (h, stat) for name, h in handlers.items()})
+
     # -- the protocol ------------------------------------------------------------------
     def begin(self, items: Sequence[Command | Wait], now: float) -> None:
         self._queue = list(items)
         self._ready = {}
 
     def start(self, command: Command, now: float) -> Completion:
+        if self.injector is not None:
+            self.injector.before(command, "arm")
         if command.step in self._ready:
             return self._ready.pop(command.step)
         if command.name == "MOVE":

@@ -14,6 +14,17 @@
   member of the group; replies ``VALUE(V, S)`` for Id (or ``VISION(reason)``) with one
   :class:`~ita.devices.data.MeasuredValue` per member as data.
 
+The Exception Handler's tests on this stream:
+
+- CALIBRATE(Tool, cal_block): a small frame of the calibration block's face from above
+  (the arm at the block's approach point): ``VALUE(RangeMm, SigmaMm)`` of its plane, or
+  ``VISION(too_few_pixels)`` when most returns are lost (a dirty window).
+- RESCAN(patches(meas(Id))): the feature once more from a second stand-off
+  (:data:`RESCAN_BACK_M` further along the line of sight, and back): Vision's reply for Id.
+
+A dirty window (the DIRTY_WINDOW fault of the tool) loses most returns
+(:data:`DIRTY_DROPOUT`) and dims the rest.
+
 Times: a SCAN ends after its frames' scan times (and the re-approaches, which advance
 the clock through the controller); Vision takes :data:`VISION_SECONDS` per frame it
 measures.  The executive advances the clock to each reply.
@@ -23,6 +34,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable, Mapping, Sequence
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -35,18 +47,29 @@ from ita.logic.terms import Term
 from ita.robot import RobotController, from_waypoints
 from ita.robot.controller import joint_offset
 from ita.sensors.slra_frame import ScanGeometry
+from ita.sim.faults import Fault
 from ita.sim.slra import SlraParams, simulate_frame
 from ita.vision.context import VisionException, VisionFailure
 from ita.vision.measure import measure_frames
 from ita.vision.scan import frames_for
 
-__all__ = ["REAPPROACH_M", "VISION_SECONDS", "SlraDevice"]
+__all__ = ["DIRTY_DROPOUT", "REAPPROACH_M", "RESCAN_BACK_M", "VISION_SECONDS", "SlraDevice"]
 
 #: simulated seconds Vision takes per measurement in a frame (patches, fits)
 VISION_SECONDS = 0.15
 #: how far (m) the arm backs off along the line of sight between the frames of a
 #: multi-frame SLRA measurement, so that each return is a real approach of the pose
 REAPPROACH_M = 0.02
+#: how far (m) beyond the viewing pose a RESCAN looks from (the second stand-off)
+RESCAN_BACK_M = 0.08
+#: share of the returns a dirty window loses (and how much it dims the others)
+DIRTY_DROPOUT = 0.85
+DIRTY_DIMMING = 0.3
+#: the frame of the calibration block: pixels and window (deg)
+CAL_SHAPE = (48, 48)
+CAL_FOV_DEG = (3.0, 3.0)
+#: a calibration frame is good with at least this share of valid pixels
+CAL_MIN_VALID = 0.5
 
 
 def _guarded_measure(measure: Callable[..., Any], frames: Any, spec: Any, vctx: Any) -> Any:
@@ -85,16 +108,19 @@ class SlraDevice:
         self.wanted = wanted or (lambda _id: True)
         self.controller = controller if controller is not None else RobotController(world)
         self._frames: dict[str, tuple[Any, ...]] = {}  # group id -> the frames of its last SCAN
+        self.injector: Any = None           # ita.sim.inject.FaultInjector, when faults are injected
         self.stats: dict[str, float] = {"frames": 0, "scan_s": 0.0, "vision_s": 0.0, "reapproaches": 0,
                                          "reapproach_s": 0.0}
         self.handlers: dict[str, Callable[[Command, float], Completion]] = {
-            "SCAN": self._scan, "MEASURE": self._measure}
+            "SCAN": self._scan, "MEASURE": self._measure, "CALIBRATE": self._calibrate, "RESCAN": self._rescan}
 
     # -- the protocol ------------------------------------------------------------------
     def begin(self, items: Sequence[Command | Wait], now: float) -> None:
         pass
 
     def start(self, command: Command, now: float) -> Completion:
+        if self.injector is not None:
+            self.injector.before(command, "slra")
         handler = self.handlers.get(command.name)
         if handler is None:
             return Completion(now, exception_reply("UNSUPPORTED", f"the SLRA cannot {command.text}",
@@ -135,14 +161,80 @@ class SlraDevice:
                 self.stats["reapproach_s"] += moved.time_s
             shape = tuple(group.pixels) if k == 0 else plan.shape
             frame = simulate_frame(self.scene, world.tcp_pose(), ScanGeometry(shape, tuple(group.fov_deg)),
-                                   self.params, self.rng, reported_pose=np.asarray(anchor.pose), timestamp=t,
-                                   sensor=tool.name)
+                                   self._physics(tool.name), self.rng, reported_pose=np.asarray(anchor.pose),
+                                   timestamp=t, sensor=tool.name)
             frames.append(frame)
             t += frame.frame_time
             self.stats["frames"] += 1
             self.stats["scan_s"] += frame.frame_time
         self._frames = {group.id: tuple(frames)}
         return Completion(t, Reply.normal(Term("IMAGE", (group.id,)), data=ScanData(group.id, tuple(frames))))
+
+    def _physics(self, tool: str) -> Any:
+        """The SLRA's physics now: a dirty window loses most returns and dims the rest."""
+        if not self.world.faults.has(Fault.DIRTY_WINDOW, tool):
+            return self.params
+        return replace(self.params, dropout_rate=DIRTY_DROPOUT,
+                       reflectance=self.params.reflectance * DIRTY_DIMMING)
+
+    def _calibrate(self, command: Command, now: float) -> Completion:
+        world = self.world
+        tool = world.held_tool
+        if tool is None or tool.tool_class.value != "slra_tool":
+            return Completion(now, exception_reply("NO_SENSOR", "no SLRA on the flange", "no_sensor"))
+        t = max(now, world.clock.now)
+        frame = simulate_frame(self.scene, world.tcp_pose(), ScanGeometry(CAL_SHAPE, CAL_FOV_DEG),
+                               self._physics(tool.name), self.rng, timestamp=t, sensor=tool.name)
+        t += frame.frame_time + VISION_SECONDS
+        valid = np.isfinite(frame.range_m)
+        if valid.mean() < CAL_MIN_VALID:
+            return Completion(t, Reply.exception(Term("VISION", ("too_few_pixels",)),
+                                                 f"calibration block: {valid.mean():.0%} valid pixels"))
+        r = frame.range_m[valid] * 1000.0
+        return Completion(t, Reply.normal(Term("VALUE", (float(np.median(r)), float(np.std(r)))),
+                                          f"calibration block: {valid.mean():.0%} valid pixels"))
+
+    def _rescan(self, command: Command, now: float) -> Completion:
+        from ita.robot.controller import joint_offset
+
+        world = self.world
+        tool = world.held_tool
+        spec_id = spec_of_message(command.message) or ""
+        if tool is None or tool.tool_class.value != "slra_tool":
+            return Completion(now, exception_reply("NO_SENSOR", "no SLRA on the flange", "no_sensor"))
+        try:
+            group = self.poses.resolve(command.args[0], tool.name)
+            anchor = self.poses.resolve(Term("viewing_pose", (Term("meas", (group.anchor,)),)), tool.name)
+        except KeyError as exc:
+            return Completion(now, exception_reply("NO_VIEW", str(exc), spec_id or "?"))
+        q_view = np.asarray(anchor.q, dtype=float)
+        pose = np.asarray(anchor.pose, dtype=float)
+        look = pose[:3, 2] / np.linalg.norm(pose[:3, 2])
+        q_back = q_view + joint_offset(world.model, q_view, tool.tcp.matrix(), -RESCAN_BACK_M * look)
+        t = max(now, world.clock.now)
+        out = self.controller.execute(from_waypoints(world.model, [np.asarray(world.q), q_back],
+                                                     speed_scale=RETRACT_SPEED), command="rescan")
+        t += out.time_s
+        if not out.ok:
+            return Completion(t, exception_reply("REAPPROACH", f"second stand-off for {spec_id}: {out.message}",
+                                                 out.status.value))
+        back_pose = pose.copy()
+        back_pose[:3, 3] -= RESCAN_BACK_M * look
+        fov = tuple(min(f * 1.0, m) for f, m in zip(group.fov_deg, self.vctx.max_fov_deg))
+        frame = simulate_frame(self.scene, world.tcp_pose(), ScanGeometry(tuple(group.pixels), fov),
+                               self._physics(tool.name), self.rng, reported_pose=back_pose, timestamp=t,
+                               sensor=tool.name)
+        t += frame.frame_time
+        reply = _guarded_measure(measure_frames, [frame], self.specs[spec_id], self.vctx)
+        t += VISION_SECONDS
+        back = self.controller.execute(from_waypoints(world.model, [np.asarray(world.q), q_view],
+                                                      speed_scale=RETRACT_SPEED), command="rescan")
+        t += back.time_s
+        data = (_value(spec_id, reply),)
+        if not reply.ok:
+            return Completion(t, Reply.exception(Term("VISION", (reply.reason.value,)),
+                                                 f"vision from the second stand-off: {reply.reason.value}", data=data))
+        return Completion(t, Reply.normal(Term("VALUE", (float(reply.value), float(reply.uncertainty))), data=data))
 
     def _members(self, group: Any, spec_id: str) -> list[str]:
         return [m for m in group.members if m == spec_id or self.wanted(m)]

@@ -23,7 +23,14 @@ if TYPE_CHECKING:
 
 FloatArray = NDArray[np.float64]
 
-__all__ = ["GeometricReasoner", "Target"]
+__all__ = ["STATIONS", "GeometricReasoner", "Target"]
+
+#: the stations a plan can send the arm to (workcell boxes with a top face to work on)
+STATIONS = ("cal_block", "couplant_station")
+#: the bare flange this far over a station's face (m)
+STATION_CLEARANCE_M = 0.15
+#: rolls about the vertical tried for a pose over a station
+STATION_ROLLS = 12
 
 
 @dataclass(frozen=True, eq=False)
@@ -42,6 +49,7 @@ class GeometricReasoner:
 
         approach_point(meas(Id)), in_contact_point(meas(Id)), viewing_pose(meas(Id)) -> Target
         approach_point(rack(Slot)), approach_point(home)                       -> Target
+        approach_point(cal_block), approach_point(couplant_station)            -> Target (held tool)
         goal_point(meas(Id))                     -> (3,) world point (m) of the spec
         patches(meas(Id))                        -> the ViewGroup of the frame to take
         min_value(meas(Id)), max_value(meas(Id)) -> the spec's tolerance limits (mm)
@@ -58,6 +66,7 @@ class GeometricReasoner:
         self.cell = cell
         self.specs = {s.id: s for s in specs}
         self.home = np.asarray(cell.arm.home, dtype=float)
+        self._stations: dict[tuple[str, str | None, bool], Target] = {}
 
     def entry(self, spec_id: str, tool: str | None = None) -> MkbEntry:
         """The placed entry of `spec_id` for `tool` (None: the sequence plan's tool);
@@ -105,4 +114,45 @@ class GeometricReasoner:
                 return Target(self.home)
             if isinstance(place, Term) and place.name == "rack" and len(place.args) == 1:
                 return Target(np.asarray(self.mkb.rack[str(place.args[0])]))
+            if place in STATIONS:
+                return self.station(str(place), tool)
         raise KeyError(f"the Geometric Reasoner does not know {term!r}")
+
+    def station(self, name: str, tool: str | None, *, contact: bool = False) -> Target:
+        """The pose over station `name` (``cal_block``, ``couplant_station``) for `tool` in
+        hand, looking straight down on its top face: the probe's tip its approach distance
+        above it (pressed :data:`~ita.geometry.build.PRESS_M` into it with `contact`), the
+        SLRA at its nominal stand-off, the bare flange :data:`STATION_CLEARANCE_M` above.
+        The configuration quickest from home over :data:`STATION_ROLLS` rolls.  KeyError
+        when the arm cannot take it."""
+        key = (name, tool, contact)
+        if key not in self._stations:
+            self._stations[key] = self._station(name, tool, contact)
+        return self._stations[key]
+
+    def _station(self, name: str, tool: str | None, contact: bool) -> Target:
+        from ita.geometry.build import PRESS_M
+        from ita.kinematics import arm_model, choose_nearest, ik_tool
+
+        box = getattr(self.cell, name)
+        top = np.asarray(box.pose.position, dtype=float) + np.array([0.0, 0.0, box.size[2] / 2.0])
+        spec = self.cell.tool(tool) if tool is not None else None
+        if spec is None:
+            up, tcp = STATION_CLEARANCE_M, np.eye(4)
+        elif spec.standoff_nominal > 0.0:
+            up, tcp = spec.standoff_nominal, spec.tcp.matrix()
+        else:
+            up, tcp = (-PRESS_M if contact else spec.approach_distance), spec.tcp.matrix()
+        angles = np.linspace(0.0, 2.0 * np.pi, STATION_ROLLS, endpoint=False)
+        poses = np.zeros((len(angles), 4, 4))
+        poses[:, 3, 3] = 1.0
+        poses[:, :3, 2] = (0.0, 0.0, -1.0)                         # looking down on the face
+        poses[:, :3, 0] = np.column_stack([np.cos(angles), np.sin(angles), np.zeros_like(angles)])
+        poses[:, :3, 1] = np.cross(poses[:, :3, 2], poses[:, :3, 0])
+        poses[:, :3, 3] = top + np.array([0.0, 0.0, up])
+        model = arm_model(self.cell.arm)
+        ref = self.station(name, tool).q if contact else self.home     # contact: straight down from the approach
+        q, found = choose_nearest(model, ik_tool(model, poses[None], tcp).flatten_batch(), ref)
+        if not found[0]:
+            raise KeyError(f"the arm cannot reach {name} with {tool or 'no tool'}")
+        return Target(np.asarray(q[0], dtype=float), None)

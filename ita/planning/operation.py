@@ -377,6 +377,58 @@ class OperationPlanner:
             final_state=final,
         )
 
+    def plan_goals(self, goals: list[Any], state: WorldState, *, name: str = "") -> OperationPlan:
+        """A plan that achieves `goals` (terms such as ``Term("calibrated", ("us_probe_1",))``)
+        from `state`: MACROP lookup first, else plan, generalize and store
+        (``macrop:goal_plan/6``).  For the Exception Handler's tests and repairs.  Raises
+        :class:`NoPlanError` when there is none."""
+        start = time.perf_counter()
+        solution = self.kb.once("macrop", "goal_plan", self._file, list(goals), state.arm, state.pose.to_flat(),
+                                state.holding_atom(), Var("R"))
+        reply = solution["R"] if solution else None
+        label = name or ", ".join(format_term(g) for g in goals)
+        if not reply or reply[0] == "no_plan":
+            raise NoPlanError(label, reply[1] if reply else "the planner failed")
+        source, plan, pose, holding = reply
+        steps = []
+        for step in plan:
+            number, action, preds = step.args
+            if isinstance(action, Term):
+                steps.append(PlanStep(int(number), action.name, tuple(action.args), tuple(preds)))
+            else:
+                steps.append(PlanStep(int(number), str(action), (), tuple(preds)))
+        final = WorldState(state.arm, QualitativePose.from_term(pose), None if holding == NOTHING else str(holding))
+        return OperationPlan(label, tuple(sorted(steps, key=lambda s: s.number)), _SOURCES.get(source) or
+                             PlanSource(source), None, time.perf_counter() - start, state, final)
+
+    def repair_plan(self, plan: OperationPlan, completed: Any, state: WorldState) -> OperationPlan | None:
+        """Plan repair: the steps of the failed `plan` not in `completed`, run from `state`
+        (the arm's now) after a plan for the first one's preconditions when they do not
+        hold, as one chain; None when they cannot run even so (``macrop:repair_plan/6``:
+        then replan)."""
+        start = time.perf_counter()
+        done = set(completed)
+        remaining = [st for st in plan.steps if st.number not in done]
+        if not remaining:
+            return None
+        actions = [Term(st.action, st.args) if st.args else st.action for st in remaining]
+        answer = self.kb.once("macrop", "repair_plan", self._file, actions, state.arm, state.pose.to_flat(),
+                              state.holding_atom(), Var("R"))
+        reply = answer["R"] if answer else None
+        if not reply or reply[0] != "ok":
+            return None
+        _, prefix, pose, holding = reply
+        steps: list[PlanStep] = []
+        for step in prefix:
+            _, action, _ = step.args
+            name, args = (action.name, tuple(action.args)) if isinstance(action, Term) else (str(action), ())
+            steps.append(PlanStep(len(steps) + 1, name, args, (len(steps),) if steps else ()))
+        for st in remaining:
+            steps.append(PlanStep(len(steps) + 1, st.action, st.args, (len(steps),) if steps else ()))
+        final = WorldState(state.arm, QualitativePose.from_term(pose), None if holding == NOTHING else str(holding))
+        return OperationPlan(plan.measurement, tuple(steps), PlanSource.SCRATCH, None, time.perf_counter() - start,
+                             state, final)
+
     def _template(self, mid: Any) -> _Template:
         solution = self.kb.once("macrop", "macrop_template", self._file, mid, Var("T"))
         return _Template.from_term(macrop_name(mid), solution["T"])

@@ -16,7 +16,7 @@ standard deviation repeatability / 3 per axis (the data sheet's +- figure read a
 sigma), plus the accumulated drift of the POSITION_DRIFT fault, applied as the smallest
 joint change that moves the TCP by that offset.  A controller hit by CONTROLLER_SILENT
 does not move and does not answer: the reply is TIMEOUT after the trajectory's duration
-plus `reply_timeout_s`.  The simulated clock advances by each reply's `time_s`.
+plus `reply_timeout_s` (a TRANSIENT fault on the controller: for one command only).  The simulated clock advances by each reply's `time_s`.
 """
 
 from __future__ import annotations
@@ -99,7 +99,10 @@ class RobotController:
                 command: str = "move") -> MotionReply:
         """Run `trajectory` from the arm's current joints; the MotionReply says how it went."""
         world = self.world
-        if world.faults.has(Fault.CONTROLLER_SILENT, CONTROLLER):
+        glitch = world.faults.has(Fault.TRANSIENT, CONTROLLER)
+        if glitch:                          # a one-off: this command is lost, the next is not
+            world.faults = world.faults.without(Fault.TRANSIENT, CONTROLLER)
+        if glitch or world.faults.has(Fault.CONTROLLER_SILENT, CONTROLLER):
             wait = trajectory.duration + self.reply_timeout_s
             world.clock.advance(wait)
             return MotionReply(MotionStatus.TIMEOUT, command, wait, None,

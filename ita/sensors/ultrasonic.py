@@ -45,6 +45,7 @@ class GaugeFailure(str, Enum):
     NO_ECHO = "no_echo"            # no echo at all (dead element) or no back wall in range
     GARBAGE = "garbage"            # the reply makes no sense
     DOUBLED = "doubled"            # (from `check_expected`) about twice the expected value
+    IMPLAUSIBLE = "implausible"    # (the gauge device) far outside what the part makes plausible
 
     @property
     def no_echo(self) -> bool:

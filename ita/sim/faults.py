@@ -12,6 +12,16 @@ hits; the empty target hits every one.
     CONTROLLER_SILENT  the robot controller stops answering: commands time out
     SENSOR_GARBAGE     the gauge's replies are corrupt (out-of-domain values)
     POSITION_DRIFT     the arm's position drifts a little further with every move
+    EMPTY_COUPLANT     the couplant station's reservoir is empty: no dispenser gives any
+                       (target: the station)
+    DIRTY_WINDOW       the SLRA's window is dirty: most returns are lost (target: the SLRA)
+    OBSTACLE           something stands in the cell that the collision model does not know
+                       (target: its name; the world holds its box, `SimWorld.obstacles`)
+    TRANSIENT          one command of the target device fails once (a glitch): the device
+                       that meets it clears it (`FaultSet.without`)
+
+A repair (ita.devices: refill, purge, reset, reseat, recalibrate, clean; a person called
+to remove an obstacle) takes the fault out of the world's set.
 """
 
 from __future__ import annotations
@@ -29,6 +39,10 @@ class Fault(str, Enum):
     CONTROLLER_SILENT = "controller_silent"
     SENSOR_GARBAGE = "sensor_garbage"
     POSITION_DRIFT = "position_drift"
+    EMPTY_COUPLANT = "empty_couplant"
+    DIRTY_WINDOW = "dirty_window"
+    OBSTACLE = "obstacle"
+    TRANSIENT = "transient"
 
 
 @dataclass(frozen=True)

@@ -22,7 +22,13 @@ casts a ray along the probe's tip axis through the as-built mesh, in the part fr
   couplant `dispense_s`.
 
 Faults (world.faults): BROKEN_PROBE and WORN_PROBE target a tool name; DRY_COUPLANT the
-tool whose dispenser is dry; SENSOR_GARBAGE targets GAUGE and makes every reply corrupt.
+tool whose dispenser is dry; EMPTY_COUPLANT the couplant station (no dispenser gives any);
+SENSOR_GARBAGE targets GAUGE and makes every reply corrupt; TRANSIENT on GAUGE loses the
+next echo once.
+
+The calibration block: `pulse_reference(thickness_mm)` is a reading of the block (a
+known thickness), with the same faults and the same calibration error; the arm's
+drift, when larger than the probe's footprint allows, tilts it off the block's face.
 """
 
 from __future__ import annotations
@@ -50,6 +56,7 @@ from ita.specs.model import Tool
 
 FloatArray = NDArray[np.float64]
 GAUGE = "us_gauge"          # the fault target naming the gauge box
+STATION = "couplant_station"  # the fault target naming the couplant station
 _LEAD_MM = 30.0             # the ray starts this far before the free tip
 
 
@@ -149,6 +156,7 @@ class UltrasonicSim:
         self.velocity_bias = drawn if physics.velocity_bias is None else float(physics.velocity_bias)
         self._index = TriangleIndex(world.asbuilt_mesh)
         self._rng = np.random.default_rng([world.seed, 12])
+        self.last_dispense_ok = False     # whether the last squirt gave couplant
 
     # -- the device interface ------------------------------------------------------------
     def pulse(self) -> RawEcho:
@@ -170,6 +178,9 @@ class UltrasonicSim:
         if contact.tilt_deg > ph.max_tilt_deg:
             return echo(STATUS_TILT)
         if world.faults.has(Fault.BROKEN_PROBE, tool.name):
+            return echo(STATUS_NO_SIGNAL)
+        if world.faults.has(Fault.TRANSIENT, GAUGE):
+            world.faults = world.faults.without(Fault.TRANSIENT, GAUGE)
             return echo(STATUS_NO_SIGNAL)
         if not self.wet(contact.point_mm):
             return echo(STATUS_NO_COUPLING)
@@ -193,8 +204,10 @@ class UltrasonicSim:
         tool = world.held_tool
         if tool is None or tool.tool_class is not Tool.ULTRASONIC:
             return Dispensed(ph.dispense_s)
-        if world.faults.has(Fault.DRY_COUPLANT, tool.name):
+        if world.faults.has(Fault.DRY_COUPLANT, tool.name) or world.faults.has(Fault.EMPTY_COUPLANT, STATION):
+            self.last_dispense_ok = False
             return Dispensed(ph.dispense_s)
+        self.last_dispense_ok = True
         origin, axis = self._tip_ray()
         dist, normals = self._index.hits(origin, axis, _LEAD_MM + 200.0)
         entering = np.flatnonzero(normals @ axis < 0.0)
@@ -202,6 +215,39 @@ class UltrasonicSim:
             point = origin + dist[entering[0]] * axis
             world.add_couplant(CouplantSpot(tuple(map(float, point)), ph.spot_radius_mm, world.clock.now))
         return Dispensed(ph.dispense_s)
+
+    def pulse_reference(self, thickness_mm: float, drift_limit_m: float = 1.0e-3) -> RawEcho:
+        """A reading of the calibration block (`thickness_mm`), the probe on its face with
+        couplant just dispensed (`dispense` first): the held probe's faults, the couplant,
+        the calibration error and noise as on the part; an arm drifted more than
+        `drift_limit_m` leaves the probe tilted on the block's edge."""
+        world, ph = self.world, self.physics
+        world.clock.advance(ph.dwell_s)
+        tool = world.held_tool
+        if tool is None or tool.tool_class is not Tool.ULTRASONIC:
+            return RawEcho(STATUS_NO_PROBE, dwell_s=ph.dwell_s)
+        if world.faults.has(Fault.SENSOR_GARBAGE, GAUGE):
+            return self._garbage(tool.name)
+
+        def echo(status: str) -> RawEcho:
+            return RawEcho(status, dwell_s=ph.dwell_s, probe=tool.name)
+
+        if float(np.linalg.norm(world.drift_m)) > drift_limit_m:
+            return echo(STATUS_TILT)
+        if world.faults.has(Fault.BROKEN_PROBE, tool.name):
+            return echo(STATUS_NO_SIGNAL)
+        if not self.last_dispense_ok:
+            return echo(STATUS_NO_COUPLING)
+        worn = world.faults.has(Fault.WORN_PROBE, tool.name)
+        value = thickness_mm * (1.0 + self.velocity_bias) * (2.0 if worn else 1.0)
+        value += self._rng.normal(0.0, ph.noise_sd_mm)
+        value = round(value / ph.resolution_mm) * ph.resolution_mm
+        amplitude = 0.9 * math.exp(-0.005 * thickness_mm) * (ph.worn_amplitude if worn else 1.0)
+        return RawEcho(STATUS_OK, float(value), float(amplitude), ph.dwell_s, tool.name)
+
+    def station_level(self) -> float:
+        """The couplant station's level (%): 0 when EMPTY_COUPLANT, else full."""
+        return 0.0 if self.world.faults.has(Fault.EMPTY_COUPLANT, STATION) else 100.0
 
     # -- geometry ------------------------------------------------------------------------
     def contact(self) -> ProbeContact | None:

@@ -37,7 +37,7 @@ from numpy.typing import NDArray
 
 from ita.kinematics import ArmModel, arm_model, flange_poses
 from ita.sim.faults import FaultSet
-from ita.workcell import Box, ToolSpec, Workcell, load_workcell
+from ita.workcell import Box, Pose, ToolSpec, Workcell, load_workcell
 from ita.workcell.frames import matrix_to_quaternion
 from ita.workcell.model import TIP_CLEARANCE
 
@@ -128,6 +128,7 @@ class SimWorld:
         self.couplant: tuple[CouplantSpot, ...] = ()
         self.drift_m = np.zeros(3)
         self.held: str | None = None
+        self.obstacles: dict[str, int] = {}       # name -> pybullet body of an unknown obstacle
         self.client = p.connect(p.DIRECT)
         try:
             self._build()
@@ -312,6 +313,28 @@ class SimWorld:
             boxes.append(p.getAABB(self.tools[self.held], physicsClientId=c))
         arr = np.array(boxes)
         return arr[:, 0].min(axis=0) - margin, arr[:, 1].max(axis=0) + margin
+
+    # -- obstacles the collision model does not know ------------------------------------------
+    def add_obstacle(self, name: str, center: Iterable[float], size: Iterable[float]) -> None:
+        """Put a box `name` (centre, size in m, world frame) in the cell: the arm bumps it."""
+        box = Box(name, Pose(tuple(map(float, center)), (0.0, 0.0, 0.0, 1.0)), tuple(map(float, size)))
+        body = _box_body(box, self.client)
+        self._add(name, body)
+        self.obstacles[name] = body
+        self._static.append(body)
+        self._static_aabbs[body] = np.array(p.getAABB(body, physicsClientId=self.client))
+
+    def remove_obstacle(self, name: str) -> bool:
+        """Take obstacle `name` out of the cell; whether there was one."""
+        body = self.obstacles.pop(name, None)
+        if body is None:
+            return False
+        p.removeBody(body, physicsClientId=self.client)
+        self._static.remove(body)
+        self._static_aabbs.pop(body, None)
+        self.bodies.pop(name, None)
+        self.body_names.pop(body, None)
+        return True
 
     # -- couplant -----------------------------------------------------------------------
     def add_couplant(self, spot: CouplantSpot) -> None:

@@ -52,17 +52,19 @@ if TYPE_CHECKING:
 __all__ = ["Progress", "RunSummary", "TopLevel", "start_run"]
 
 
-def start_run(session: Session, archive: Archive, *, limit: int | None = None) -> str:
+def start_run(session: Session, archive: Archive, *, limit: int | None = None,
+              settings: dict[str, Any] | None = None) -> str:
     """Register a new run of the session's part in `archive`: the measurements it sets out
     to do are the first `limit` of the sequence plan (all by default), plus those the plan
-    cannot do (recorded as such).  Returns the run id."""
+    cannot do (recorded as such); `settings` adds to what the run records (the fault
+    injection).  Returns the run id."""
     plan = session.plan
     order = [i for g in plan.groups for i in g.order]
     todo = order[:limit] if limit is not None else order
     if limit is None:
         todo += [i for i, _ in plan.cannot]
     settings = {"simulated": True, "limit": limit, "part_arg": session.part_arg, "specs": todo,
-                "mkb_digest": session.mkb.digest, "sequence_total_s": plan.total_s}
+                "mkb_digest": session.mkb.digest, "sequence_total_s": plan.total_s, **(settings or {})}
     return archive.create_run(session.ctx.part_name, session.part.directory, seed=session.seed,
                               settings=settings, total=len(todo))
 
@@ -127,7 +129,8 @@ class RunSummary:
 class TopLevel:
     """Runs (or continues) one inspection run of `session` recorded in `archive`."""
 
-    def __init__(self, session: Session, archive: Any, run_id: str, signals: RunSignals | None = None) -> None:
+    def __init__(self, session: Session, archive: Any, run_id: str, signals: RunSignals | None = None, *,
+                 handle_exceptions: bool = True) -> None:
         self.session = session
         self.archive = archive
         self.run_id = run_id
@@ -142,6 +145,24 @@ class TopLevel:
         self.plan_no = len(self.done)
         self.recorded_now = 0
         self.frames = 0
+        self.diagnoses = 0
+        self.handler = None
+        if handle_exceptions:
+            from ita.diagnosis import ExceptionHandler
+
+            self.handler = ExceptionHandler(session, neighbours=self._neighbours)
+
+    def _neighbours(self, spec_id: str, count: int = 5) -> list[float]:
+        """Values measured in this run of the measurements of the same kind nearest to
+        `spec_id` (the Exception Handler's compare_neighbours)."""
+        import math
+
+        specs = self.session.specs
+        me = specs[spec_id]
+        found = [(math.dist(specs[r.spec_id].point, me.point), r.value) for r in self.archive.results(self.run_id)
+                 if r.value is not None and r.spec_id in specs and r.spec_id != spec_id
+                 and specs[r.spec_id].kind is me.kind]
+        return [v for _, v in sorted(found)[:count]]
 
     # -- recording ---------------------------------------------------------------------------
     def _record(self, result: Result, events: list[Event] = ()) -> None:
@@ -244,7 +265,9 @@ class TopLevel:
                         wall, eta_wall, eta_sim, self.exceptions, dict(self.counts))
 
     def _measure(self, step: Step, state: WorldState) -> WorldState:
-        """Measure one step (and its view group's other members) and record it; the new state."""
+        """Measure one step (and its view group's other members) and record it; a failure
+        goes to the Exception Handler, which diagnoses it, puts the cell right and takes
+        the measurement again.  The new state."""
         out = measure_one(self.session, step.spec_id, state, step.tool)
         if out.status is MeasureStatus.CANNOT_BE_DONE:
             self._unmeasured(step.spec_id, Outcome.CANNOT_BE_DONE, out.reason or "", tool=step.tool)
@@ -257,27 +280,56 @@ class TopLevel:
         events = self._events(out)
         if any(e.kind == "command" and e.payload.get("name") == "scan" for e in events):
             self.frames += 1
+        failed = out.status is not MeasureStatus.MEASURED and out.report is not None and not out.report.ok
+        if failed:
+            self.exceptions += 1
+            handled = self.handler.handle(out) if self.handler is not None else None
+            if handled is not None:
+                self.diagnoses += 1
+                events += self._handled_events(handled)
+                others = out.others + handled.outcome.others
+                out = replace(handled.outcome, others=others)
         spec = self.session.specs[step.spec_id]
+        tool = out.tool or step.tool
         if out.status is MeasureStatus.MEASURED:
             assert out.value is not None
-            self._record(Result.measured(spec, out.value.value, out.value.u, tool=step.tool,
+            self._record(Result.measured(spec, out.value.value, out.value.u, tool=tool,
                                          sim_time_start=out.t0, sim_time_end=out.t1), events)
         else:
-            if out.report is not None and not out.report.ok:
-                self.exceptions += 1
-            self._unmeasured(step.spec_id, Outcome.NOT_DONE, out.reason or "", tool=step.tool, t0=out.t0,
+            self._unmeasured(step.spec_id, Outcome.NOT_DONE, out.reason or "", tool=tool, t0=out.t0,
                              t1=out.t1, events=events)
         for other in out.others:   # the rest of the frame's view group
             if other.spec_id in self.done or other.spec_id not in self.todo_set:
                 continue
             if other.ok:
                 self._record(Result.measured(self.session.specs[other.spec_id], other.value, other.u,
-                                             tool=step.tool, sim_time_start=out.t0, sim_time_end=out.t1,
+                                             tool=tool, sim_time_start=out.t0, sim_time_end=out.t1,
                                              reason=f"from the frame of {step.spec_id}"))
             else:
-                self._unmeasured(other.spec_id, Outcome.NOT_DONE, other.reason or "", tool=step.tool, t0=out.t0,
+                self._unmeasured(other.spec_id, Outcome.NOT_DONE, other.reason or "", tool=tool, t0=out.t0,
                                  t1=out.t1)
         return out.state
+
+    def _handled_events(self, handled: Any) -> list[Event]:
+        """The archive events of a diagnosis: its record (exception, posterior, tests with
+        their results and costs, cause, actions, recovery), every plan it ran, the world
+        updates."""
+        d = handled.diagnosis
+        events = [Event("diagnosis", "top", d.t0, {**d.to_dict(), "summary": d.summary})]
+        for label, plan, report in handled.executed:
+            if report is None:
+                continue
+            self.plan_no += 1
+            events.append(Event("plan_start", "top", report.started_s, {
+                "spec": d.spec_id, "macrop": plan.macrop_name, "source": plan.source.value,
+                "steps": len(plan.steps), "purpose": label}))
+            events += archive_events(report, self.plan_no)
+            events.append(Event("plan_end", "top", report.finished_s, {
+                "spec": d.spec_id, "status": "ok" if report.ok else "failed", "purpose": label}))
+        for update in d.updates:
+            events.append(Event("world_update", "top", d.t1, {"update": update, "spec": d.spec_id}))
+        events.append(Event("recovery", "top", d.t1, {"spec": d.spec_id, "how": d.recovery, "cause": d.cause}))
+        return events
 
     def _events(self, out: MeasureOutcome) -> list[Event]:
         """The archive events of a measurement's plan: its start, the executive's log, its

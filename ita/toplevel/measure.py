@@ -30,7 +30,7 @@ if TYPE_CHECKING:
     from ita.planning import OperationPlan
     from ita.toplevel.session import Session
 
-__all__ = ["MeasureOutcome", "MeasureStatus", "measure_one", "state_after"]
+__all__ = ["MeasureOutcome", "MeasureStatus", "execute_measurement", "measure_one", "state_after"]
 
 
 class MeasureStatus(str, Enum):
@@ -129,6 +129,15 @@ def measure_one(session: Session, spec_id: str, state: WorldState, tool: str) ->
     except NoPlanError as exc:
         return MeasureOutcome(spec_id, tool, MeasureStatus.NOT_DONE, None, f"no plan: {exc.reason}", (), None,
                               None, state, t0, t0)
+    return execute_measurement(session, spec_id, tool, plan, t0)
+
+
+def execute_measurement(session: Session, spec_id: str, tool: str, plan: OperationPlan, t0: float | None = None
+                        ) -> MeasureOutcome:
+    """Run `plan` (a measurement's plan, planned or repaired) from `t0` (default now) and
+    read its value back: the second half of :func:`measure_one`."""
+    clock = session.world.clock
+    t0 = clock.now if t0 is None else t0
     report = session.executive.execute(plan, start_s=t0)
     t1 = max(clock.now, report.finished_s)
     if clock.now < t1:

@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ita.devices import ArmDevice, GaugeCommands, SlraDevice
+from ita.devices.stations import StationCommands
 from ita.executive import PlanExecutive
 from ita.geometry import GeometricReasoner
 from ita.logic.bridge import KnowledgeBase
@@ -105,8 +106,10 @@ def open_session(part_dir: Path | None = None, *, seed: int = 0,
     progress("building the simulated workcell")
     world = SimWorld(cell, part.directory, seed=seed, q0=reasoner.home)
     try:
-        gauge = GaugeCommands(UltrasonicGauge(UltrasonicSim(world)), specs)
+        gauge_sim = UltrasonicSim(world)
+        gauge = GaugeCommands(UltrasonicGauge(gauge_sim), specs)
         arm = ArmDevice(world, reasoner, planners_for(cell, part), extra=gauge.handlers)
+        arm.add_handlers(StationCommands(world, reasoner, arm.controller, gauge_sim).handlers, "station_s")
         slra_tools = [t for t in cell.tools if t.tool_class.value == "slra_tool"]
         vctx = VisionContext.from_part(part, cell, tool=slra_tools[0].name if slra_tools else "slra_1",
                                        specs=list(ctx.specs))

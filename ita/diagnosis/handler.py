@@ -1,0 +1,295 @@
+"""The Exception Handler: diagnose a failed measurement, put the world right, recover.
+
+    handler = ExceptionHandler(session, neighbours=...)
+    handled = handler.handle(outcome)            # outcome: a failed MeasureOutcome
+    handled.diagnosis                            # exception, posterior, tests, cause, actions
+    handled.outcome                              # the measurement after recovery (or not done, and why)
+    handled.executed                             # every plan run for it, for the archive
+
+The seed: "The Exception Handler is responsible for diagnosing the cause of the
+exception, updating the world model to correspond to the current state of the world,
+and generating a recovery plan."  So, in order:
+
+1. the failure becomes an exception of kb/faults.pl with its context (classify);
+2. the engine (prolog/diagnosis.pl) gives the posterior over its causes from the stated
+   priors and the counts learned across runs, and the first test of the decision tree
+   over the tests the cell can make now, each priced with the set-up it needs from the
+   arm's state; the test is made in the cell (ita.diagnosis.tests); its outcome narrows
+   the causes; again, until one cause is isolated or no test separates the rest;
+3. the counts are updated (ita.diagnosis.counts);
+4. the world model is updated and the cell put right by the cause's recovery actions
+   (kb/faults.pl recovery/2): a tool marked (so the Sequence Planner resequences to its
+   spare), an operator run (refill, purge, reset, reseat, recalibrate, clean), a person
+   called (the run waits), a reading accepted (a bad part, not a bad instrument);
+5. the measurement is taken again: with the same tool by *plan repair* (the steps of
+   the failed plan that did not run, after a plan for the first one's preconditions:
+   ``macrop:repair_plan/6``), else with the tool the rules choose now by *replanning*
+   (the Operation Planner from the current state to the original goal, MACROP lookup
+   first).  A retry during the tests that measured it ends the matter.  When no tool is
+   left, or the cause cannot be put right in the cell, the measurement is not done and
+   the diagnosis is its reason.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING, Any
+
+from ita.devices.data import MeasuredValue, measured_values
+from ita.diagnosis.classify import Classified, classify
+from ita.diagnosis.counts import FaultCounts
+from ita.diagnosis.knowledge import FaultKnowledge
+from ita.diagnosis.tests import Situation, TestBench, TestRun
+from ita.logic.terms import Term
+from ita.planning.operation import format_term
+from ita.toplevel.measure import MeasureOutcome, MeasureStatus, execute_measurement, measure_one
+
+if TYPE_CHECKING:
+    from ita.toplevel.session import Session
+
+__all__ = ["PERSON_SECONDS", "Diagnosis", "ExceptionHandler", "Handled"]
+
+#: the most tests one diagnosis makes
+MAX_TESTS = 6
+#: simulated seconds the run waits for a person called to the cell
+PERSON_SECONDS = {"remove_obstacle": 120.0, "reclamp_part": 300.0, "replace_tool": 300.0}
+#: goals of the recovery operators of kb/faults.pl
+_OPERATOR_GOALS: dict[str, Callable[[Any, str], Term]] = {
+    "refill_couplant": lambda a, arm: Term("couplant_refilled", ("couplant_station",)),
+    "purge_dispenser": lambda a, arm: Term("dispenser_purged", (str(a.args[0]),)),
+    "reset_controller": lambda a, arm: Term("controller_reset", (arm,)),
+    "reseat_cable": lambda a, arm: Term("cable_reseated", (str(a.args[0]),)),
+    "recalibrate_arm": lambda a, arm: Term("arm_calibrated", (arm,)),
+    "clean_window": lambda a, arm: Term("window_clean", (str(a.args[0]),)),
+}
+
+
+@dataclass(frozen=True)
+class Diagnosis:
+    """What the Exception Handler found and did for one failed measurement."""
+
+    spec_id: str
+    exception: str
+    context: tuple[tuple[str, str], ...]
+    reply: str
+    posterior: tuple[tuple[str, float], ...]
+    expected_s: float
+    tests: tuple[TestRun, ...]
+    cause: str | None
+    remaining: tuple[tuple[str, float], ...]
+    actions: tuple[str, ...]
+    updates: tuple[str, ...]
+    recovery: str
+    t0: float
+    t1: float
+
+    @property
+    def summary(self) -> str:
+        """One line: the exception, what the tests found, what was done."""
+        found = f"cause {self.cause}" if self.cause else \
+            "unresolved: " + ", ".join(c for c, _ in self.remaining) if self.remaining else "no cause"
+        tests = "; ".join(f"{t.test} -> {t.outcome}" for t in self.tests) or "no test"
+        return f"{self.exception}: {tests}; {found}; {self.recovery}"
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"spec": self.spec_id, "exception": self.exception, "context": dict(self.context),
+                "reply": self.reply, "posterior": [[c, round(p, 4)] for c, p in self.posterior],
+                "expected_s": round(self.expected_s, 2), "tests": [t.to_dict() for t in self.tests],
+                "cause": self.cause, "remaining": [[c, round(p, 4)] for c, p in self.remaining],
+                "actions": list(self.actions), "updates": list(self.updates), "recovery": self.recovery,
+                "t0": self.t0, "t1": self.t1}
+
+
+@dataclass(frozen=True, eq=False)
+class Handled:
+    """The Exception Handler's answer: the diagnosis, the measurement's outcome after it,
+    and every plan it ran (label, plan, execution report), in order."""
+
+    diagnosis: Diagnosis
+    outcome: MeasureOutcome
+    executed: tuple[tuple[str, Any, Any], ...] = field(default_factory=tuple)
+
+
+class ExceptionHandler:
+    """Diagnoses and recovers failed measurements of a session (module docstring).
+
+    neighbours: spec id -> values of its measured neighbours (for compare_neighbours);
+    method: the engine's test selection (``auto``, ``optimal``, ``rollout``, ``greedy``,
+    ``cheapest``); learn: whether diagnoses add to the stored counts."""
+
+    def __init__(self, session: Session, *, neighbours: Callable[[str], Sequence[float]] | None = None,
+                 method: str = "auto", learn: bool = True) -> None:
+        self.session = session
+        self.knowledge = FaultKnowledge(session.kb)
+        self.method = method
+        self.learn = learn
+        seconds = {name: info.seconds for name, info in self.knowledge.tests().items()}
+        self.bench = TestBench(session, neighbours, seconds)
+
+    # -- the whole of it --------------------------------------------------------------------
+    def handle(self, failed: MeasureOutcome) -> Handled | None:
+        """Diagnose and recover a failed measurement (its report failed with an exception
+        reply or a time-out); None when it did not fail so, or the knowledge base has no
+        word for its exception."""
+        s = self.session
+        tool = failed.tool
+        if tool is None:
+            return None
+        tool_class = s.ctx.workcell.tool(tool).tool_class.value
+        exc = classify(failed, held=s.world.held, tool=tool, tool_class=tool_class)
+        if exc is None:
+            return None
+        t0 = failed.t1
+        situation = Situation(failed.spec_id, tool, tool_class, exc.exception, failed.state, failed.value)
+        executed: list[tuple[str, Any, Any]] = []
+        runs, first, last = self._diagnose(exc, situation, executed)
+        situation = replace(situation, state=runs[-1].state if runs else situation.state)
+        cause = last.choice[1] if last.choice[0] == "isolated" else None
+        remaining = last.remaining
+        if self.learn:
+            FaultCounts.record(exc.exception, None if cause is None else self.knowledge.cause_name(cause))
+        retried = next((r.measured for r in runs if r.measured is not None), None)
+        actions, updates = [], []
+        outcome: MeasureOutcome | None = retried
+        recovery = "the retry during the tests measured it" if retried is not None else ""
+        if retried is None:
+            plan_actions = self.knowledge.recovery(cause) if cause is not None else []
+            for action in plan_actions:
+                text = format_term(action)
+                actions.append(text)
+                done, situation, accepted = self._act(action, situation, runs, executed)
+                updates += done
+                if accepted is not None:
+                    outcome, recovery = accepted, f"accepted: {text}"
+            if outcome is None:
+                if cause is not None and not plan_actions:
+                    recovery = f"not done: {cause} cannot be put right in the cell"
+                else:
+                    outcome, recovery = self._retry(failed, situation, executed)
+        diagnosis = Diagnosis(failed.spec_id, exc.exception, exc.context, exc.reply, first.posterior,
+                              first.expected_s, tuple(runs), cause, remaining, tuple(actions), tuple(updates),
+                              recovery, t0, s.world.clock.now)
+        if outcome is None or outcome.status is not MeasureStatus.MEASURED:
+            base = outcome if outcome is not None else failed
+            reason = f"{failed.reason}; diagnosis: {diagnosis.summary}"
+            outcome = replace(base, status=MeasureStatus.NOT_DONE, reason=reason, t0=failed.t0,
+                              t1=s.world.clock.now)
+        else:
+            outcome = replace(outcome, t0=failed.t0)
+        return Handled(diagnosis, outcome, tuple(executed))
+
+    # -- 2. the tests -----------------------------------------------------------------------
+    def _diagnose(self, exc: Classified, situation: Situation, executed: list) -> tuple[list[TestRun], Any, Any]:
+        counts = FaultCounts.load().causes
+        context = exc.context_terms()
+        results: list[tuple[str, str]] = []
+        runs: list[TestRun] = []
+        tried: set[str] = set()
+        first = last = None
+        for _ in range(MAX_TESTS + 1):
+            tests = []
+            for name in self.knowledge.tests():
+                if name in tried:
+                    continue
+                cost = self.bench.cost(name, situation)
+                if cost is not None and cost < float("inf"):
+                    tests.append((name, cost))
+            last = self.knowledge.step(exc.exception, context, counts, results, tests, self.method)
+            first = first or last
+            if last.choice[0] != "test" or len(runs) >= MAX_TESTS:
+                break
+            name = last.choice[1]
+            tried.add(name)
+            run = self.bench.run(name, situation, dict(tests)[name])
+            runs.append(run)
+            if run.plan is not None:
+                executed.append((f"test {name}", run.plan, run.report))
+            situation = replace(situation, state=run.state)
+            if run.outcome != "not_run":
+                results.append((name, run.outcome))
+            if run.measured is not None:
+                break
+        return runs, first, last
+
+    # -- 4. the world and the cell put right --------------------------------------------------
+    def _act(self, action: Any, situation: Situation, runs: list[TestRun], executed: list
+             ) -> tuple[list[str], Situation, MeasureOutcome | None]:
+        s = self.session
+        name = action.name if isinstance(action, Term) else str(action)
+        if name == "mark":
+            tool, condition = (str(a) for a in action.args)
+            if condition == "missing":
+                s.kb.once("world", "set_location", tool, "missing")
+            else:
+                s.kb.once("world", "set_tool_condition", tool, condition)
+            return [f"world: {tool} {condition}"], situation, None
+        if name == "operator":
+            op = action.args[0]
+            op_name = op.name if isinstance(op, Term) else str(op)
+            goal = _OPERATOR_GOALS[op_name](op, situation.state.arm)
+            plan, report, state, note = self.bench.execute_goals([goal], situation.state, name=op_name)
+            if plan is not None:
+                executed.append((f"repair {op_name}", plan, report))
+            ok = report is not None and report.ok
+            return [f"cell: {format_term(op)} {'done' if ok else 'failed: ' + (note or report.failure.reason)}"], \
+                replace(situation, state=state), None
+        if name == "call_person":
+            what = str(action.args[0])
+            s.world.clock.advance(PERSON_SECONDS.get(what, 300.0))
+            if what == "remove_obstacle":
+                for obstacle in list(s.world.obstacles):
+                    s.world.remove_obstacle(obstacle)
+                from ita.sim.faults import Fault
+
+                s.world.faults = s.world.faults.without(Fault.OBSTACLE)
+            return [f"person called: {what} ({PERSON_SECONDS.get(what, 300.0):.0f} s)"], situation, None
+        if name == "accept_reading":
+            reading = situation.reading
+            raw = getattr(reading.source, "thickness_mm", None) if reading is not None else None
+            if raw is None:
+                return ["no reading to accept"], situation, None
+            value = MeasuredValue(situation.spec_id, float(raw), float(reading.source.u_mm), source=reading.source)
+            return [f"reading {raw:.3f} accepted"], situation, \
+                MeasureOutcome(situation.spec_id, situation.tool, MeasureStatus.MEASURED, value, None, (), None,
+                               None, situation.state, s.world.clock.now, s.world.clock.now)
+        if name == "accept_second_view":
+            for run in runs:
+                if run.test == "rescan_second_standoff" and run.report is not None and run.report.ok:
+                    value = measured_values(run.report).get(situation.spec_id)
+                    if value is not None and value.ok:
+                        return ["the second stand-off's view accepted"], situation, MeasureOutcome(
+                            situation.spec_id, situation.tool, MeasureStatus.MEASURED, value, None, (), run.plan,
+                            run.report, run.state, run.t0, run.t1)
+            return ["no second view to accept"], situation, None
+        return [], situation, None                   # retry: nothing to put right
+
+    # -- 5. the measurement again -------------------------------------------------------------
+    def _retry(self, failed: MeasureOutcome, situation: Situation, executed: list
+               ) -> tuple[MeasureOutcome | None, str]:
+        """Take the measurement again: plan repair with the same tool when it is usable,
+        else replanning with the tool the rules choose now (none: not done)."""
+        s = self.session
+        arm = situation.state.arm
+        tool = situation.tool
+        usable = s.kb.holds("world", "usable", arm, situation.tool_class, tool)
+        if not usable:
+            from ita.sequence.plan import choose_tool
+
+            chosen = choose_tool(s.ctx, situation.spec_id)
+            if chosen.tool is None:
+                return None, f"not done: no tool left ({chosen.reason})"
+            tool = chosen.tool
+        if tool == situation.tool and failed.plan is not None and failed.report is not None:
+            done = failed.report.failure.completed if failed.report.failure is not None else ()
+            repaired = s.planner.repair_plan(failed.plan, done, situation.state)
+            if repaired is not None:
+                out = execute_measurement(s, situation.spec_id, tool, repaired)
+                executed.append(("recovery: plan repair", repaired, out.report))
+                kept = sum(1 for st in failed.plan.steps if st.number not in set(failed.report.failure.completed))
+                return out, f"plan repair ({len(repaired.steps)} steps, {kept} of the failed plan's kept)"
+        out = measure_one(s, situation.spec_id, situation.state, tool)
+        if out.plan is not None:
+            executed.append(("recovery: replanning", out.plan, out.report))
+        how = "replanning" + (f" with {tool}" if tool != situation.tool else "")
+        return out, f"{how} ({len(out.plan.steps)} steps)" if out.plan is not None else f"{how}: {out.reason}"

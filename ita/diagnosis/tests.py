@@ -1,0 +1,314 @@
+"""The Exception Handler's tests, run for real in the simulated cell.
+
+    bench = TestBench(session, neighbours=lambda spec_id: [...])
+    cost = bench.cost("read_cal_block", situation)      # seconds with the set-up, or None
+    run = bench.run("read_cal_block", situation)        # TestRun: outcome, plan, report, times
+
+Each test of kb/faults.pl is a small plan of operators planned by the Operation Planner
+from the arm's state (so a test that needs the probe at the calibration block moves
+there, and changes tools first when the arm holds the SLRA) and run by the Plan
+Executive on the devices; its outcome is read from the replies:
+
+    read_cal_block            goal calibrated(Probe): ok | doubled | no_echo | no_couplant | garbage | misaligned | silent
+    check_couplant_station    goal couplant_checked(couplant_station): ok | empty | silent
+    query_controller          goal controller_checked(Arm): ok | silent
+    scan_cal_block            goal calibrated(Slra): ok | too_few_pixels | garbage | silent
+    rescan_second_standoff    goal rescanned(Slra, meas(Id)): ok | fails_again | silent
+    retry_reading             the measurement once more (its round trip): ok | fails_again | silent
+    measure_reference_feature a tooling hole's diameter, its centre against nominal: ok | displaced | unclear
+    compare_neighbours        no motion: the reading against its neighbours' readings: ok | outlier
+
+A test that cannot be made (no plan, a path that fails, a precondition the cell cannot
+meet) has the outcome ``not_run`` and rules nothing out.  The cost of a test is its own
+seconds (kb/faults.pl) plus the set-up its preconditions need from the arm's state: a
+tool change (ita.sequence.cost.rack_seconds) and the joint-space move to the test's place.
+"""
+
+from __future__ import annotations
+
+import math
+import statistics
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from ita.devices.data import MeasuredValue
+from ita.diagnosis.classify import classify_reply
+from ita.logic.terms import Term
+from ita.planning.state import WorldState
+from ita.toplevel.measure import MeasureOutcome, MeasureStatus, measure_one, state_after
+
+if TYPE_CHECKING:
+    from ita.executive import ExecutionReport
+    from ita.planning import OperationPlan
+    from ita.toplevel.session import Session
+
+__all__ = ["Situation", "TestBench", "TestRun"]
+
+#: a calibration-block reading within this share of the block's thickness is good
+CAL_TOLERANCE = 0.02
+#: a tooling hole whose centre is further than this (mm) from nominal is displaced
+DISPLACED_MM = 1.0
+#: a reading further than this many tolerances from its neighbours' median is an outlier
+OUTLIER_TOLERANCES = 4.0
+
+
+@dataclass(frozen=True)
+class Situation:
+    """Where a diagnosis stands: the measurement that failed (`spec_id`, its `tool` of
+    `tool_class`), the exception, the failed reading if there was one, and the arm's
+    state now."""
+
+    spec_id: str
+    tool: str
+    tool_class: str
+    exception: str
+    state: WorldState
+    reading: MeasuredValue | None = None
+
+
+@dataclass(frozen=True, eq=False)
+class TestRun:
+    """A test made: its outcome, its estimated and real cost, its plan and execution,
+    the arm's state after, and a measurement it made on the way (a retry that worked)."""
+
+    test: str
+    outcome: str
+    estimated_s: float
+    t0: float
+    t1: float
+    state: WorldState
+    plan: OperationPlan | None = None
+    report: ExecutionReport | None = None
+    note: str = ""
+    measured: MeasureOutcome | None = None
+
+    @property
+    def seconds(self) -> float:
+        return self.t1 - self.t0
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"test": self.test, "outcome": self.outcome, "estimated_s": round(self.estimated_s, 2),
+                "seconds": round(self.seconds, 2), "note": self.note,
+                "plan": [s.text for s in self.plan.steps] if self.plan is not None else []}
+
+
+def _gauge_outcome(payload: Any) -> str:
+    exc = classify_reply("exception", payload)
+    return {"no_echo": "no_echo", "no_couplant_film": "no_couplant", "doubled_thickness": "doubled",
+            "corrupt_reply": "garbage", "misaligned": "misaligned", "no_contact": "misaligned",
+            "implausible_thickness": "garbage"}.get(exc or "", "not_run")
+
+
+class TestBench:
+    """Runs the tests of kb/faults.pl on a session's cell (see the module docstring).
+
+    neighbours: spec id -> the values already measured of its neighbours (same kind,
+    nearest first), for compare_neighbours."""
+
+    def __init__(self, session: Session, neighbours: Callable[[str], Sequence[float]] | None = None,
+                 seconds: dict[str, float] | None = None) -> None:
+        self.session = session
+        self.neighbours = neighbours or (lambda _id: ())
+        self.seconds = seconds or {}
+        self._reference = self._reference_spec()
+
+    # -- which tests apply, and what they cost ------------------------------------------------
+    def _reference_spec(self) -> str | None:
+        from ita.part.model import Hole, HoleRole
+
+        features = {f.id: f for f in self.session.part.features}
+        for spec in self.session.ctx.specs:
+            f = features.get(spec.feature)
+            if spec.kind.value == "hole_diameter" and isinstance(f, Hole) and f.role is HoleRole.TOOLING:
+                return spec.id
+        return None
+
+    def _tool_of(self, tool_class: str, situation: Situation) -> str | None:
+        """The tool of `tool_class` a test uses: the measurement's own when it is of that
+        class, else the first usable one (world:usable/3)."""
+        if situation.tool_class == tool_class:
+            return situation.tool
+        from ita.logic.terms import Var
+
+        found = self.session.kb.once("world", "usable", situation.state.arm, tool_class, Var("T"))
+        return str(found["T"]) if found else None
+
+    def applicable(self, test: str, situation: Situation) -> bool:
+        """Whether `test` can be made for this situation at all."""
+        if test == "retry_reading":
+            return situation.tool_class == "us_tool"
+        if test == "rescan_second_standoff":
+            return situation.tool_class == "slra_tool"
+        if test == "compare_neighbours":
+            return situation.reading is not None and situation.reading.source is not None \
+                and len(self.neighbours(situation.spec_id)) >= 2
+        if test == "read_cal_block":
+            return self._tool_of("us_tool", situation) is not None
+        if test == "scan_cal_block":
+            return self._tool_of("slra_tool", situation) is not None
+        if test == "measure_reference_feature":
+            return self._reference is not None and self._tool_of("slra_tool", situation) is not None
+        return test in ("check_couplant_station", "query_controller")
+
+    def cost(self, test: str, situation: Situation) -> float | None:
+        """The test's seconds with its set-up from the arm's state now, or None when it
+        does not apply."""
+        if not self.applicable(test, situation):
+            return None
+        base = self.seconds.get(test, 5.0)
+        need_class = {"read_cal_block": "us_tool", "retry_reading": "us_tool", "scan_cal_block": "slra_tool",
+                      "rescan_second_standoff": "slra_tool", "measure_reference_feature": "slra_tool"}.get(test)
+        place = {"read_cal_block": "cal_block", "scan_cal_block": "cal_block",
+                 "check_couplant_station": "couplant_station"}.get(test)
+        held = self.session.world.held
+        setup = 0.0
+        tool = held
+        if need_class is not None:
+            tool = self._tool_of(need_class, situation)
+            if tool != held:
+                from ita.sequence.cost import rack_seconds
+
+                setup += rack_seconds(self.session.ctx.workcell, held, tool) + 2 * self._move_to_rack(held or tool)
+        if place is not None:
+            setup += self._move_s(place, tool)
+        return base + setup
+
+    def _move_to_rack(self, tool: str | None) -> float:
+        from ita.kinematics import move_time
+
+        if tool is None:
+            return 0.0
+        slot = self.session.ctx.workcell.slot_of(tool).name
+        q = self.session.mkb.rack.get(slot)
+        return 0.0 if q is None else float(move_time(self.session.world.model, self.session.world.q, q))
+
+    def _move_s(self, place: str, tool: str | None) -> float:
+        from ita.kinematics import move_time
+
+        try:
+            q = self.session.reasoner.station(place, tool).q
+        except KeyError:
+            return math.inf
+        return 2.0 * float(move_time(self.session.world.model, self.session.world.q, q))
+
+    # -- running ----------------------------------------------------------------------------
+    def run(self, test: str, situation: Situation, estimated_s: float = 0.0) -> TestRun:
+        """Make `test` in the cell now; its outcome (see the module docstring)."""
+        clock = self.session.world.clock
+        t0 = clock.now
+        if test == "compare_neighbours":
+            return self._compare(situation, estimated_s, t0)
+        if test in ("retry_reading", "measure_reference_feature"):
+            return self._measure_again(test, situation, estimated_s, t0)
+        arm = situation.state.arm
+        goal = {
+            "read_cal_block": lambda: Term("calibrated", (self._tool_of("us_tool", situation),)),
+            "check_couplant_station": lambda: Term("couplant_checked", ("couplant_station",)),
+            "query_controller": lambda: Term("controller_checked", (arm,)),
+            "scan_cal_block": lambda: Term("calibrated", (self._tool_of("slra_tool", situation),)),
+            "rescan_second_standoff": lambda: Term("rescanned", (situation.tool, Term("meas", (situation.spec_id,)))),
+        }.get(test)
+        if goal is None:
+            return TestRun(test, "not_run", estimated_s, t0, t0, situation.state, note="not a test of this cell")
+        plan, report, state, note = self.execute_goals([goal()], situation.state, name=test)
+        outcome = "not_run" if report is None else self._outcome(test, report)
+        return TestRun(test, outcome, estimated_s, t0, clock.now, state, plan, report,
+                       note or ("" if report is None or report.ok else report.failure.reason))
+
+    def execute_goals(self, goals: list[Any], state: WorldState, *, name: str = ""
+                      ) -> tuple[Any, Any, WorldState, str]:
+        """Plan `goals` from `state` and run the plan: (plan, report, state after, note).
+        No plan: (None, None, state, why).  A failed step frees the arm if it is stuck."""
+        from ita.planning import NoPlanError
+
+        s = self.session
+        try:
+            plan = s.planner.plan_goals(goals, state, name=name)
+        except NoPlanError as exc:
+            return None, None, state, f"no plan: {exc.reason}"
+        clock = s.world.clock
+        report = s.executive.execute(plan, start_s=clock.now)
+        if clock.now < report.finished_s:
+            clock.advance(report.finished_s - clock.now)
+        if report.ok:
+            return plan, report, plan.final_state, ""
+        s.arm.recover()
+        return plan, report, state_after(plan, report), ""
+
+    def _outcome(self, test: str, report: Any) -> str:
+        if report.failure is not None:
+            failure = report.failure
+            payload = failure.reply.payload
+            name = payload.name if isinstance(payload, Term) else str(payload)
+            if failure.kind.value == "timeout" or name == "TIMEOUT":
+                return "silent"
+            if test == "read_cal_block" and name == "GAUGE" and failure.command.name == "CALIBRATE":
+                return _gauge_outcome(payload)
+            if test == "scan_cal_block" and name == "VISION" and failure.command.name == "CALIBRATE":
+                return "too_few_pixels" if payload.args and payload.args[0] == "too_few_pixels" else "garbage"
+            if test == "rescan_second_standoff" and failure.command.name == "RESCAN":
+                return "fails_again"
+            return "not_run"                     # the test's own moves failed: nothing learnt
+        last = report.outcomes[-1]
+        if test == "read_cal_block":
+            value = float(last.reply.payload.args[0])
+            block = float(self.session.ctx.workcell.cal_block.size[2]) * 1000.0
+            if abs(value - block) <= CAL_TOLERANCE * block:
+                return "ok"
+            if abs(value - 2 * block) <= 2 * CAL_TOLERANCE * block:
+                return "doubled"
+            return "garbage"
+        if test == "check_couplant_station":
+            return "empty" if float(last.reply.payload.args[0]) < 5.0 else "ok"
+        return "ok"
+
+    def _measure_again(self, test: str, situation: Situation, estimated_s: float, t0: float) -> TestRun:
+        s = self.session
+        if test == "retry_reading":
+            spec_id, tool = situation.spec_id, situation.tool
+        else:
+            spec_id, tool = self._reference, self._tool_of("slra_tool", situation)
+        if spec_id is None or tool is None:
+            return TestRun(test, "not_run", estimated_s, t0, t0, situation.state, note="no tool or feature for it")
+        out = measure_one(s, spec_id, situation.state, tool)
+        silent = out.report is not None and out.report.failure is not None and (
+            out.report.failure.kind.value == "timeout" or getattr(out.report.failure.reply.payload, "name", "") == "TIMEOUT")
+        if silent:
+            return TestRun(test, "silent", estimated_s, t0, out.t1, out.state, out.plan, out.report, out.reason or "")
+        if test == "retry_reading":
+            if out.status is MeasureStatus.MEASURED:
+                outcome = "ok"
+            elif out.report is not None and out.report.failure is not None \
+                    and out.report.failure.command.name in ("MEASURE", "COUPLANT"):
+                outcome = "fails_again"
+            else:
+                outcome = "not_run"
+            return TestRun(test, outcome, estimated_s, t0, out.t1, out.state, out.plan, out.report,
+                           out.reason or "", out if outcome == "ok" else None)
+        if out.status is not MeasureStatus.MEASURED:
+            outcome = "displaced" if out.value is not None and "out_of_view" in (out.reason or "") else "unclear"
+        else:
+            spec = s.specs[spec_id]
+            centre = np.asarray(out.value.source.diagnostics.get("center", spec.point[:2]), dtype=float)[:2]
+            off = float(np.linalg.norm(centre - np.asarray(spec.point[:2], dtype=float)))
+            outcome = "displaced" if off > DISPLACED_MM else "ok"
+        return TestRun(test, outcome, estimated_s, t0, out.t1, out.state, out.plan, out.report, out.reason or "")
+
+    def _compare(self, situation: Situation, estimated_s: float, t0: float) -> TestRun:
+        clock = self.session.world.clock
+        clock.advance(self.seconds.get("compare_neighbours", 0.1))
+        values = list(self.neighbours(situation.spec_id))
+        reading = situation.reading
+        spec = self.session.specs[situation.spec_id]
+        raw = getattr(reading.source, "thickness_mm", None) if reading is not None else None
+        if raw is None or len(values) < 2:
+            return TestRun("compare_neighbours", "not_run", estimated_s, t0, clock.now, situation.state,
+                           note="no reading or no neighbours")
+        tolerance = max(abs(spec.upper), abs(spec.lower))
+        median = statistics.median(values)
+        outcome = "outlier" if abs(raw - median) > OUTLIER_TOLERANCES * tolerance else "ok"
+        return TestRun("compare_neighbours", outcome, estimated_s, t0, clock.now, situation.state,
+                       note=f"reading {raw:.3f}, neighbours' median {median:.3f} ({len(values)})")

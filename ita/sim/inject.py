@@ -1,0 +1,200 @@
+"""Fault injection: the simulator's faults switched on during a run, at random or scripted.
+
+    plan = InjectionPlan.parse(rate=0.05, kinds="broken_probe,dirty_window",
+                               scripts=["broken_probe@us_probe_1:after=120"], seed=7)
+    injector = FaultInjector(world, plan, log=runs_dir / "faults" / f"{run_id}.jsonl")
+    injector.before(command, held)        # the devices call it as they start each command
+
+Random: before each command, with probability `rate`, one fault drawn from the kinds that
+can hit that command's device (the gauge for COUPLANT and MEASURE on the arm's stream,
+the controller for the arm's motions, the SLRA in hand for SCAN), deterministic for a
+given seed.  Scripted: ``fault[@target][:after=SECONDS]`` switches a fault on at the
+first command at or after that simulated time (target: a tool, or the device's default).
+A fault stays on until the Exception Handler's recovery takes it out (or, a TRANSIENT,
+until the command it hits).  Every fault injected is written to the log, apart from the
+archive, like the as-built truth: only scoring reads it.
+
+Not injected: POSITION_DRIFT (a step of the arm's calibration that no device reports,
+so that only a check against a reference would find it) and SENSOR_GARBAGE of an SLRA.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ita.errors import InputError, Location
+from ita.sim.faults import Fault
+
+__all__ = ["INJECTABLE", "InjectionPlan", "FaultInjector", "Scripted", "injected_log"]
+
+#: the kinds a random injection may draw, by the device a command reaches
+INJECTABLE = {
+    "gauge": ("broken_probe", "worn_probe", "dry_couplant", "empty_couplant", "sensor_garbage", "transient"),
+    "controller": ("controller_silent", "transient", "obstacle"),
+    "slra": ("dirty_window",),
+}
+#: the cause of kb/faults.pl each injected fault is (for scoring the diagnoses)
+CAUSE_OF = {
+    "broken_probe": "broken_probe", "worn_probe": "worn_probe", "dry_couplant": "dry_couplant",
+    "empty_couplant": "empty_couplant_station", "sensor_garbage": "sensor_cable_fault",
+    "transient": "transient_glitch", "controller_silent": "controller_not_answering", "obstacle": "obstacle",
+    "dirty_window": "dirty_window", "position_drift": "arm_drift",
+}
+_SCRIPT = re.compile(r"^(?P<fault>[a-z_]+)(@(?P<target>[A-Za-z0-9_.-]+))?(:after=(?P<after>[0-9.]+))?$")
+_GAUGE_COMMANDS = ("COUPLANT", "MEASURE")
+
+
+@dataclass(frozen=True)
+class Scripted:
+    """One scripted fault: `fault` on `target` ('' = the device's own) from `after_s`."""
+
+    fault: str
+    target: str
+    after_s: float
+
+
+@dataclass(frozen=True)
+class InjectionPlan:
+    """What to inject: `rate` per command, drawn from `kinds`; `scripted` faults; `seed`."""
+
+    rate: float = 0.0
+    kinds: tuple[str, ...] = tuple(sorted({k for ks in INJECTABLE.values() for k in ks}))
+    scripted: tuple[Scripted, ...] = ()
+    seed: int = 0
+
+    @property
+    def active(self) -> bool:
+        return self.rate > 0.0 or bool(self.scripted)
+
+    @classmethod
+    def parse(cls, rate: float = 0.0, kinds: str | None = None, scripts: tuple[str, ...] | list[str] = (),
+              seed: int = 0) -> InjectionPlan:
+        """From the command line's --faults, --fault-kinds and --inject; InputError naming
+        the bad one."""
+        problems = []
+        if not (0.0 <= rate <= 1.0):
+            problems.append((Location("--faults"), f"a rate between 0 and 1, got {rate}"))
+        known = {k for ks in INJECTABLE.values() for k in ks}
+        chosen = tuple(sorted(known))
+        if kinds:
+            chosen = tuple(k.strip() for k in kinds.split(",") if k.strip())
+            bad = [k for k in chosen if k not in known]
+            if bad:
+                problems.append((Location("--fault-kinds"), f"unknown fault kind(s) {', '.join(bad)}; "
+                                 f"known: {', '.join(sorted(known))}"))
+        scripted = []
+        for text in scripts:
+            m = _SCRIPT.match(text.strip())
+            if m is None or m["fault"] not in {f.value for f in Fault}:
+                problems.append((Location("--inject", field=text), "expected fault[@target][:after=SECONDS] with a "
+                                 f"fault of {', '.join(f.value for f in Fault)}"))
+                continue
+            scripted.append(Scripted(m["fault"], m["target"] or "", float(m["after"] or 0.0)))
+        if problems:
+            raise InputError(problems)
+        return cls(float(rate), chosen, tuple(scripted), int(seed))
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"rate": self.rate, "kinds": list(self.kinds), "seed": self.seed,
+                "scripted": [f"{s.fault}{'@' + s.target if s.target else ''}:after={s.after_s:g}"
+                             for s in self.scripted]}
+
+
+def injected_log(runs_dir: Path, run_id: str) -> Path:
+    """Where a run's injected faults are logged (only scoring reads it)."""
+    return Path(runs_dir) / "faults" / f"{run_id}.jsonl"
+
+
+class FaultInjector:
+    """Switches faults on in `world` before commands (see the module docstring)."""
+
+    def __init__(self, world: Any, plan: InjectionPlan, log: Path | None = None, *, poses: Any = None) -> None:
+        self.world = world
+        self.plan = plan
+        self.log = log
+        self.poses = poses
+        self.rng = np.random.default_rng([plan.seed, 77])
+        self._pending = list(plan.scripted)
+        self.count = 0
+
+    def before(self, command: Any, device: str) -> None:
+        """Maybe inject before `command` reaches `device` (``arm`` or ``slra``)."""
+        if not self.plan.active:
+            return
+        kind = "slra" if device == "slra" else ("gauge" if command.name in _GAUGE_COMMANDS else "controller")
+        now = self.world.clock.now
+        for s in list(self._pending):
+            if s.after_s <= now:
+                self._pending.remove(s)
+                self._switch_on(s.fault, s.target or self._default_target(s.fault, kind), command)
+        if self.plan.rate <= 0.0:
+            return
+        if self.rng.random() >= self.plan.rate:
+            return
+        options = [k for k in INJECTABLE[kind] if k in self.plan.kinds]
+        if not options:
+            return
+        fault = options[int(self.rng.integers(len(options)))]
+        target = self._default_target(fault, kind)
+        if target is None or self.world.faults.has(fault, target):
+            return
+        self._switch_on(fault, target, command)
+
+    def _default_target(self, fault: str, kind: str) -> str | None:
+        from ita.robot.controller import CONTROLLER
+        from ita.sim.ultrasonic import GAUGE, STATION
+
+        held = self.world.held
+        if fault in ("broken_probe", "worn_probe", "dry_couplant"):
+            tool = self.world.held_tool
+            return held if tool is not None and tool.tool_class.value == "us_tool" else None
+        if fault == "dirty_window":
+            tool = self.world.held_tool
+            return held if tool is not None and tool.tool_class.value == "slra_tool" else None
+        if fault == "empty_couplant":
+            return STATION
+        if fault == "sensor_garbage":
+            return GAUGE
+        if fault == "transient":
+            return GAUGE if kind == "gauge" else CONTROLLER
+        if fault in ("controller_silent", "position_drift"):
+            return CONTROLLER
+        if fault == "obstacle":
+            return f"obstacle_{self.count + 1}"
+        return ""
+
+    def _switch_on(self, fault: str, target: str | None, command: Any) -> None:
+        if target is None:
+            return
+        if fault == "obstacle" and not self._place_obstacle(target, command):
+            return
+        if fault == "position_drift":
+            self.world.drift_m = self.world.drift_m + self.rng.normal(0.0, 1.0, 3) / np.sqrt(3) * 2e-3
+        self.world.faults = self.world.faults.with_fault(fault, target)
+        self.count += 1
+        if self.log is not None:
+            self.log.parent.mkdir(parents=True, exist_ok=True)
+            with open(self.log, "a", encoding="utf-8") as out:
+                out.write(json.dumps({"sim_time": round(self.world.clock.now, 3), "fault": fault, "target": target,
+                                      "cause": CAUSE_OF.get(fault, fault), "command": command.text}) + "\n")
+
+    def _place_obstacle(self, name: str, command: Any) -> bool:
+        """A box where a MOVE is going (the arm bumps it on the way in)."""
+        if command.name != "MOVE" or self.poses is None or len(command.args) < 2:
+            return False
+        try:
+            target = self.poses.resolve(command.args[1], self.world.held)
+        except KeyError:
+            return False
+        q = np.asarray(getattr(target, "q", None), dtype=float)
+        if q.shape != (6,):
+            return False
+        pose = self.world.tcp_pose(q)
+        self.world.add_obstacle(name, pose[:3, 3], (0.12, 0.12, 0.12))
+        return True
