@@ -449,8 +449,9 @@ goal_plan(File, Goals, Arm, PoseSpec, Holding, Reply) :-
 %   Plan repair (the seed's authors' wish: reuse what of a failed plan is still valid):
 %   Actions are the steps of a failed plan that did not complete, in order, and the arm
 %   is now at Pose holding Holding.  When the first of them cannot run from this state,
-%   a plan for its preconditions goes before them (goal_plan/6); the rest are checked by
-%   running them on the planning state.  Reply is `[ok, Prefix, FinalPose, FinalHolding]`
+%   a plan for all its preconditions (so that one achieved on the way is not undone by
+%   another) goes before them; the rest are checked by running them on the planning
+%   state.  Reply is `[ok, Prefix, FinalPose, FinalHolding]`
 %   (Prefix the steps of that plan, `[]` when none is needed) or `[invalid, Text]` when
 %   the remaining steps cannot run even so (then replan).
 %
@@ -468,7 +469,7 @@ repair_plan(File, Actions, Arm, PoseSpec, Holding, Reply) :-
     ->  exclude(holds_in(State), Pre, Missing),
         (   Missing == []
         ->  Prefix = [], State1 = State
-        ;   operation_plan(File, Missing, State, [domain(Domain)], Result),
+        ;   operation_plan(File, Pre, State, [domain(Domain)], Result),
             (   Result = macrop(_, Prefix0) -> true ; Result = planned(_, Prefix0) ),
             msort(Prefix0, Prefix),
             foldl(apply_step(Domain), Prefix, State, State1)

@@ -63,7 +63,7 @@ REAPPROACH_M = 0.02
 #: how far (m) beyond the viewing pose a RESCAN looks from (the second stand-off)
 RESCAN_BACK_M = 0.08
 #: share of the returns a dirty window loses (and how much it dims the others)
-DIRTY_DROPOUT = 0.85
+DIRTY_DROPOUT = 0.97
 DIRTY_DIMMING = 0.3
 #: the frame of the calibration block: pixels and window (deg)
 CAL_SHAPE = (48, 48)

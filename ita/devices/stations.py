@@ -5,9 +5,9 @@ tests and repairs that are not a measurement.
     stations.handlers     # message name -> command -> Reply
 
 - CALIBRATE(Tool, cal_block): the probe in hand reads the calibration block (a stepped
-  gauge block of known thickness: the box's height): straight down onto its face from
-  the approach point, couplant, one reading, straight back up; replies ``VALUE(V)`` or
-  the gauge's exception ``GAUGE(reason)``.
+  gauge block; its :data:`CAL_STEP_MM` step): straight down onto its face from the
+  approach point, couplant, one reading, straight back up; replies ``VALUE(V)`` or the
+  gauge's exception ``GAUGE(reason)``.
 - LEVEL(couplant_station): the reservoir's level, ``LEVEL(Percent)``.
 - REFILL(couplant_station): refill the reservoir (the EMPTY_COUPLANT fault goes);
   ``LEVEL(100)``.
@@ -38,7 +38,10 @@ from ita.robot import from_waypoints
 from ita.sensors.ultrasonic import GaugeException, GaugeSpec, interpret
 from ita.sim.faults import Fault
 
-__all__ = ["SECONDS", "StationCommands"]
+__all__ = ["CAL_STEP_MM", "SECONDS", "StationCommands"]
+
+#: the thickness (mm) of the calibration block's step the probe reads
+CAL_STEP_MM = 10.0
 
 #: simulated seconds of the station operations (the motion to the station is planned apart)
 SECONDS = {
@@ -97,7 +100,7 @@ class StationCommands:
                                        command="calibrate", allowed=("cal_block",))
         if not down.ok:
             return exception_reply(down.status.value.upper(), f"{command.text}: {down.message}", down.status.value)
-        thickness_mm = float(world.cell.cal_block.size[2]) * 1000.0
+        thickness_mm = CAL_STEP_MM
         reply = interpret(self.gauge_sim.pulse_reference(thickness_mm), self.spec)
         up = self.controller.execute(from_waypoints(world.model, [np.array(world.q), above],
                                                     speed_scale=CONTACT_SPEED), command="calibrate",

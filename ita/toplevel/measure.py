@@ -16,7 +16,7 @@ Reasoner could not place for that tool cannot be done; nothing is planned for it
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from enum import Enum
 from typing import TYPE_CHECKING, Any
 
@@ -146,8 +146,11 @@ def execute_measurement(session: Session, spec_id: str, tool: str, plan: Operati
     others = tuple(v for k, v in values.items() if k != spec_id)
     if not report.ok:
         recovered = session.arm.recover()
+        state = state_after(plan, report)
+        if recovered and state.pose.kind is PoseKind.CONTACT:   # jogged back off the part: its approach point
+            state = replace(state, pose=QualitativePose(PoseKind.APPROACH, state.pose.place))
         return MeasureOutcome(spec_id, tool, MeasureStatus.NOT_DONE, values.get(spec_id), report.failure.reason,
-                              others, plan, report, state_after(plan, report), t0, t1, recovered)
+                              others, plan, report, state, t0, t1, recovered)
     value = values.get(spec_id)
     if value is None:
         value = _dimension(spec_id, report)

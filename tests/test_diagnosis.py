@@ -1,0 +1,202 @@
+"""The Exception Handler in the simulated cell: each exception diagnosed to the fault
+switched on, the world put right, the measurement recovered (or honestly not done)."""
+
+from __future__ import annotations
+
+import pytest
+
+from ita.planning import WorldState
+from ita.sim.faults import FaultSet
+from ita.toplevel import MeasureStatus, measure_one
+
+
+@pytest.fixture(scope="module")
+def session(builtin_part):
+    from ita.toplevel import open_session
+
+    s = open_session(None, seed=11)
+    yield s
+    s.close()
+
+
+@pytest.fixture(scope="module")
+def handler(session):
+    from ita.diagnosis import ExceptionHandler
+
+    return ExceptionHandler(session, learn=False)
+
+
+@pytest.fixture(scope="module")
+def arm() -> dict[str, WorldState]:
+    return {"state": WorldState(arm="t3")}
+
+
+def _first(session, tool: str, kind: str | None = None, skip: int = 0) -> str:
+    ids = [i for g in session.plan.groups if g.tool == tool for i in g.order
+           if kind is None or session.specs[i].kind.value == kind]
+    return ids[skip]
+
+
+def _fail_and_handle(session, handler, arm, spec_id: str, tool: str, faults: FaultSet):
+    """Measure with `faults` switched on; the handler's answer (the arm state kept)."""
+    session.kb.once("world", "reset_world")
+    session.world.faults = faults
+    out = measure_one(session, spec_id, arm["state"], tool)
+    assert out.status is MeasureStatus.NOT_DONE, f"{spec_id} did not fail with {faults.names()}"
+    handled = handler.handle(out)
+    assert handled is not None
+    arm["state"] = handled.outcome.state
+    return out, handled
+
+
+CASES = [  # fault, target, tool, exception, isolated cause, measured after recovery
+    ("broken_probe", "us_probe_1", "us_probe_1", "no_echo", "broken_probe(us_probe_1)", True),
+    ("worn_probe", "us_probe_1", "us_probe_1", "doubled_thickness", "worn_probe(us_probe_1)", True),
+    ("empty_couplant", "couplant_station", "us_probe_1", "no_couplant_film", "empty_couplant_station", True),
+    ("dry_couplant", "us_probe_1", "us_probe_1", "no_couplant_film", "dry_couplant(us_probe_1)", True),
+    ("sensor_garbage", "us_gauge", "us_probe_1", "corrupt_reply", "sensor_cable_fault(gauge)", True),
+    ("transient", "us_gauge", "us_probe_1", "no_echo", "transient_glitch", True),
+    ("controller_silent", "controller", "us_probe_1", "controller_timeout", "controller_not_answering", True),
+    ("dirty_window", "slra_1", "slra_1", "too_few_pixels", "dirty_window(slra_1)", True),
+]
+
+
+@pytest.mark.parametrize("fault,target,tool,exception,cause,measured", CASES, ids=[c[0] for c in CASES])
+def test_each_exception_is_diagnosed_to_the_fault_switched_on(session, handler, arm, fault, target, tool,
+                                                              exception, cause, measured):
+    kind = "web_thickness" if tool.startswith("us_") else "hole_diameter"
+    spec_id = _first(session, tool, kind, skip=CASES.index(next(c for c in CASES if c[0] == fault)))
+    _, handled = _fail_and_handle(session, handler, arm, spec_id, tool, FaultSet().with_fault(fault, target))
+    d = handled.diagnosis
+    assert d.exception == exception
+    assert d.cause == cause, d.summary
+    assert d.tests, "a cause was isolated without a test"
+    assert (handled.outcome.status is MeasureStatus.MEASURED) is measured, handled.outcome.reason
+    if measured:   # the cell was put right, or the tool set aside
+        still = session.world.faults.names()
+        assert f"{fault}@{target}" not in still or fault in ("broken_probe", "worn_probe")
+        truth = _truth(session)[spec_id]
+        v = handled.outcome.value
+        assert abs(v.value - truth) <= max(2.0 * v.u, 0.02)
+    session.world.faults = FaultSet()
+
+
+def _truth(session) -> dict[str, float]:
+    from ita.scoring import true_values
+
+    return true_values(session.part.directory)
+
+
+def test_a_doubled_reading_never_becomes_a_result(session, handler, arm):
+    """Both probes worn: every reading is doubled; the measurement ends not done, never a value."""
+    spec_id = _first(session, "us_probe_1", "web_thickness", skip=9)
+    faults = FaultSet().with_fault("worn_probe", "us_probe_1").with_fault("worn_probe", "us_probe_2")
+    out, handled = _fail_and_handle(session, handler, arm, spec_id, "us_probe_1", faults)
+    assert out.report.failure.reply.payload.args[0] == "doubled"
+    assert handled.outcome.status is MeasureStatus.NOT_DONE
+    assert handled.outcome.value is None or not handled.outcome.value.ok or \
+        handled.outcome.status is not MeasureStatus.MEASURED
+    assert "diagnosis" in handled.outcome.reason
+    session.world.faults = FaultSet()
+
+
+def test_a_test_that_needs_the_probe_with_the_slra_in_hand_plans_and_prices_the_tool_change(session, handler,
+                                                                                            arm):
+    from ita.diagnosis.tests import Situation
+
+    session.kb.once("world", "reset_world")
+    bench = handler.bench
+    spec_id = _first(session, "slra_1")
+    held = session.world.held
+    situation = Situation(spec_id, "slra_1", "slra_tool", "too_few_pixels", arm["state"])
+    own = handler.knowledge.tests()["read_cal_block"].seconds
+    cost = bench.cost("read_cal_block", situation)
+    if held is not None and not held.startswith("us_"):
+        assert cost > own + 5.0                     # a tool change priced in
+    assert bench.cost("retry_reading", situation) is None   # a probe retry of an SLRA view does not apply
+    plan, report, state, _ = bench.execute_goals([_term("calibrated", "us_probe_1")], situation.state, name="t")
+    arm["state"] = state
+    actions = [s.action for s in plan.steps]
+    assert "us_check_calibration" in actions
+    if held is not None and held != "us_probe_1":
+        assert "pick_up" in actions and actions.index("pick_up") < actions.index("us_check_calibration")
+
+
+def _term(name: str, *args):
+    from ita.logic.terms import Term
+
+    return Term(name, tuple(args))
+
+
+def test_replanning_and_repair_each_give_a_valid_plan_from_a_mid_plan_failure(session, arm):
+    """A plan stopped at its measuring step: plan repair keeps its unfinished steps after a
+    prefix for their preconditions; replanning plans afresh; both measure."""
+    from ita.toplevel.measure import execute_measurement
+
+    spec_id = _first(session, "us_probe_1", "web_thickness", skip=11)
+    session.kb.once("world", "reset_world")
+    session.world.faults = FaultSet().with_fault("transient", "us_gauge")
+    out = measure_one(session, spec_id, arm["state"], "us_probe_1")
+    session.world.faults = FaultSet()
+    assert out.status is MeasureStatus.NOT_DONE and out.report.failure.command.name == "MEASURE"
+    repaired = session.planner.repair_plan(out.plan, out.report.failure.completed, out.state)
+    assert repaired is not None and repaired.steps[-1].action == "us_measure"
+    kept = [s for s in out.plan.steps if s.number not in set(out.report.failure.completed)]
+    assert [(s.action, s.args) for s in repaired.steps[-len(kept):]] == [(s.action, s.args) for s in kept]
+    done = execute_measurement(session, spec_id, "us_probe_1", repaired)
+    assert done.status is MeasureStatus.MEASURED
+    again = measure_one(session, spec_id, done.state, "us_probe_1")
+    assert again.status is MeasureStatus.MEASURED
+    arm["state"] = again.state
+
+
+def test_learned_frequencies_persist_and_change_the_first_test(session, tmp_path):
+    from ita.diagnosis import FaultCounts
+    from ita.diagnosis.knowledge import FaultKnowledge
+
+    path = tmp_path / "counts.json"
+    kn = FaultKnowledge(session.kb)
+    context = [_term("=", "probe", "us_probe_1"), _term("=", "device", "gauge")]
+    tests = [("check_couplant_station", 9.0), ("read_cal_block", 12.0), ("retry_reading", 5.0)]
+    before = kn.step("no_couplant_film", context, FaultCounts.load(path).causes, [], tests)
+    for _ in range(40):       # the cell has seen many one-off glitches: a retry is the cheapest bet
+        FaultCounts.record("no_couplant_film", "transient_glitch", path)
+    counts = FaultCounts.load(path)
+    assert counts.causes["transient_glitch"] == 40 and counts.exceptions["no_couplant_film"] == 40
+    after = kn.step("no_couplant_film", context, counts.causes, [], tests)
+    assert before.choice == ("test", "check_couplant_station")
+    assert after.choice == ("test", "retry_reading")
+    assert dict(after.posterior)["transient_glitch"] > dict(before.posterior)["transient_glitch"]
+
+
+def test_a_run_with_a_broken_probe_finishes_its_thicknesses_with_the_spare(session, tmp_path):
+    """The Top Level with a broken us_probe_1 from the start: the handler marks it, the
+    Sequence Planner resequences to the spare, every thickness is measured with it."""
+    from ita.archive import Archive
+    from ita.sim.inject import FaultInjector, InjectionPlan
+    from ita.toplevel import RunSignals, TopLevel, open_session
+
+    session = open_session(None, seed=11)     # a fresh cell: the arm at home with no tool
+    ids = [i for i in session.plan.groups[-1].order if session.specs[i].kind.value == "web_thickness"][20:25]
+    if session.plan.groups[-1].tool != "us_probe_1":
+        pytest.skip("the plan's last group is not the probe's")
+    session.kb.once("world", "reset_world")
+    session.world.faults = FaultSet()
+    plan = InjectionPlan.parse(0.0, None, ["broken_probe@us_probe_1:after=0"], seed=1)
+    injector = FaultInjector(session.world, plan, tmp_path / "faults.jsonl", poses=session.reasoner)
+    session.arm.injector = session.slra.injector = injector
+    try:
+        with Archive.open(tmp_path / "archive.sqlite") as archive:
+            run_id = archive.create_run("bulkhead", session.part.directory, seed=11,
+                                        settings={"specs": ids}, total=len(ids))
+            summary = TopLevel(session, archive, run_id, RunSignals(message=None)).run()
+            results = archive.results(run_id)
+            diagnoses = archive.events(run_id, kinds=["diagnosis"])
+    finally:
+        session.kb.once("world", "reset_world")
+        session.close()
+    assert summary.status == "completed"
+    assert {r.spec_id for r in results} == set(ids)
+    assert all(r.outcome.value == "measured" and r.tool == "us_probe_2" for r in results), \
+        [(r.spec_id, r.outcome.value, r.tool, r.reason) for r in results]
+    assert [d.payload["cause"] for d in diagnoses] == ["broken_probe(us_probe_1)"]
