@@ -40,6 +40,7 @@ from ita.archive.timeline import breakdown, intervals, span
 from ita.devices.arm import RECOVER_SECONDS
 from ita.planning.state import WorldState
 from ita.sequence.next_step import next_step, the_arm
+from ita.toplevel.details import measurement_details
 from ita.toplevel.events import archive_events
 from ita.toplevel.measure import MeasureOutcome, MeasureStatus, measure_one
 from ita.toplevel.signals import RunSignals, StopNow
@@ -144,18 +145,20 @@ class TopLevel:
         self.frames = 0
 
     # -- recording ---------------------------------------------------------------------------
-    def _record(self, result: Result, events: list[Event] = ()) -> None:
-        if self.archive.record_result(self.run_id, result, events=events):
+    def _record(self, result: Result, events: list[Event] = (), details: dict | None = None,
+                frames: tuple = ()) -> None:
+        if self.archive.record_result(self.run_id, result, events=events, details=details, frames=frames):
             self.done.add(result.spec_id)
             label = result.decision.value if result.decision is not None else result.outcome.value
             self.counts[label] += 1
             self.recorded_now += 1
 
     def _unmeasured(self, spec_id: str, outcome: Outcome, reason: str, *, tool: str | None = None,
-                    t0: float | None = None, t1: float | None = None, events: list[Event] = ()) -> None:
+                    t0: float | None = None, t1: float | None = None, events: list[Event] = (),
+                    details: dict | None = None, frames: tuple = ()) -> None:
         spec = self.session.specs[spec_id]
         self._record(Result.unmeasured(spec, outcome, reason, tool=tool, sim_time_start=t0, sim_time_end=t1),
-                     list(events))
+                     list(events), details, frames)
 
     # -- the run -----------------------------------------------------------------------------
     def run(self, on_progress: Callable[[Progress], None] | None = None) -> RunSummary:
@@ -254,38 +257,42 @@ class TopLevel:
                              t1=out.t1)
             return out.state
         self.plan_no += 1
-        events = self._events(out)
+        events = self._events(out, step.group)
+        extra = measurement_details(self.session, out, plan_no=self.plan_no, group=step.group)
+        mine = extra.details.get(step.spec_id)
         if any(e.kind == "command" and e.payload.get("name") == "scan" for e in events):
             self.frames += 1
         spec = self.session.specs[step.spec_id]
         if out.status is MeasureStatus.MEASURED:
             assert out.value is not None
             self._record(Result.measured(spec, out.value.value, out.value.u, tool=step.tool,
-                                         sim_time_start=out.t0, sim_time_end=out.t1), events)
+                                         sim_time_start=out.t0, sim_time_end=out.t1), events, mine, extra.frames)
         else:
             if out.report is not None and not out.report.ok:
                 self.exceptions += 1
             self._unmeasured(step.spec_id, Outcome.NOT_DONE, out.reason or "", tool=step.tool, t0=out.t0,
-                             t1=out.t1, events=events)
+                             t1=out.t1, events=events, details=mine, frames=extra.frames)
         for other in out.others:   # the rest of the frame's view group
             if other.spec_id in self.done or other.spec_id not in self.todo_set:
                 continue
+            theirs = extra.details.get(other.spec_id)
             if other.ok:
                 self._record(Result.measured(self.session.specs[other.spec_id], other.value, other.u,
                                              tool=step.tool, sim_time_start=out.t0, sim_time_end=out.t1,
-                                             reason=f"from the frame of {step.spec_id}"))
+                                             reason=f"from the frame of {step.spec_id}"), [], theirs)
             else:
                 self._unmeasured(other.spec_id, Outcome.NOT_DONE, other.reason or "", tool=step.tool, t0=out.t0,
-                                 t1=out.t1)
+                                 t1=out.t1, details=theirs)
         return out.state
 
-    def _events(self, out: MeasureOutcome) -> list[Event]:
+    def _events(self, out: MeasureOutcome, group: int | None = None) -> list[Event]:
         """The archive events of a measurement's plan: its start, the executive's log, its
         end and a recovery of the arm."""
         assert out.plan is not None and out.report is not None
         plan, report = out.plan, out.report
         events = [Event("plan_start", "top", out.t0, {"spec": out.spec_id, "macrop": plan.macrop_name,
-                                                      "source": plan.source.value, "steps": len(plan.steps)})]
+                                                      "source": plan.source.value, "steps": len(plan.steps),
+                                                      "group": group, "tool": out.tool})]
         events += archive_events(report, self.plan_no)
         if report.ok:
             events.append(Event("plan_end", "top", out.t1, {"spec": out.spec_id, "status": "ok"}))
