@@ -53,10 +53,11 @@ if TYPE_CHECKING:
 __all__ = ["Progress", "RunSummary", "TopLevel", "start_run"]
 
 
-def start_run(session: Session, archive: Archive, *, limit: int | None = None) -> str:
+def start_run(session: Session, archive: Archive, *, limit: int | None = None, run_id: str | None = None) -> str:
     """Register a new run of the session's part in `archive`: the measurements it sets out
     to do are the first `limit` of the sequence plan (all by default), plus those the plan
-    cannot do (recorded as such).  Returns the run id."""
+    cannot do (recorded as such).  run_id: the id to give it (the System Monitor names the
+    runs it starts); default a fresh one.  Returns the run id."""
     plan = session.plan
     order = [i for g in plan.groups for i in g.order]
     todo = order[:limit] if limit is not None else order
@@ -65,7 +66,7 @@ def start_run(session: Session, archive: Archive, *, limit: int | None = None) -
     settings = {"simulated": True, "limit": limit, "part_arg": session.part_arg, "specs": todo,
                 "mkb_digest": session.mkb.digest, "sequence_total_s": plan.total_s}
     return archive.create_run(session.ctx.part_name, session.part.directory, seed=session.seed,
-                              settings=settings, total=len(todo))
+                              settings=settings, total=len(todo), run_id=run_id)
 
 
 # -- progress and summary -------------------------------------------------------------------
