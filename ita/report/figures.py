@@ -251,7 +251,12 @@ def range_image_figure(range_m: Any, intensity: Any, overlay: Mapping[str, Any] 
         return [[None if not math.isfinite(v) else round(float(v), digits) for v in row] for row in a]
 
     finite = rng[np.isfinite(rng)]
-    lo, hi = (float(np.percentile(finite, 1)), float(np.percentile(finite, 99))) if finite.size else (0.0, 1.0)
+    if finite.size:    # the surfaces near the view, not the far floor: the median's neighbourhood
+        med = float(np.median(finite))
+        lo = float(np.percentile(finite, 1))
+        hi = min(float(np.percentile(finite, 99)), med + max(med - lo, 5.0) + 60.0)
+    else:
+        lo, hi = 0.0, 1.0
     traces: list[dict[str, Any]] = [
         {"type": "heatmap", "z": grid(rng, 2), "colorscale": "Viridis", "zmin": round(lo, 2), "zmax": round(hi, 2),
          "name": "range", "colorbar": {"title": {"text": "range (mm)"}},

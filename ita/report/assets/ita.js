@@ -273,7 +273,7 @@
       root.appendChild(div);
       ITA.plot(div, d.range_figure);
       const v = (d.details || {}).vision || {};
-      if (v.numbers) root.insertAdjacentHTML("beforeend", table(["Vision", ""], Object.entries(v.numbers).map(([k, x]) => [label(k), typeof x === "number" ? num(x, 5) : x]), [1]));
+      if (v.numbers) root.insertAdjacentHTML("beforeend", table(["Vision", ""], Object.entries(v.numbers).map(([k, x]) => [label(k), typeof x === "number" && !Number.isInteger(x) ? num(x, 5) : x]), [1]));
     } else if (d.frame_note) {
       root.appendChild(h("p", { class: "note" }, esc(d.frame_note)));
     }
@@ -315,7 +315,7 @@
       return `${Math.floor(x / 3600)}:${String(Math.floor(x % 3600 / 60)).padStart(2, "0")}:${String(x % 60).padStart(2, "0")}`;
     };
     let html = `<div><b id="live-state">${esc(s.state)}</b> · <span id="live-done">${s.done}</span> of ${s.total ?? "?"} results` +
-      ` · simulated ${fmt(s.sim_s)} · wall ${fmt(s.wall_s)} · left ~${fmt(s.eta_wall_s)} wall, ~${fmt(s.eta_sim_s)} simulated</div>`;
+      ` · simulated ${fmt(s.sim_s)} · wall ${fmt(s.wall_s)}` + (s.eta_wall_s === null || s.eta_wall_s === undefined ? "" : ` · left ~${fmt(s.eta_wall_s)} wall, ~${fmt(s.eta_sim_s)} simulated`) + "</div>";
     html += `<div class="progress"><div style="width:${(100 * frac).toFixed(1)}%"></div></div>`;
     const c = s.current || {};
     html += `<p>current: group <b>${c.group === null || c.group === undefined ? "-" : c.group + 1}</b>, tool <b>${esc(c.tool || "-")}</b>, ` +
