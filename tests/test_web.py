@@ -184,23 +184,25 @@ def test_start_stop_continue_from_the_page(site, builtin_part) -> None:
     b = site["browser"]
     b.get(site["base"] + "/")
     _wait(b, "return document.body.dataset.ready")
-    b.find_element("css selector", "#start input[name=limit]").send_keys("6")
+    b.find_element("css selector", "#start input[name=limit]").send_keys("40")
     b.find_element("id", "start-run").click()
     _wait(b, "return window.location.pathname.startsWith('/runs/r')", 20)
     run_id = b.current_url.rsplit("/", 1)[-1]
-    _wait(b, "return Number((document.getElementById('live-done') || {}).textContent || 0) >= 1", 240)
+    _wait(b, "return Number((document.getElementById('live-done') || {}).textContent || 0) >= 2", 240)
     b.find_element("id", "btn-stop").click()
+    _wait(b, "return document.getElementById('control-msg').textContent", 10)
+    assert b.find_element("id", "control-msg").text == "STOP sent"
     _wait(b, "return (document.getElementById('live-state') || {}).textContent === 'stopped'", 60)
     with Archive.open(archive_path(site["runs"])) as a:
         stopped = a.run(run_id)
-        assert stopped.status.value == "stopped" and 1 <= stopped.done < 6
+        assert stopped.status.value == "stopped" and 2 <= stopped.done < 40
     _wait(b, "return !document.getElementById('btn-continue').disabled", 10)
     b.find_element("id", "btn-continue").click()
     _wait(b, "return (document.getElementById('live-state') || {}).textContent === 'completed'", 240)
     with Archive.open(archive_path(site["runs"])) as a:
         results = a.results(run_id)
         ids = Counter(r.spec_id for r in results)
-        assert len(results) == 6 and set(ids.values()) == {1}
+        assert len(results) == 40 and set(ids.values()) == {1}
         assert ids.keys() == set(a.run(run_id).settings["specs"])
         assert [e.kind for e in a.events(run_id, kinds=["stop", "resume"])] == ["stop", "resume"]
     assert any(r.outcome is Outcome.MEASURED for r in results)
