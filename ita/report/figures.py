@@ -192,7 +192,7 @@ def part_figure(specs: Sequence[SpecPoint], results: Sequence[StoredResult], mes
         "legend": {"x": 0, "y": 0.95}, "uirevision": "part",
         "scene": {"aspectmode": "data", "xaxis": {"title": {"text": "x (mm)"}},
                   "yaxis": {"title": {"text": "y (mm)"}}, "zaxis": {"title": {"text": "z (mm)"}},
-                  "camera": {"eye": {"x": 0.2, "y": -1.2, "z": 1.4}}}}}
+                  "camera": {"eye": {"x": 0.1, "y": -1.4, "z": 2.4}}}}}
 
 
 def workcell_figure(boxes: Sequence[Any], part_mesh_world: Any, paths: Sequence[Mapping[str, Any]],

@@ -106,8 +106,7 @@ def pdf_report(data: ReportData, payload: Mapping[str, Any], *, mesh: Any = None
         figures += [("rate", "-" if s["rate_s"] is None else f"{s['rate_s']:.1f} s simulated per measurement"),
                     ("whole part, extrapolated (not measured)",
                      "-" if s["projected_h"] is None else f"{s['projected_h']:.2f} h"),
-                    ("comparison with the manual method and the 1987 goal",
-                     "only for a run of the whole part: not this one")]
+                    ("manual method, 1987 goal", "compared only for a run of the whole part: not this one")]
     figures += [("run", run.get("id", "")), ("created / ended (UTC)", f"{run.get('created', '')} / {run.get('ended') or '-'}")]
     story.append(grid([[k, v] for k, v in figures], header=False, widths=[75 * mm, 150 * mm], font=10))
     story.append(Spacer(1, 4 * mm))
