@@ -2,7 +2,7 @@
 # Set up ITA (SWI-Prolog, a virtual environment, the package) and run something.
 #
 #   bash setup.sh run [ARGS]    set up, then run the main job (`ita inspect`: the whole bulkhead)
-#   bash setup.sh test [ARGS]   set up, then run every test (pytest; ARGS go to pytest)
+#   bash setup.sh test [ARGS]   set up (also Chromium for the browser tests), then run every test (pytest; ARGS go to pytest)
 #   bash setup.sh setup         set up only
 #
 # Idempotent: when everything is in place it only checks, which takes about a second.
@@ -65,7 +65,15 @@ setup() {
     fi
 }
 
+setup_browser() {
+    # the browser tests of `ita serve` drive Debian's Chromium headless (not needed to run ITA)
+    if ! command -v chromium >/dev/null 2>&1 || ! command -v chromedriver >/dev/null 2>&1; then
+        apt_install chromium chromium-driver
+    fi
+}
+
 setup
+[ "$action" = test ] && setup_browser
 case "$action" in
     setup) say "ready: $venv/bin/ita" ;;
     run)   exec "$venv/bin/ita" inspect "$@" ;;

@@ -366,3 +366,40 @@ def test_sigkill_at_random_moments_loses_and_duplicates_no_result(tmp_path: Path
     assert con.execute("SELECT COUNT(*), COUNT(DISTINCT spec_id) FROM results").fetchone() == (n, n)
     con.close()
 
+
+
+def test_details_and_frames_are_kept_with_their_result(tmp_path: Path) -> None:
+    import numpy as np
+
+    from ita.archive import StoredFrame
+
+    rng = np.random.default_rng(0)
+    rng_m = 0.45 + rng.normal(0, 1e-3, (40, 30))
+    rng_m[2, 3] = np.nan
+    frame = StoredFrame("a", 0, rng_m, rng.random((40, 30)), np.eye(4), (30.0, 24.0), {"group": "g"})
+    with Archive.open(tmp_path / "a.sqlite") as a:
+        rid = a.create_run("p", total=2)
+        assert a.record_result(rid, thickness("a", 2.5), details={"plan": {"steps": [1]}}, frames=[frame])
+        # a second result for the same spec changes nothing, its details and frames neither
+        assert not a.record_result(rid, thickness("a", 2.6), details={"plan": "other"}, frames=[])
+        assert a.details(rid, "a") == {"plan": {"steps": [1]}} and a.details(rid, "b") == {}
+        (back,) = a.frames(rid, "a")
+        assert back.shape == (40, 30) and back.meta["group"] == "g" and np.isnan(back.range_m[2, 3])
+        assert np.nanmax(np.abs(back.range_m - rng_m)) <= 0.6e-4 and a.frame_count(rid) == 1
+        assert [r.spec_id for r in a.results(rid, last=1)] == ["a"] and a.result(rid, "a").value == 2.5
+
+
+def test_a_version_1_archive_is_migrated(tmp_path: Path) -> None:
+    from ita.archive.schema import DDL_V1
+
+    path = tmp_path / "old.sqlite"
+    con = sqlite3.connect(path, isolation_level=None)
+    for statement in DDL_V1.split(";"):
+        if statement.strip():
+            con.execute(statement)
+    con.execute("INSERT INTO schema_version VALUES (1, 'then')")
+    con.close()
+    with Archive.open(path) as a:
+        rid = a.create_run("p", total=1)
+        assert a.record_result(rid, thickness("a"), details={"x": 1})
+        assert a.details(rid, "a") == {"x": 1}

@@ -69,7 +69,8 @@ def test_results_table_json_and_failed(runs_dir: Path) -> None:
     prefix = first[:-1] if not second.startswith(first[:-1]) else first
     res = run("results", prefix, "--runs-dir", str(runs_dir))
     assert res.exit_code == 0, res.output
-    assert res.stdout.splitlines()[1].split() == ["#", "SPEC", "VALUE", "U", "NOMINAL", "TOLERANCE", "DECISION"]
+    assert res.stdout.splitlines()[1].split() == ["#", "SPEC", "KIND", "TOOL", "NOMINAL", "VALUE", "DEVIATION",
+                                                  "TOLERANCE", "U", "U/TOL", "DECISION", "REASON"]
     assert len(res.stdout.splitlines()) == 2 + 60 and "does not conform" in res.stdout
     data = json.loads(run("results", first, "--runs-dir", str(runs_dir), "--json").stdout)
     assert data["run"] == first and len(data["results"]) == 60
@@ -81,6 +82,40 @@ def test_results_table_json_and_failed(runs_dir: Path) -> None:
     assert len(failed["results"]) == sum(1 for r in data["results"] if r["decision"] != "conforms")
     last = json.loads(run("results", "last", "--runs-dir", str(runs_dir), "--json").stdout)
     assert len(last["results"]) == 25
+
+
+def test_results_csv_has_every_column(runs_dir: Path) -> None:
+    import csv
+    import io
+
+    from ita.report.data import COLUMNS
+
+    first, _ = ids(runs_dir)
+    res = run("results", first, "--runs-dir", str(runs_dir), "--csv")
+    assert res.exit_code == 0, res.output
+    rows = list(csv.DictReader(io.StringIO(res.stdout)))
+    assert tuple(rows[0]) == COLUMNS and len(rows) == 60
+    assert all(r["reason"] for r in rows if r["decision"] != "conforms")
+    both = run("results", first, "--runs-dir", str(runs_dir), "--csv", "--json")
+    assert both.exit_code == 2
+
+
+def test_part_option_selects_the_runs_of_a_part(runs_dir: Path, tmp_path: Path) -> None:
+    other = tmp_path / "otherpart"
+    other.mkdir()
+    res = run("results", "last", "--part", str(other), "--runs-dir", str(runs_dir))
+    assert res.exit_code == 2 and "no run of the part" in res.output
+    res = run("report", "last", "-o", str(tmp_path / "r.html"), "--part", str(other), "--runs-dir", str(runs_dir))
+    assert res.exit_code == 2 and not (tmp_path / "r.html").exists()
+
+
+def test_report_refuses_other_extensions_and_writes_nothing(runs_dir: Path, tmp_path: Path) -> None:
+    res = run("report", "last", "-o", str(tmp_path / "r.txt"), "--runs-dir", str(runs_dir))
+    assert res.exit_code == 2 and ".html" in res.output and ".pdf" in res.output
+    assert not (tmp_path / "r.txt").exists()
+    res = run("report", "last", "-o", str(tmp_path / "r.pdf"), "--runs-dir", str(runs_dir))
+    assert res.exit_code == 0, res.output
+    assert (tmp_path / "r.pdf").read_bytes()[:5] == b"%PDF-"
 
 
 def test_unknown_and_ambiguous_runs_exit_2(runs_dir: Path) -> None:
@@ -105,6 +140,7 @@ def test_report_of_a_run_of_the_builtin_part_is_scored(builtin_part, tmp_path: P
     res = run("report", "last", "-o", str(out), "--runs-dir", str(runs))
     assert res.exit_code == 0, res.output
     page = out.read_text(encoding="utf-8")
-    assert "scored" in res.stdout and 'class="scoring"' in page and "40 of 40" in page
+    assert "scored" in res.stdout and '"id":"scoring"' in page and "40 of " in page
+    assert '"type":"mesh3d"' in page                       # the part's mesh in the 3-D view
     res = run("report", "last", "-o", str(out), "--no-score", "--runs-dir", str(runs))
-    assert res.exit_code == 0 and 'class="scoring"' not in out.read_text(encoding="utf-8")
+    assert res.exit_code == 0 and '"id":"scoring"' not in out.read_text(encoding="utf-8")

@@ -1,7 +1,10 @@
-"""The HTML report of a run, and the timeline arithmetic behind its Gantt chart."""
+"""The report of a run (summary, verdict, per-feature rows, HTML, PDF), and the timeline
+arithmetic behind its Gantt chart."""
 
 from __future__ import annotations
 
+import io
+import json
 import re
 from pathlib import Path
 
@@ -9,14 +12,20 @@ import pytest
 from archive_synth import fake_specs, record_synthetic_run, true_values
 
 from ita.archive import Archive, Event, RunStatus, timeline
-from ita.archive.report import (
+from ita.errors import InputError
+from ita.report import (
     GOAL_HOURS,
     MANUAL_HOURS,
+    Verdict,
+    build_pdf,
     build_report,
     collect,
-    summary,
+    report_format,
+    summarize,
     write_report,
 )
+from ita.report.data import COLUMNS, result_row
+from ita.report.sections import report_payload
 
 
 @pytest.fixture(scope="module")
@@ -32,64 +41,123 @@ def run(tmp_path_factory: pytest.TempPathFactory):
     a.close()
 
 
+def _data(page: str) -> dict:
+    m = re.search(r'<script id="ita-data" type="application/json">(.*?)</script>', page, re.S)
+    return json.loads(m.group(1))
+
+
 def _no_external_references(page: str) -> None:
+    """No reference that loads anything from elsewhere, outside plotly.js (whose text, inlined
+    as it ships, names its web site in strings)."""
+    from ita.report.assets import asset_text
+
+    plotly = asset_text("plotly.min.js").replace("</script", "<\\/script")
+    assert plotly in page
+    page = page.replace(plotly, "")
     assert not re.search(r"""(src|href)\s*=\s*["']?(https?:|//)""", page, re.IGNORECASE)
     assert not re.search(r"url\(\s*['\"]?(https?:|//)", page, re.IGNORECASE)
-    assert "<script" not in page.lower() and "<link" not in page.lower() and "@import" not in page
+    assert "<link" not in page.lower() and "@import" not in page
+    assert not re.search(r"<script[^>]*\ssrc=", page, re.IGNORECASE)
 
 
-def test_report_is_one_self_contained_page_with_the_summary(run, tmp_path: Path) -> None:
+def test_report_is_one_self_contained_page_with_a_verdict(run, tmp_path: Path) -> None:
     a, rid, specs, _ = run
     page = build_report(a, rid, specs=specs)
     _no_external_references(page)
-    s = summary(collect(a, rid, specs))
-    assert s["done"] == 120 and sum(s["counts"].values()) == 120
-    assert f"{s['done']} of 120" in page
-    assert f"{s['cycle_s'] / 3600:.3f} h" in page and f"{MANUAL_HOURS / s['cycle_h']:.1f}x faster" in page
-    assert f"{s['cycle_h'] / GOAL_HOURS:.2f} of the goal time" in page
-    for status, n in s["counts"].items():
-        assert re.search(rf"{status.replace('_', ' ')}</td><td class=\"num\">{n}<", page), status
-    assert s["counts"]["not_done"] == 3 and s["counts"]["does_not_conform"] > 0
-    # the charts are inline PNGs: part map, tours, Gantt (whole and detail)
-    images = re.findall(r'<img src="data:image/png;base64,[A-Za-z0-9+/=]+" alt="([^"]*)"', page)
-    assert {"part map coloured by decision", "tours", "Gantt chart of the command streams",
-            "Gantt chart, detail"} <= set(images)
-    assert "Scoring" not in page
+    s = summarize(collect(a, rid, specs))
+    assert s.done == 120 and sum(s.counts.values()) == 120 and s.complete
+    assert s.verdict is Verdict.REJECT and "do not conform" in s.verdict_reason
+    assert "PART REJECT" in page                      # readable without scripts too
+    assert f"{MANUAL_HOURS / s.cycle_h:.1f}x faster" in page and f"{s.cycle_h / GOAL_HOURS:.2f} of the goal" in page
+    data = _data(page)
+    ids = [sec["id"] for sec in data["sections"]]
+    assert ids[:2] == ["summary", "results"] and {"part3d", "gantt", "breakdown", "events"} <= set(ids)
+    assert "scoring" not in ids and "Scoring" not in page
+    assert "window.Plotly" in page or "Plotly" in page  # plotly.js inlined
     out = write_report(tmp_path / "sub" / "r.html", page)
     assert out.read_text(encoding="utf-8") == page
 
 
-def test_report_lists_the_exceptions_escaped(run) -> None:
+def test_rows_carry_deviation_u_over_tolerance_and_a_reason_for_every_unproven(run) -> None:
+    a, rid, _, _ = run
+    rows = [result_row(r) for r in a.results(rid)]
+    assert set(rows[0]) == set(COLUMNS)
+    for row in rows:
+        if row["value"] is not None:
+            assert row["deviation"] == pytest.approx(row["value"] - row["nominal"])
+            assert row["U_over_tolerance"] == pytest.approx(row["U"] / (row["upper"] - row["lower"]))
+        if row["decision"] != "conforms":
+            assert row["reason"], row
+    uncertain = [r for r in rows if r["decision"] == "uncertain"]
+    assert uncertain and all("within U" in r["reason"] or "half the tolerance" in r["reason"] for r in uncertain)
+
+
+def test_events_section_lists_exceptions_escaped(run) -> None:
     a, rid, specs, _ = run
     page = build_report(a, rid, specs=specs)
-    assert "4 exception(s)" in page and page.count("no back-wall echo") >= 3
-    assert "&lt;script&gt;alert(1)&lt;/script&gt; collision" in page
+    events = next(sec for sec in _data(page)["sections"] if sec["id"] == "events")
+    assert sum(1 for e in events["events"] if e["kind"] == "exception") == 4
+    assert "<script>alert(1)" not in page and "\\u003cscript\\u003ealert(1)" in page
 
 
 def test_scoring_section_only_with_true_values(run) -> None:
     a, rid, specs, truth = run
     page = build_report(a, rid, specs=specs, true_values=truth)
     _no_external_references(page)
-    section = page[page.index('<section class="scoring"'):]
-    assert "simulation only" in section and 'alt="error histogram"' in section
-    assert re.search(r"false accepts[^<]*</td><td class=\"num\">\d+<", section)
+    scoring = next(sec for sec in _data(page)["sections"] if sec["id"] == "scoring")
+    assert "simulation only" in scoring["title"] and scoring["figure"]["data"]
+    kinds = {tr["name"].split(" (")[0] for tr in scoring["figure"]["data"]}
+    assert kinds == {"web_thickness", "hole_diameter"}          # one histogram per kind
+    assert any(r[0].startswith("false accepts") for r in scoring["rows"])
 
 
-def test_a_partial_run_is_projected_to_all_specs(tmp_path: Path) -> None:
+def test_a_partial_run_is_extrapolated_not_compared(tmp_path: Path) -> None:
     specs = fake_specs(60)
     with Archive.open(tmp_path / "a.sqlite") as a:
         rid = record_synthetic_run(a, specs, true_values(specs), upto=20, status=RunStatus.INTERRUPTED)
-        s = summary(collect(a, rid, specs))
+        s = summarize(collect(a, rid, specs))
         page = build_report(a, rid, specs=specs)
-    assert s["done"] == 20 and s["projected_h"] == pytest.approx(s["cycle_h"] * 3)
-    assert "projected for all 60 measurements" in page and "20 of 60" in page
+    assert s.done == 20 and not s.complete and s.verdict in (Verdict.INCOMPLETE, Verdict.REJECT)
+    assert s.projected_h == pytest.approx(s.cycle_h * 3) and s.speedup_manual is None and s.ratio_goal is None
+    static = page[page.index('<div id="static-summary">'):page.index('<div id="report">')]
+    assert "extrapolated (not measured)" in static and "faster" not in static and "20 of 60" in static
+    assert s.verdict is Verdict.REJECT or "40 of 60 specs have no result" in s.verdict_reason
+
+
+def test_verdicts() -> None:
+    from ita.report.data import verdict_of
+
+    assert verdict_of({"conforms": 5}, 5)[0] is Verdict.ACCEPT
+    assert verdict_of({"conforms": 4, "uncertain": 1}, 5)[0] is Verdict.INCOMPLETE
+    assert verdict_of({"conforms": 4}, 5)[:2] == (Verdict.INCOMPLETE, "1 of 5 specs have no result")
+    assert verdict_of({"conforms": 3, "does_not_conform": 1}, 5)[0] is Verdict.REJECT
 
 
 def test_a_run_without_events_still_reports(tmp_path: Path) -> None:
     with Archive.open(tmp_path / "a.sqlite") as a:
         rid = a.create_run("empty", total=5)
         page = build_report(a, rid)
-    assert "0 of 5" in page and "No commands recorded" in page and "No exceptions" in page
+        payload = report_payload(collect(a, rid))
+    assert "0 of 5" in page and "No commands recorded" in page
+    assert next(sec for sec in payload["sections"] if sec["id"] == "events")["note"] == "No exceptions."
+
+
+def test_pdf_has_the_verdict_on_page_one(run) -> None:
+    from pypdf import PdfReader
+
+    a, rid, specs, truth = run
+    pdf = build_pdf(a, rid, specs=specs, true_values=truth)
+    reader = PdfReader(io.BytesIO(pdf))
+    first = reader.pages[0].extract_text()
+    assert "PART REJECT" in first and "do not conform" in first and "manual method" in first
+    assert len(reader.pages) > 4
+    assert any("Scoring against the as-built part" in p.extract_text() for p in reader.pages[-3:])
+
+
+def test_report_formats_by_extension() -> None:
+    assert report_format("a.html") == "html" and report_format("A.PDF") == "pdf"
+    with pytest.raises(InputError, match=".html .*or .pdf"):
+        report_format("r.txt")
 
 
 # ---------------------------------------------------------------------- timeline

@@ -5,10 +5,11 @@ The Top Level creates or continues a run, records each result the moment it exis
 and polls for STOP / INTERRUPT from the System Monitor.  `ita runs`, `ita results` and
 `ita report` read it.  See `store` for the durability argument, `schema` for the
 tables, `decision` for the ISO 14253-1 rule, `timeline` for how events become a Gantt
-chart and a cycle-time breakdown, `report` for the HTML report.
+chart and a cycle-time breakdown, `frames` for how range frames are kept; `ita.report` makes the reports.
 """
 
 from ita.archive.decision import Decision, decide
+from ita.archive.frames import StoredFrame
 from ita.archive.model import (
                                ControlCommand,
                                ControlRequest,
@@ -49,6 +50,7 @@ __all__ = [
                                "RunInfo",
                                "RunStatus",
                                "SchemaError",
+                               "StoredFrame",
                                "StoredResult",
                                "Stream",
                                "UnknownRun",

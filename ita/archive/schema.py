@@ -13,6 +13,13 @@ One database holds every run.  Tables:
   ties an event to a measurement; payload is a JSON object.
 - control: STOP / INTERRUPT requests from the System Monitor to the process running a
   run; `taken` is set when the run loop picks one up.
+- details (version 2): per (run, spec) a JSON object of what a person needs to examine
+  a result: the plan's steps, Vision's patches and fitted features in pixels, the
+  gauge's reading, the arm's flown path (see `ita.toplevel.details`).  Written with the
+  result, in its transaction.
+- frames (version 2): the range frames an SLRA plan took, per (run, spec of the plan,
+  n): meta is JSON (shape, window, pose, times), range and intensity are compressed
+  images (`ita.archive.frames`).  Written with the plan's result, in its transaction.
 """
 
 from __future__ import annotations
@@ -22,7 +29,7 @@ from datetime import UTC, datetime
 
 from ita.errors import ItaError
 
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
 
 DDL_V1 = """
 CREATE TABLE IF NOT EXISTS schema_version (
@@ -91,8 +98,27 @@ CREATE TABLE IF NOT EXISTS control (
 CREATE INDEX IF NOT EXISTS control_pending ON control(run_id, taken);
 """
 
+# No semicolon may appear inside a statement (the migration splits on them).
+DDL_V2 = """
+CREATE TABLE IF NOT EXISTS details (
+    run_id   TEXT NOT NULL REFERENCES runs(id),
+    spec_id  TEXT NOT NULL,
+    payload  TEXT NOT NULL DEFAULT '{}',
+    PRIMARY KEY (run_id, spec_id)
+);
+CREATE TABLE IF NOT EXISTS frames (
+    run_id     TEXT NOT NULL REFERENCES runs(id),
+    spec_id    TEXT NOT NULL,
+    n          INTEGER NOT NULL,
+    meta       TEXT NOT NULL,
+    range      BLOB NOT NULL,
+    intensity  BLOB NOT NULL,
+    PRIMARY KEY (run_id, spec_id, n)
+);
+"""
+
 # version -> DDL that brings a database from version - 1 to version
-MIGRATIONS: dict[int, str] = {1: DDL_V1}
+MIGRATIONS: dict[int, str] = {1: DDL_V1, 2: DDL_V2}
 
 
 class SchemaError(ItaError):

@@ -44,6 +44,7 @@ from pathlib import Path
 from typing import Any, Self
 
 from ita.archive.decision import Decision
+from ita.archive.frames import StoredFrame, decode, encode
 from ita.archive.model import (
     ControlCommand,
     ControlRequest,
@@ -316,14 +317,17 @@ class Archive:
         return max(known) if known else None
 
     # ----------------------------------------------------------------- results
-    def record_result(self, run_id: str, result: Result, events: Iterable[Event] = ()) -> bool:
+    def record_result(self, run_id: str, result: Result, events: Iterable[Event] = (), *,
+                      details: Mapping[str, Any] | None = None, frames: Iterable[StoredFrame] = ()) -> bool:
         """Commit `result` and `events` (in order, after it) in one transaction.
 
-        Events without a spec_id get the result's.  Returns True when written; False, and
-        nothing written, when the run already has a result for this spec (the first
-        result stands).  UnknownRun for an unknown run.
+        Events without a spec_id get the result's.  details: a JSON-ready object kept
+        beside the result (`details`); frames: the range frames of its plan (`frames`).
+        Returns True when written; False, and nothing written, when the run already has
+        a result for this spec (the first result stands).  UnknownRun for an unknown run.
         """
         events = list(events)
+        frames = list(frames)
         with self._write() as c:
             if not c.execute("SELECT 1 FROM runs WHERE id = ?", (run_id,)).fetchone():
                 raise UnknownRun(f"no run {run_id!r} in {self.path}")
@@ -339,19 +343,56 @@ class Archive:
                 None if result.decision is None else result.decision.value, result.tool, result.reason,
                 result.sim_time_start, result.sim_time_end, time.time(), result.kind, *point))
             self._insert_events(c, run_id, events, default_spec=result.spec_id)
+            if details:
+                c.execute("INSERT OR REPLACE INTO details(run_id, spec_id, payload) VALUES (?, ?, ?)",
+                          (run_id, result.spec_id, _json(details)))
+            for f in frames:
+                c.execute("INSERT OR REPLACE INTO frames(run_id, spec_id, n, meta, range, intensity) "
+                          "VALUES (?, ?, ?, ?, ?, ?)", (run_id, f.spec_id, f.n, *encode(f)))
         return True
+
+    def details(self, run_id: str, spec_id: str) -> dict[str, Any]:
+        """What was kept beside the result of `spec_id` ({} when nothing)."""
+        row = self._conn.execute("SELECT payload FROM details WHERE run_id = ? AND spec_id = ?",
+                                 (run_id, spec_id)).fetchone()
+        return json.loads(row[0]) if row else {}
+
+    def frames(self, run_id: str, spec_id: str) -> list[StoredFrame]:
+        """The range frames the plan of `spec_id` took, in order (n)."""
+        rows = self._conn.execute("SELECT spec_id, n, meta, range, intensity FROM frames WHERE run_id = ? "
+                                  "AND spec_id = ? ORDER BY n", (run_id, spec_id)).fetchall()
+        return [decode(*r) for r in rows]
+
+    def frame_count(self, run_id: str) -> int:
+        """How many range frames the run keeps."""
+        return int(self._conn.execute("SELECT COUNT(*) FROM frames WHERE run_id = ?", (run_id,)).fetchone()[0])
 
     def done_spec_ids(self, run_id: str) -> set[str]:
         """Ids of the specs that have a result in the run (any outcome): skip them on continue."""
         return {r[0] for r in self._conn.execute("SELECT spec_id FROM results WHERE run_id = ?", (run_id,))}
 
-    def results(self, run_id: str, *, failed_only: bool = False) -> list[StoredResult]:
-        """The run's results in the order recorded; failed_only: all but CONFORMS."""
+    def results(self, run_id: str, *, failed_only: bool = False, after: int | None = None,
+                last: int | None = None) -> list[StoredResult]:
+        """The run's results in the order recorded; failed_only: all but CONFORMS; after:
+        only those with a seq above it; last: only the last n."""
         sql = f"SELECT {_RESULT_COLUMNS} FROM results WHERE run_id = ?"
+        args: list[Any] = [run_id]
         if failed_only:
             sql += " AND (decision IS NULL OR decision != 'conforms')"
-        rows = self._conn.execute(sql + " ORDER BY seq", (run_id,)).fetchall()
+        if after is not None:
+            sql += " AND seq > ?"
+            args.append(int(after))
+        if last is not None:
+            rows = self._conn.execute(sql + " ORDER BY seq DESC LIMIT ?", [*args, int(last)]).fetchall()[::-1]
+        else:
+            rows = self._conn.execute(sql + " ORDER BY seq", args).fetchall()
         return [_stored_result(r) for r in rows]
+
+    def result(self, run_id: str, spec_id: str) -> StoredResult | None:
+        """The result of `spec_id` in the run, or None."""
+        row = self._conn.execute(f"SELECT {_RESULT_COLUMNS} FROM results WHERE run_id = ? AND spec_id = ?",
+                                 (run_id, spec_id)).fetchone()
+        return None if row is None else _stored_result(row)
 
     def decision_counts(self, run_id: str) -> dict[str, int]:
         """Results per decision ("conforms", ...) and per unmeasured outcome ("not_done", ...)."""
@@ -387,10 +428,14 @@ class Archive:
         return seqs
 
     def events(self, run_id: str, *, kinds: Iterable[str] | None = None,
-               spec_id: str | None = None) -> list[Event]:
-        """The run's events in order (seq), optionally of some kinds or of one spec."""
+               spec_id: str | None = None, after: int | None = None, last: int | None = None) -> list[Event]:
+        """The run's events in order (seq), optionally of some kinds, of one spec, with a
+        seq above `after`, or only the `last` n of them."""
         sql = "SELECT seq, sim_time, wall_time, kind, stream, spec_id, payload FROM events WHERE run_id = ?"
         args: list[Any] = [run_id]
+        if after is not None:
+            sql += " AND seq > ?"
+            args.append(int(after))
         if kinds is not None:
             kinds = [getattr(k, "value", k) for k in kinds]
             sql += f" AND kind IN ({','.join('?' * len(kinds))})"
@@ -398,8 +443,12 @@ class Archive:
         if spec_id is not None:
             sql += " AND spec_id = ?"
             args.append(spec_id)
+        if last is not None:
+            rows = self._conn.execute(sql + " ORDER BY seq DESC LIMIT ?", [*args, int(last)]).fetchall()[::-1]
+        else:
+            rows = self._conn.execute(sql + " ORDER BY seq", args).fetchall()
         return [Event(kind, stream, sim, json.loads(payload), spec, seq, wall)
-                for seq, sim, wall, kind, stream, spec, payload in self._conn.execute(sql + " ORDER BY seq", args)]
+                for seq, sim, wall, kind, stream, spec, payload in rows]
 
     # ----------------------------------------------------------------- control
     def issue_control(self, run_id: str, command: ControlCommand | str) -> int:

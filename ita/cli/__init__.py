@@ -7,6 +7,7 @@ needs it.  The registry below is explicit: add a line to add a command group.
 
 from __future__ import annotations
 
+import difflib
 import importlib
 
 import click
@@ -29,6 +30,7 @@ COMMANDS: dict[str, str] = {
     "continue": "ita.cli.inspect:continue_",
     "monitor": "ita.cli.inspect:monitor",
     "measure": "ita.cli.measure:measure",
+    "serve": "ita.cli.serve:serve",
 }
 
 
@@ -43,6 +45,15 @@ class LazyGroup(click.Group):
             module_name, attr = COMMANDS[cmd_name].split(":")
             return getattr(importlib.import_module(module_name), attr)
         return super().get_command(ctx, cmd_name)
+
+    def resolve_command(self, ctx: click.Context, args: list[str]) -> tuple:
+        """As click's, with "did you mean ...?" for a mistyped command."""
+        name = args[0] if args else ""
+        if name and not name.startswith("-") and self.get_command(ctx, name) is None:
+            close = difflib.get_close_matches(name, self.list_commands(ctx), n=3, cutoff=0.6)
+            hint = f" Did you mean {' or '.join(repr(c) for c in close)}?" if close else ""
+            ctx.fail(f"No such command {name!r}.{hint} (ita --help lists them)")
+        return super().resolve_command(ctx, args)
 
 
 @click.group(cls=LazyGroup, context_settings={"help_option_names": ["-h", "--help"]})

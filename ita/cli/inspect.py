@@ -5,16 +5,17 @@
     ita continue RUN [--runs-dir DIR] [--json]
     ita monitor RUN [--stop | --interrupt] [--once] [--interval S] [--runs-dir DIR]
 
-The live view goes to stderr: a progress bar redrawn in place on a terminal, plain lines
-otherwise.  Ctrl-C once: INTERRUPT (the current measurement finishes, everything is
-saved, and the command to continue is printed); twice: STOP now.  Exit codes: 0 the run
-completed; 3 it was interrupted or stopped (continue it with `ita continue RUN`); 2 bad
-input.
+The live view goes to stderr: a progress line redrawn in place on a terminal (cut to the
+terminal's width), plain lines otherwise.  Ctrl-C once: INTERRUPT (the current
+measurement finishes, everything is saved, and the command to continue is printed);
+twice: STOP now.  Exit codes: 0 the run completed; 3 it was interrupted or stopped
+(continue it with `ita continue RUN`); 2 bad input.
 """
 
 from __future__ import annotations
 
 import json
+import shutil
 import sys
 import time
 from pathlib import Path
@@ -37,6 +38,15 @@ class LiveView:
         self.every = every
         self._last = 0.0
 
+    def columns(self) -> int:
+        """The terminal's width (80 when it cannot be told)."""
+        try:
+            import os
+
+            return os.get_terminal_size(self.stream.fileno()).columns
+        except (OSError, AttributeError, ValueError):
+            return shutil.get_terminal_size((80, 24)).columns
+
     def note(self, text: str) -> None:
         if self.tty:
             self.stream.write("\r\033[K")
@@ -48,23 +58,39 @@ class LiveView:
         if not self.tty and not final and now - self._last < self.every:
             return
         self._last = now
-        width = 24
-        frac = p.done / p.total if p.total else 1.0
-        filled = round(frac * width)
-        bar = "#" * filled + "-" * (width - filled)
-        eta = "?" if p.eta_wall_s is None else format_duration(p.eta_wall_s)
-        eta_sim = "?" if p.eta_sim_s is None else format_duration(p.eta_sim_s)
-        group = "-" if p.group is None else str(p.group + 1)
-        line = (f"[{bar}] {p.done}/{p.total}  group {group} {p.tool or '-'}  {p.spec_id or '-'}  "
-                f"sim {format_duration(p.sim_s)}  wall {format_duration(p.wall_s)}  "
-                f"left ~{eta} wall, ~{eta_sim} sim  exceptions {p.exceptions}")
+        line = progress_line(p, self.columns() if self.tty else 200)
         if self.tty:
-            self.stream.write("\r\033[K" + line[:200])
+            self.stream.write("\r\033[K" + line)
             if final:
                 self.stream.write("\n")
             self.stream.flush()
         else:
             print(line, file=self.stream, flush=True)
+
+
+def progress_line(p: Any, columns: int) -> str:
+    """One progress line that fits in `columns` characters (less one, so that a terminal
+    never wraps it): the longest of a few forms that fits, cut as a last resort."""
+    frac = p.done / p.total if p.total else 1.0
+    eta = "?" if p.eta_wall_s is None else format_duration(p.eta_wall_s)
+    eta_sim = "?" if p.eta_sim_s is None else format_duration(p.eta_sim_s)
+    group = "-" if p.group is None else str(p.group + 1)
+
+    def bar(width: int) -> str:
+        filled = round(frac * width)
+        return "[" + "#" * filled + "-" * (width - filled) + "]"
+
+    forms = [
+        f"{bar(24)} {p.done}/{p.total}  group {group} {p.tool or '-'}  {p.spec_id or '-'}  "
+        f"sim {format_duration(p.sim_s)}  wall {format_duration(p.wall_s)}  "
+        f"left ~{eta} wall, ~{eta_sim} sim  exceptions {p.exceptions}",
+        f"{bar(16)} {p.done}/{p.total} g{group} {p.tool or '-'} {p.spec_id or '-'} "
+        f"sim {format_duration(p.sim_s)} left ~{eta} exc {p.exceptions}",
+        f"{bar(10)} {p.done}/{p.total} {p.spec_id or '-'} left ~{eta}",
+        f"{p.done}/{p.total} {p.spec_id or '-'}",
+    ]
+    room = max(columns - 1, 10)
+    return next((f for f in forms if len(f) <= room), forms[-1][:room])
 
 
 def _summary_text(summary: Any) -> str:
@@ -105,8 +131,7 @@ def _run(session: Any, archive: Any, run_id: str, as_json: bool, view: LiveView)
     else:
         click.echo(_summary_text(summary))
     if summary.status != "completed":
-        click.echo(f"to continue: ita continue {run_id}", err=True)
-        raise SystemExit(NOT_FINISHED)
+        raise SystemExit(NOT_FINISHED)     # the summary said how to continue
 
 
 @click.command("inspect")
@@ -125,17 +150,27 @@ def _run(session: Any, archive: Any, run_id: str, as_json: bool, view: LiveView)
                    "dirty_window).")
 @click.option("--inject", "scripts", multiple=True, metavar="FAULT[@TARGET][:after=S]",
               help="Script one fault, e.g. broken_probe@us_probe_1:after=120 (simulated seconds); repeatable.")
+@click.option("--run-id", default=None, help="The id to give the new run (the System Monitor names the runs "
+              "it starts); default a fresh one.")
 @reports_errors
 def inspect(part_dir: Path | None, limit: int | None, seed: int, runs_dir: Path | None, as_json: bool,
-            fault_rate: float, fault_kinds: str | None, scripts: tuple[str, ...]) -> None:
+            fault_rate: float, fault_kinds: str | None, scripts: tuple[str, ...], run_id: str | None) -> None:
     """Inspect the part (in the simulated workcell): every measurement of the sequence
     plan, planned, executed, measured and recorded in the runs archive as it is made.
 
     Prepares the part first when needed (sequence plan, MKB, MACROPs).  A measurement
     that fails goes to the Exception Handler (diagnosis by tests in the cell, recovery,
     a second attempt).  Ctrl-C once interrupts after the current measurement; twice stops
-    at once.  Exit codes: 0 completed; 3 interrupted or stopped (ita continue RUN); 2 bad
-    input.  --seed is the simulator's noise (and the fault injection's draws).
+    at once.  `ita monitor RUN` or `ita serve` watch it from elsewhere.  --seed is the
+    simulator's noise (and the fault injection's draws).
+
+    \b
+    Exit codes:
+      0  the run completed
+      3  the run was stopped or interrupted (Ctrl-C, STOP or INTERRUPT from the
+         System Monitor): everything measured is saved; continue it with
+         `ita continue RUN`
+      2  bad input (part, specs, options)
     """
     from ita.archive import Archive, archive_path
     from ita.sim.inject import InjectionPlan
@@ -146,7 +181,7 @@ def inspect(part_dir: Path | None, limit: int | None, seed: int, runs_dir: Path 
     session = open_session(part_dir, seed=seed, progress=lambda m: view.note(f"{m} ..."))
     try:
         with Archive.open(archive_path(runs_dir)) as archive:
-            run_id = start_run(session, archive, limit=limit,
+            run_id = start_run(session, archive, limit=limit, run_id=run_id,
                                settings={"faults": injection.to_dict()} if injection.active else None)
             view.note(f"run {run_id}: {archive.run(run_id).total} measurements of {session.ctx.part_name} "
                       f"(set up in {session.setup_seconds:.1f} s)")
@@ -162,7 +197,10 @@ def inspect(part_dir: Path | None, limit: int | None, seed: int, runs_dir: Path 
 @reports_errors
 def continue_(run: str, runs_dir: Path | None, as_json: bool) -> None:
     """Continue RUN (an id, a unique prefix, or "last") after an INTERRUPT, a STOP or a
-    killed process: every measurement without a result is done; none is done twice."""
+    killed process: every measurement without a result is done; none is done twice.
+
+    Exit codes as `ita inspect`: 0 completed, 3 stopped or interrupted again, 2 bad input.
+    """
     from ita.archive import Archive, archive_path
     from ita.toplevel import open_session
 
@@ -181,15 +219,26 @@ def continue_(run: str, runs_dir: Path | None, as_json: bool) -> None:
             session.close()
 
 
-def _monitor_line(archive: Any, run_id: str) -> tuple[str, bool]:
-    info = archive.run(run_id)
-    counts = archive.decision_counts(run_id)
-    n_exc = len(archive.events(run_id, kinds=["exception"]))
-    line = (f"{time.strftime('%H:%M:%S')}  {run_id}  {info.state_label}  {info.done}/{info.total or '?'}  "
-            f"sim {format_duration(info.sim_time)}  " + ", ".join(f"{k} {v}" for k, v in sorted(counts.items()))
-            + f"  exceptions {n_exc}")
-    running = info.status.value == "running" and info.alive is not False
-    return line, running
+def monitor_text(state: dict, columns: int = 100) -> list[str]:
+    """The monitor's screen for a live state (ita.report.live): a header, the current
+    measurement, the last results; every line cut to `columns` - 1."""
+    cur = state.get("current") or {}
+    group = cur.get("group")
+    counts = ", ".join(f"{k.replace('_', ' ')} {v}" for k, v in sorted(state["counts"].items())) or "no results yet"
+    lines = [f"{state['run']}  {state['state']}  {state['done']}/{state['total'] or '?'}  "
+             f"sim {format_duration(state['sim_s'])}  wall {format_duration(state['wall_s'])}"
+             + (f"  left ~{format_duration(state['eta_wall_s'])}" if state.get("eta_wall_s") is not None else ""),
+             f"  {counts}; exceptions {state['exception_count']}",
+             f"  current: group {'-' if group is None else group + 1}, tool {cur.get('tool') or '-'}, "
+             f"measurement {cur.get('spec') or '-'}" + (f"; next {state['next']}" if state.get("next") else "")]
+    if state["last"]:
+        lines.append("  last results:")
+        for r in state["last"][-5:]:
+            value = "-" if r["value"] is None else f"{r['value']:.4f}"
+            lines.append(f"    {r['seq']:>4}  {r['spec_id']:<12} {value:>10}  {r['decision'].replace('_', ' ')}"
+                         + (f"  ({r['reason']})" if r["reason"] and r["decision"] != "conforms" else ""))
+    room = max(columns - 1, 20)
+    return [line[:room] for line in lines]
 
 
 @click.command("monitor")
@@ -201,20 +250,38 @@ def _monitor_line(archive: Any, run_id: str) -> tuple[str, bool]:
 @runs_dir_option
 @reports_errors
 def monitor(run: str, send: str | None, once: bool, interval: float, runs_dir: Path | None) -> None:
-    """Watch RUN from another terminal (its summary, refreshed from the archive until it
-    ends), or send it STOP or INTERRUPT."""
+    """Watch RUN from another terminal, or send it STOP or INTERRUPT.
+
+    Shows progress, the current measurement (group, tool, id), the last results and the
+    exceptions, redrawn in place on a terminal until the run ends (off a terminal: a new
+    block only when something changed).  `ita serve` shows the same in a browser.
+    """
     from ita.archive import Archive, archive_path
 
+    from ita.report.live import live_state
+
+    out = sys.stdout
+    tty = out.isatty() and not once
     with Archive.open(archive_path(runs_dir), create=False) as archive:
         run_id = archive.resolve(run)
         if send is not None:
             request = archive.issue_control(run_id, send)
             click.echo(f"{send} sent to run {run_id} (request {request})")
             return
+        shown: list[str] = []
+        last_key = None
         while True:
-            line, running = _monitor_line(archive, run_id)
-            click.echo(line)
-            if once or not running:
+            state = live_state(archive, run_id)
+            if tty:
+                lines = monitor_text(state, shutil.get_terminal_size((100, 24)).columns)
+                # redraw in place: back up over the previous screen, clear it, write the new one
+                out.write((f"\033[{len(shown)}F" if shown else "") + "\033[J" + "\n".join(lines) + "\n")
+                out.flush()
+                shown = lines
+            elif state["key"] != last_key:        # off a terminal: a new block only when something changed
+                click.echo("\n".join([time.strftime("%H:%M:%S")] + monitor_text(state, 200)))
+                last_key = state["key"]
+            if once or not state["running"]:
                 return
             try:
                 time.sleep(interval)

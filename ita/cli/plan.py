@@ -51,10 +51,15 @@ def _table(headers: tuple[str, ...], rows: list[tuple[str, ...]]) -> str:
     return "\n".join(lines)
 
 
-def format_plan(plan: "OperationPlan", kind: str) -> str:
-    """The plan as text: what matched, then a table of steps with their predecessors."""
+def format_plan(plan: "OperationPlan", kind: str, new_macrop: bool | None = None) -> str:
+    """The plan as text: what matched (or which MACROP was stored, and whether it is new),
+    then a table of steps with their predecessors."""
     if plan.matched:
         head = f"MACROP {plan.macrop_name} matched"
+    elif plan.macrop_name and new_macrop:
+        head = f"no MACROP matched: planned from scratch, stored as a NEW MACROP {plan.macrop_name}"
+    elif plan.macrop_name and new_macrop is False:
+        head = f"planned from scratch; its generalization is MACROP {plan.macrop_name}, already stored"
     elif plan.macrop_name:
         head = f"no MACROP matched: planned from scratch, stored as MACROP {plan.macrop_name}"
     else:
@@ -99,7 +104,9 @@ def plan(meas_id: str, from_scratch: bool, holding: str | None, after: str | Non
             if after is not None:
                 state = planner.plan_measurement(specs[after], state, _tool_for(part_dir, planner.kb, after)
                                                  ).final_state
+            before = {m.name for m in planner.macrops()}
             result = planner.plan_measurement(specs[meas_id], state, tool, from_scratch=from_scratch)
+            new_macrop = None if result.matched or not result.macrop_name else result.macrop_name not in before
         except NoPlanError as exc:
             if as_json:
                 click.echo(json.dumps({"measurement": meas_id, "source": None, "reason": exc.reason}))
@@ -109,9 +116,10 @@ def plan(meas_id: str, from_scratch: bool, holding: str | None, after: str | Non
         data = result.to_dict()
         data["kind"] = specs[meas_id].kind.value
         data["tool"] = tool
+        data["new_macrop"] = new_macrop
         click.echo(json.dumps(data, indent=2))
     else:
-        click.echo(format_plan(result, specs[meas_id].kind.value))
+        click.echo(format_plan(result, specs[meas_id].kind.value, new_macrop))
 
 
 @click.group()

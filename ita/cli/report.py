@@ -1,4 +1,4 @@
-"""`ita report RUN -o FILE`: the run's report as one self-contained HTML page."""
+"""`ita report RUN -o FILE`: the run's report as one self-contained HTML page or a PDF."""
 
 from __future__ import annotations
 
@@ -6,56 +6,72 @@ from pathlib import Path
 
 import click
 
-from ita.cli.common import reports_errors
-from ita.cli.runs import open_archive, runs_dir_option
+from ita.cli.common import part_option, reports_errors
+from ita.cli.runs import open_archive, resolve_run, runs_dir_option
 
 
-def _specs(part_dir: str | None) -> list:
-    """The specs of the run's part, to place unmeasured specs on the map; [] if unavailable."""
-    if not part_dir or not Path(part_dir).is_dir():
-        return []
+def run_scene(part_dir: Path | str | None, explicit: Path | None = None):
+    """The part scene (mesh, specs, workcell) of a run's part: `explicit` (--part) first,
+    else the run's own part directory; None (with a warning) when it cannot be read."""
     from ita.errors import ItaError
-    from ita.part.store import load_part
-    from ita.specs import service
+    from ita.report.scene import PartScene
 
+    where = explicit if explicit is not None else part_dir
+    if where is None:
+        return None
+    if not Path(where).is_dir():
+        click.echo(f"warning: the run's part directory {where} is gone; no part map", err=True)
+        return None
     try:
-        return service.load(load_part(Path(part_dir)))
-    except (ItaError, OSError) as exc:
-        click.echo(f"warning: cannot read the specs of {part_dir}: {exc}", err=True)
-        return []
+        return PartScene.load(where)
+    except (ItaError, OSError, ValueError) as exc:
+        click.echo(f"warning: cannot read the part of {where or 'the built-in bulkhead'}: {exc}", err=True)
+        return None
 
 
 @click.command("report")
 @click.argument("run")
 @click.option("-o", "--output", type=click.Path(path_type=Path, dir_okay=False), required=True,
-              help="HTML file to write.")
+              help="File to write: .html (one self-contained interactive page, works offline) or .pdf "
+                   "(printable, the part's verdict on page 1). Other extensions are refused.")
 @click.option("--no-score", is_flag=True, help="Leave out the scoring against the as-built part.")
+@part_option
 @runs_dir_option
 @reports_errors
-def report(run: str, output: Path, no_score: bool, runs_dir: Path | None) -> None:
-    """Write the report of RUN (an id, a unique prefix, or "last") to one HTML page.
+def report(run: str, output: Path, no_score: bool, part_dir: Path | None, runs_dir: Path | None) -> None:
+    """Write the report of RUN (an id, a unique prefix, or "last") to FILE (-o).
 
-    Summary (cycle time against the 24 h manual method and the 2.4 h goal of 1987,
-    counts by decision), the part coloured by decision, the tours, a Gantt chart of the
-    arm, SLRA and gauge streams, the exceptions and the cycle-time breakdown.  For a
-    simulated run of a generated part, a separate section scores the results against
-    the as-built part (false accepts and rejects, error histogram), unless --no-score.
+    The part's verdict (accept only when every spec conforms, reject when any does not,
+    otherwise incomplete, with what is missing); the results feature by feature (nominal,
+    measured, deviation, tolerance with a bar, U, U over tolerance, decision, reason);
+    the part in 3-D coloured by decision or deviation; the Gantt chart of the arm, SLRA
+    and gauge streams with WAITs; exceptions and run events; the cycle-time breakdown.
+    The cycle time is compared with the 24 h manual method and the 2.4 h goal of 1987
+    only for a run of the whole part; a partial run shows its rate and an extrapolation,
+    labelled as such.  For a simulated run of a generated part, a separate section
+    scores the results against the as-built part, unless --no-score.  With --part, RUN
+    must be a run of that part ("last": its last run).
     """
-    from ita.archive.report import build_report, write_report
+    from ita.report import build_pdf, build_report, report_format, write_report
 
+    fmt = report_format(output)
     with open_archive(runs_dir) as archive:
-        run_id = archive.resolve(run)
+        run_id = resolve_run(archive, run, part_dir)
         info = archive.run(run_id)
-        specs = _specs(info.part_dir)
+        scene = run_scene(info.part_dir if info.part_dir else None, part_dir)
         values = None
         if not no_score and info.settings.get("simulated", True):
             from ita import scoring
 
-            if scoring.has_true_values(info.part_dir):
-                values = scoring.true_values(info.part_dir)
+            source = str(part_dir) if part_dir is not None else info.part_dir
+            if scoring.has_true_values(source):
+                values = scoring.true_values(source)
             else:
                 click.echo("note: the run's part has no as-built values; no scoring section", err=True)
-        text = build_report(archive, run_id, specs=specs, true_values=values)
-    write_report(output, text)
-    click.echo(f"{output}: report of run {run_id} ({info.done} results"
+        if fmt == "pdf":
+            content: str | bytes = build_pdf(archive, run_id, true_values=values, scene=scene)
+        else:
+            content = build_report(archive, run_id, true_values=values, scene=scene)
+    write_report(output, content)
+    click.echo(f"{output}: {fmt.upper()} report of run {run_id} ({info.done} results"
                + (", scored" if values is not None else "") + ")")

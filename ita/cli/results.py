@@ -1,64 +1,85 @@
-"""`ita results RUN`: the results of a run with their ISO 14253-1 decisions."""
+"""`ita results RUN`: the results of a run, feature by feature, with their ISO 14253-1
+decisions; as a table, CSV or JSON."""
 
 from __future__ import annotations
 
+import csv
 import json
+import sys
 from pathlib import Path
 
 import click
 
-from ita.cli.common import reports_errors
-from ita.cli.runs import open_archive, runs_dir_option
+from ita.cli.common import part_option, reports_errors
+from ita.cli.runs import open_archive, resolve_run, runs_dir_option
 
 
 def result_dict(r) -> dict:
-    """JSON-ready dict of a stored result."""
-    return {
-        "seq": r.seq, "spec_id": r.spec_id, "kind": r.kind, "outcome": r.outcome.value,
-        "value": r.value, "u": r.u, "k": r.k, "U": r.U, "nominal": r.nominal, "lower": r.lower,
-        "upper": r.upper, "low_limit": r.low_limit, "high_limit": r.high_limit,
-        "decision": None if r.decision is None else r.decision.value, "tool": r.tool, "reason": r.reason,
-        "sim_time_start": r.sim_time_start, "sim_time_end": r.sim_time_end, "wall_time": r.wall_time,
-        "point": None if r.point is None else list(r.point),
-    }
+    """Every column of the per-feature table (ita.report.data.COLUMNS) of a stored result."""
+    from ita.report.data import result_row
+
+    return result_row(r)
 
 
 def _num(x: float | None, digits: int = 4) -> str:
     return "-" if x is None else f"{x:.{digits}f}"
 
 
+def _signed(x: float | None, digits: int = 4) -> str:
+    return "-" if x is None else f"{x:+.{digits}f}"
+
+
 @click.command("results")
 @click.argument("run")
 @runs_dir_option
-@click.option("--json", "as_json", is_flag=True, help="Print JSON instead of a table.")
+@part_option
+@click.option("--json", "as_json", is_flag=True, help="Print JSON (every column) instead of a table.")
+@click.option("--csv", "as_csv", is_flag=True, help="Print CSV (every column, a header line first) instead of a table.")
 @click.option("--failed", is_flag=True, help="Only results not proven to conform: does not conform, "
               "uncertain, not done, cannot be done.")
 @reports_errors
-def results(run: str, runs_dir: Path | None, as_json: bool, failed: bool) -> None:
+def results(run: str, runs_dir: Path | None, part_dir: Path | None, as_json: bool, as_csv: bool,
+            failed: bool) -> None:
     """List the results of RUN (an id, a unique prefix of one, or "last").
 
-    Per result: value, uncertainty (U = k u), nominal, tolerance and the decision:
-    conforms (inside the tolerance shrunk by U), does not conform (outside it grown by
-    U), or uncertain (in between), as ISO 14253-1 asks.  Millimetres throughout.
+    Per result: kind, tool, nominal, measured value, deviation, tolerance, expanded
+    uncertainty U = k u, U over the tolerance band, and the decision: conforms (inside
+    the tolerance shrunk by U), does not conform (outside it grown by U), or uncertain
+    (in between), as ISO 14253-1 asks, with the reason for every result not proven to
+    conform.  Millimetres throughout.  --csv and --json carry every column (also the
+    limits, u, k, position in the band, times and the spec's point).  With --part, RUN
+    must be a run of that part ("last": its last run).
     """
+    from ita.report.data import COLUMNS
+
+    if as_json and as_csv:
+        raise click.UsageError("--json and --csv exclude each other")
     with open_archive(runs_dir) as archive:
-        run_id = archive.resolve(run)
-        rows = archive.results(run_id, failed_only=failed)
+        run_id = resolve_run(archive, run, part_dir)
+        rows = [result_dict(r) for r in archive.results(run_id, failed_only=failed)]
         info = archive.run(run_id)
     if as_json:
-        click.echo(json.dumps({"run": run_id, "results": [result_dict(r) for r in rows]}, indent=2))
+        click.echo(json.dumps({"run": run_id, "columns": list(COLUMNS), "results": rows}, indent=2))
+        return
+    if as_csv:
+        out = csv.DictWriter(sys.stdout, fieldnames=list(COLUMNS), lineterminator="\n")
+        out.writeheader()
+        for row in rows:
+            out.writerow({k: ("" if v is None else v) for k, v in row.items()})
         return
     click.echo(f"run {run_id}: {info.part}, {info.state_label}, {info.done} of "
                f"{info.total if info.total is not None else '?'} done"
                + (f"; {len(rows)} not proven to conform" if failed else ""))
     if not rows:
         return
-    table = [(str(r.seq), r.spec_id, _num(r.value), _num(r.U), _num(r.nominal),
-              f"{r.lower:+.4f}/{r.upper:+.4f}", r.status_label + (f" ({r.reason})" if r.reason and r.value is None
-                                                                 else "")) for r in rows]
-    header = ("#", "SPEC", "VALUE", "U", "NOMINAL", "TOLERANCE", "DECISION")
+    table = [(str(r["seq"]), r["spec_id"], r["kind"] or "-", r["tool"] or "-", _num(r["nominal"]), _num(r["value"]),
+              _signed(r["deviation"]), f"{r['lower']:+.4f}/{r['upper']:+.4f}", _num(r["U"]),
+              "-" if r["U_over_tolerance"] is None else f"{100 * r['U_over_tolerance']:.0f}%",
+              r["decision"].replace("_", " "), r["reason"] or "") for r in rows]
+    header = ("#", "SPEC", "KIND", "TOOL", "NOMINAL", "VALUE", "DEVIATION", "TOLERANCE", "U", "U/TOL", "DECISION",
+              "REASON")
     widths = [max(len(x) for x in col) for col in zip(header, *table)]
-    right = {0, 2, 3, 4}
+    right = {0, 4, 5, 6, 8, 9}
     for row in (header, *table):
         click.echo("  ".join(c.rjust(w) if i in right else c.ljust(w)
                              for i, (c, w) in enumerate(zip(row, widths))).rstrip())

@@ -25,6 +25,31 @@ def open_archive(runs_dir: Path | None):
     return Archive.open(archive_path(runs_dir), create=False)
 
 
+def resolve_run(archive, ref: str, part_dir: Path | None = None) -> str:
+    """The run id `ref` names; with `part_dir` (--part), "last" is the last run of that part
+    and a run of another part is refused (ArchiveError, exit 2)."""
+    from ita.archive import ArchiveError, UnknownRun
+
+    if part_dir is None:
+        return archive.resolve(ref)
+    want = Path(part_dir).expanduser().resolve()
+
+    def mine(info) -> bool:
+        dirs = [d for d in (info.part_dir, info.settings.get("part_arg")) if d]
+        return any(Path(d).resolve() == want for d in dirs)
+
+    if ref.strip() == "last":
+        runs = [r for r in archive.runs() if mine(r)]
+        if not runs:
+            raise UnknownRun(f"no run of the part in {want} in {archive.path}")
+        return runs[-1].id
+    run_id = archive.resolve(ref)
+    info = archive.run(run_id)
+    if not mine(info):
+        raise ArchiveError(f"run {run_id} is of the part in {info.part_dir or '(unknown)'}, not of {want}")
+    return run_id
+
+
 def format_duration(seconds: float | None) -> str:
     """h:mm:ss, or '-' for None."""
     if seconds is None:

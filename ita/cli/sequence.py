@@ -187,6 +187,13 @@ def show(part_dir: Path | None, as_json: bool) -> None:
     for k, g in enumerate(plan.groups):
         head = ", ".join(g.order[:8]) + (", ..." if len(g.order) > 8 else "")
         click.echo(f"  {k + 1}. {g.tool}: {head}")
+    from ita.offline.prepare import cannot_lines, stored_cannot
+
+    cannot = stored_cannot(plan, plan.part)
+    click.echo(f"cannot be done: {len(cannot)} (the tool rules' cannot-be-done group and the measurements the "
+               "MKB could not place, as `ita prepare` says)" + (":" if cannot else ""))
+    for line in cannot_lines(cannot):
+        click.echo(line)
 
 
 @sequence.command("next")

@@ -42,7 +42,9 @@ class BulletScene:
     LINKS = ("base_link", "link1", "link2", "link3", "link4", "link5", "link6", "flange")
 
     def __init__(self, cell: Workcell, part_mesh: Any | None = None, parked_tools: bool = True) -> None:
-        import pybullet as p
+        from ita.sim.quiet import import_pybullet
+
+        p = import_pybullet()
         self.p = p
         self.cid = p.connect(p.DIRECT)
         self.bodies: dict[int, str] = {}

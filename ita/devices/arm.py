@@ -30,6 +30,7 @@ from typing import Any
 
 import numpy as np
 
+from ita.devices.data import ArmPath
 from ita.executive.adapters import Completion, PoseResolver
 from ita.executive.commands import Command, Reply, Wait
 from ita.logic.terms import Term
@@ -177,6 +178,7 @@ class ArmDevice:
             return Completion(start_t, exception_reply("NO_PATH", f"no path for {failed.text}: {bad.message}",
                                                        payload))
         ends = _pass_times(traj, [goals[i] for i in keep])
+        flown = self._path(traj)
         reply = self.controller.execute(traj, command="move")
         self.stats["moves"] += len(keep)
         self.stats["move_s"] += reply.time_s
@@ -190,13 +192,17 @@ class ArmDevice:
                 completions[c.step] = Completion(start_t + failed_at, self._motion_failure(reply, c))
                 break
             completions[c.step] = Completion(start_t + (traj.duration if i == len(batch) - 1 and reply.ok else t_end),
-                                             Reply.normal("DONE"))
+                                             Reply.normal("DONE", data=flown if i == 0 else None))
             t_prev = t_end
         if reply.ok:
             self.last_free_q = np.array(world.q)
         first_completion = completions.pop(first.step)
         self._ready.update(completions)
         return first_completion
+
+    def _path(self, traj: Any) -> ArmPath:
+        """The trajectory `traj` as the archive keeps it (a few dozen knots, the tool point)."""
+        return ArmPath.sampled(traj.times, traj.q, lambda qs: [self.world.tcp_pose(q) for q in qs], self.world.held)
 
     @staticmethod
     def _motion_failure(reply: Any, command: Command) -> Reply:
@@ -219,15 +225,16 @@ class ArmDevice:
         before = np.array(world.q)
         speed = CONTACT_SPEED if command.name == "CONTACT" else RETRACT_SPEED
         traj = from_waypoints(world.model, [before, goal], speed_scale=speed)
+        flown = self._path(traj)
         reply = self.controller.execute(traj, command=command.name.lower())
         if not reply.ok:
             return self._motion_failure(reply, command)
         if command.name == "CONTACT":
             self.last_free_q = before
             force = round(SPRING_N_PER_M * float(getattr(target, "press_m", 0.0)), 3)
-            return Reply.normal(Term("CONTACT", (force,)))
+            return Reply.normal(Term("CONTACT", (force,)), data=flown)
         self.last_free_q = np.array(world.q)
-        return Reply.normal("DONE")
+        return Reply.normal("DONE", data=flown)
 
     def _tool(self, command: Command) -> Reply:
         if command.name == "PICKUP":

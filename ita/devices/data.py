@@ -17,7 +17,10 @@ from typing import Any
 
 from ita.executive.commands import Command, Reply
 
-__all__ = ["MeasuredValue", "ScanData", "measured_values", "scan_frames", "spec_of_message"]
+__all__ = ["ArmPath", "MeasuredValue", "ScanData", "arm_paths", "measured_values", "scan_frames", "spec_of_message"]
+
+#: samples an ArmPath keeps of a flown trajectory (evenly spaced in time, ends included)
+PATH_SAMPLES = 40
 
 
 @dataclass(frozen=True)
@@ -45,6 +48,32 @@ class ScanData:
 
     group: str
     frames: tuple[Any, ...]
+
+
+@dataclass(frozen=True, eq=False)
+class ArmPath:
+    """The path an arm command flew, for people: times (n,) s from the command's start,
+    joints q (n, 6) rad, tool point tcp (n, 3) in the world frame (m), held tool."""
+
+    times: tuple[float, ...]
+    q: tuple[tuple[float, ...], ...]
+    tcp: tuple[tuple[float, float, float], ...]
+    tool: str | None = None
+
+    @classmethod
+    def sampled(cls, times: Any, q: Any, tcp_of: Any, tool: str | None, samples: int = PATH_SAMPLES) -> ArmPath:
+        """Up to `samples` knots of a trajectory (times (m,), q (m, 6)), evenly in time;
+        tcp_of(q (k, 6)) -> (k, 4, 4) world poses of the tool point."""
+        import numpy as np
+
+        t = np.asarray(times, dtype=float)
+        qs = np.asarray(q, dtype=float)
+        if len(t) > samples:
+            idx = np.unique(np.searchsorted(t, np.linspace(t[0], t[-1], samples)).clip(0, len(t) - 1))
+            t, qs = t[idx], qs[idx]
+        xyz = np.asarray(tcp_of(qs))[:, :3, 3]
+        return cls(tuple(round(float(v), 4) for v in t), tuple(tuple(round(float(v), 5) for v in row) for row in qs),
+                   tuple(tuple(round(float(v), 5) for v in row) for row in xyz), tool)
 
 
 def spec_of_message(message: Any) -> str | None:
@@ -82,6 +111,11 @@ def measured_values(report: Any) -> dict[str, MeasuredValue]:
         elif isinstance(data, tuple) and data and all(isinstance(d, MeasuredValue) for d in data):
             out.update({d.spec_id: d for d in data})
     return out
+
+
+def arm_paths(report: Any) -> list[tuple[Command, ArmPath]]:
+    """The paths the arm flew in an execution report, with their commands, in order."""
+    return [(command, reply.data) for command, reply in _replies(report) if isinstance(reply.data, ArmPath)]
 
 
 def scan_frames(report: Any) -> tuple[Any, ...]:

@@ -95,12 +95,38 @@ class InspectionPrep:
             (f"macrops     {self.macrops.get('planned', 0)} plans: {self.macrops.get('hits', 0)} MACROP hits, "
              f"{self.macrops.get('learned', 0)} learned"),
         ]
-        reasons: dict[str, int] = {}
-        for _, r in self.cannot:
-            reasons[r] = reasons.get(r, 0) + 1
-        lines.append(f"cannot      {len(self.cannot)} measurements cannot be done"
-                     + ("" if not reasons else ": " + "; ".join(f"{n} {r}" for r, n in sorted(reasons.items()))))
+        lines.append(f"cannot      {len(self.cannot)} measurements cannot be done" + (":" if self.cannot else ""))
+        lines += cannot_lines(self.cannot)
         return "\n".join(lines)
+
+
+def cannot_lines(cannot: Any, indent: str = "  ", width: int = 92) -> list[str]:
+    """The measurements that cannot be done, named, grouped by reason (most common first);
+    `ita prepare` and `ita sequence show` print the same."""
+    import textwrap
+
+    by_reason: dict[str, list[str]] = {}
+    for spec_id, reason in cannot:
+        by_reason.setdefault(str(reason), []).append(str(spec_id))
+    out = []
+    for reason, ids in sorted(by_reason.items(), key=lambda kv: (-len(kv[1]), kv[0])):
+        out.append(f"{indent}{len(ids):>5}  {reason}:")
+        out += textwrap.wrap(", ".join(sorted(ids)), width=width, initial_indent=indent + "       ",
+                             subsequent_indent=indent + "       ")
+    return out
+
+
+def stored_cannot(plan: Any, part_name: str) -> list[tuple[str, str]]:
+    """What cannot be done by the stored plan and MKB of a part: the plan's cannot-be-done
+    group (tool rules) and the measurements the MKB could not place (as `prepare` says)."""
+    from ita.geometry import load_mkb
+
+    cannot = list(plan.cannot)
+    mkb = load_mkb(part_name)
+    if mkb is not None:
+        seen = {i for i, _ in cannot}
+        cannot += [(e.spec_id, e.status) for e in mkb.problems() if e.spec_id not in seen]
+    return cannot
 
 
 def prepare_inspection(ctx: Any, part: Any, *, progress: Callable[[str], None] = lambda _m: None,

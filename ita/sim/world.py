@@ -31,15 +31,17 @@ from dataclasses import dataclass
 from typing import Self
 
 import numpy as np
-import pybullet as p
 import trimesh
 from numpy.typing import NDArray
 
 from ita.kinematics import ArmModel, arm_model, flange_poses
 from ita.sim.faults import FaultSet
+from ita.sim.quiet import import_pybullet
 from ita.workcell import Box, Pose, ToolSpec, Workcell, load_workcell
 from ita.workcell.frames import matrix_to_quaternion
 from ita.workcell.model import TIP_CLEARANCE
+
+p = import_pybullet()   # the pybullet module (its build-time line silenced)
 
 FloatArray = NDArray[np.float64]
 PART = "part"

@@ -40,6 +40,7 @@ from ita.archive.timeline import breakdown, intervals, span
 from ita.devices.arm import RECOVER_SECONDS
 from ita.planning.state import WorldState
 from ita.sequence.next_step import next_step, the_arm
+from ita.toplevel.details import measurement_details
 from ita.toplevel.events import archive_events
 from ita.toplevel.measure import MeasureOutcome, MeasureStatus, measure_one
 from ita.toplevel.signals import RunSignals, StopNow
@@ -52,12 +53,13 @@ if TYPE_CHECKING:
 __all__ = ["Progress", "RunSummary", "TopLevel", "start_run"]
 
 
-def start_run(session: Session, archive: Archive, *, limit: int | None = None,
+def start_run(session: Session, archive: Archive, *, limit: int | None = None, run_id: str | None = None,
               settings: dict[str, Any] | None = None) -> str:
     """Register a new run of the session's part in `archive`: the measurements it sets out
     to do are the first `limit` of the sequence plan (all by default), plus those the plan
-    cannot do (recorded as such); `settings` adds to what the run records (the fault
-    injection).  Returns the run id."""
+    cannot do (recorded as such).  run_id: the id to give it (the System Monitor names the
+    runs it starts); default a fresh one.  `settings` adds to what the run records (the
+    fault injection).  Returns the run id."""
     plan = session.plan
     order = [i for g in plan.groups for i in g.order]
     todo = order[:limit] if limit is not None else order
@@ -66,7 +68,7 @@ def start_run(session: Session, archive: Archive, *, limit: int | None = None,
     settings = {"simulated": True, "limit": limit, "part_arg": session.part_arg, "specs": todo,
                 "mkb_digest": session.mkb.digest, "sequence_total_s": plan.total_s, **(settings or {})}
     return archive.create_run(session.ctx.part_name, session.part.directory, seed=session.seed,
-                              settings=settings, total=len(todo))
+                              settings=settings, total=len(todo), run_id=run_id)
 
 
 # -- progress and summary -------------------------------------------------------------------
@@ -165,18 +167,20 @@ class TopLevel:
         return [v for _, v in sorted(found)[:count]]
 
     # -- recording ---------------------------------------------------------------------------
-    def _record(self, result: Result, events: list[Event] = ()) -> None:
-        if self.archive.record_result(self.run_id, result, events=events):
+    def _record(self, result: Result, events: list[Event] = (), details: dict | None = None,
+                frames: tuple = ()) -> None:
+        if self.archive.record_result(self.run_id, result, events=events, details=details, frames=frames):
             self.done.add(result.spec_id)
             label = result.decision.value if result.decision is not None else result.outcome.value
             self.counts[label] += 1
             self.recorded_now += 1
 
     def _unmeasured(self, spec_id: str, outcome: Outcome, reason: str, *, tool: str | None = None,
-                    t0: float | None = None, t1: float | None = None, events: list[Event] = ()) -> None:
+                    t0: float | None = None, t1: float | None = None, events: list[Event] = (),
+                    details: dict | None = None, frames: tuple = ()) -> None:
         spec = self.session.specs[spec_id]
         self._record(Result.unmeasured(spec, outcome, reason, tool=tool, sim_time_start=t0, sim_time_end=t1),
-                     list(events))
+                     list(events), details, frames)
 
     # -- the run -----------------------------------------------------------------------------
     def run(self, on_progress: Callable[[Progress], None] | None = None) -> RunSummary:
@@ -277,9 +281,10 @@ class TopLevel:
                              t1=out.t1)
             return out.state
         self.plan_no += 1
-        events = self._events(out)
+        events = self._events(out, step.group)
         if any(e.kind == "command" and e.payload.get("name") == "scan" for e in events):
             self.frames += 1
+        plan_no = self.plan_no
         failed = out.status is not MeasureStatus.MEASURED and out.report is not None and not out.report.ok
         if failed:
             self.exceptions += 1
@@ -288,26 +293,31 @@ class TopLevel:
                 self.diagnoses += 1
                 events += self._handled_events(handled)
                 others = out.others + handled.outcome.others
+                if handled.outcome.report is not None:
+                    plan_no = self.plan_no
                 out = replace(handled.outcome, others=others)
+        extra = measurement_details(self.session, out, plan_no=plan_no, group=step.group)
+        mine = extra.details.get(step.spec_id)
         spec = self.session.specs[step.spec_id]
         tool = out.tool or step.tool
         if out.status is MeasureStatus.MEASURED:
             assert out.value is not None
             self._record(Result.measured(spec, out.value.value, out.value.u, tool=tool,
-                                         sim_time_start=out.t0, sim_time_end=out.t1), events)
+                                         sim_time_start=out.t0, sim_time_end=out.t1), events, mine, extra.frames)
         else:
             self._unmeasured(step.spec_id, Outcome.NOT_DONE, out.reason or "", tool=tool, t0=out.t0,
-                             t1=out.t1, events=events)
+                             t1=out.t1, events=events, details=mine, frames=extra.frames)
         for other in out.others:   # the rest of the frame's view group
             if other.spec_id in self.done or other.spec_id not in self.todo_set:
                 continue
+            theirs = extra.details.get(other.spec_id)
             if other.ok:
                 self._record(Result.measured(self.session.specs[other.spec_id], other.value, other.u,
                                              tool=tool, sim_time_start=out.t0, sim_time_end=out.t1,
-                                             reason=f"from the frame of {step.spec_id}"))
+                                             reason=f"from the frame of {step.spec_id}"), [], theirs)
             else:
                 self._unmeasured(other.spec_id, Outcome.NOT_DONE, other.reason or "", tool=tool, t0=out.t0,
-                                 t1=out.t1)
+                                 t1=out.t1, details=theirs)
         return out.state
 
     def _handled_events(self, handled: Any) -> list[Event]:
@@ -331,13 +341,14 @@ class TopLevel:
         events.append(Event("recovery", "top", d.t1, {"spec": d.spec_id, "how": d.recovery, "cause": d.cause}))
         return events
 
-    def _events(self, out: MeasureOutcome) -> list[Event]:
+    def _events(self, out: MeasureOutcome, group: int | None = None) -> list[Event]:
         """The archive events of a measurement's plan: its start, the executive's log, its
         end and a recovery of the arm."""
         assert out.plan is not None and out.report is not None
         plan, report = out.plan, out.report
         events = [Event("plan_start", "top", out.t0, {"spec": out.spec_id, "macrop": plan.macrop_name,
-                                                      "source": plan.source.value, "steps": len(plan.steps)})]
+                                                      "source": plan.source.value, "steps": len(plan.steps),
+                                                      "group": group, "tool": out.tool})]
         events += archive_events(report, self.plan_no)
         if report.ok:
             events.append(Event("plan_end", "top", out.t1, {"spec": out.spec_id, "status": "ok"}))
@@ -345,7 +356,6 @@ class TopLevel:
         events.append(Event("plan_end", "top", out.t1, {"spec": out.spec_id, "status": "failed",
                                                         "recovered_arm": out.recovered_arm}))
         if out.recovered_arm:
-
             events.append(Event("recovery", "arm", out.t1, {"how": "jog back to the last free configuration",
                                                             "duration": RECOVER_SECONDS}))
         return events

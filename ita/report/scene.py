@@ -1,0 +1,71 @@
+"""The part and its workcell as the 3-D views draw them, loaded once per part directory.
+
+    scene = PartScene.load(part_dir)          # mesh (mm), specs, the workcell in the world (m)
+    scene.mesh                                # (vertices (n, 3) mm, faces (m, 3))
+    scene.arm_links(q)                        # the arm's tubes at q, (t, 2, 3) world m
+
+Loading the part takes seconds (its mesh and specs): `ita serve` keeps the scenes it has
+loaded; a report loads its run's once.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+_BOX_FACES = np.array([[0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5], [0, 4, 5], [0, 5, 1],
+                       [2, 3, 7], [2, 7, 6], [0, 2, 6], [0, 6, 4], [1, 5, 7], [1, 7, 3]])
+
+
+def box_mesh(box: Any) -> tuple[np.ndarray, np.ndarray]:
+    """(vertices (8, 3), faces (12, 3)) of a workcell Box (pose, full size), world m."""
+    half = np.asarray(box.size, dtype=float) / 2
+    corners = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)]) * half
+    m = box.pose.matrix()
+    return corners @ m[:3, :3].T + m[:3, 3], _BOX_FACES
+
+
+@dataclass(frozen=True, eq=False)
+class PartScene:
+    """A part's mesh (part frame, mm), its specs, and its workcell (world frame, m)."""
+
+    directory: Path | None
+    mesh: tuple[np.ndarray, np.ndarray]
+    specs: tuple[Any, ...]
+    workcell: Any
+    arm_model: Any
+
+    @classmethod
+    def load(cls, part_dir: Path | str | None) -> PartScene:
+        """The scene of the part in `part_dir` (None: the built-in bulkhead)."""
+        from ita.kinematics import arm_model
+        from ita.part.store import load_part
+        from ita.specs import service
+        from ita.workcell import workcell_for
+
+        part = load_part(None if part_dir is None else Path(part_dir))
+        mesh = part.mesh
+        cell = workcell_for(part.directory)
+        return cls(part.directory, (np.asarray(mesh.vertices, dtype=float), np.asarray(mesh.faces, dtype=int)),
+                   tuple(service.load(part)), cell, arm_model(cell.arm))
+
+    def boxes(self) -> list[tuple[np.ndarray, np.ndarray]]:
+        """The workcell's fixed boxes as meshes (world m), the floor left out."""
+        return [box_mesh(b) for b in self.workcell.static_boxes() if "floor" not in b.name]
+
+    def mesh_world(self) -> tuple[np.ndarray, np.ndarray]:
+        """The part's mesh in the world frame (m)."""
+        v, f = self.mesh
+        return self.workcell.part.to_world(v), f
+
+    def to_world(self, point_mm: Any) -> np.ndarray:
+        return self.workcell.part.to_world(np.asarray([point_mm], dtype=float))[0]
+
+    def arm_links(self, q: Any) -> np.ndarray:
+        """The arm's collision tubes at configuration q (6,): segment ends (t, 2, 3), world m."""
+        from ita.kinematics.fk import link_segments
+
+        return link_segments(self.arm_model, np.asarray([q], dtype=float))[0]

@@ -1,0 +1,186 @@
+"""A run's report as a list of sections, each a JSON-ready dict the page's script draws.
+
+    payload = report_payload(data, true_values=truth, mesh=(vertices, faces))
+    payload["sections"]      # [{"id": "summary", "title": ..., "kind": "summary", ...}, ...]
+
+The HTML report, the PDF and `ita serve` all show these sections.  A section is made by
+one builder of SECTIONS from the ReportData (and the context: true values, the part
+mesh); a builder returns None to leave its section out.  Kinds the script knows:
+"summary", "figure" (a plotly figure), "results" (the per-feature table), "events" (a
+list of archive events with whatever payload they carry), "kv" (name/value rows),
+"scoring" (kv rows, a figure, a table).  To add a section (the Exception Handler's
+diagnoses, say), add a builder here: the pages draw it without other changes.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from typing import Any
+
+from ita.archive import timeline
+from ita.report import figures
+from ita.report.data import (
+    COLUMNS,
+    STATUS_COLOURS,
+    STATUS_ORDER,
+    ReportData,
+    Summary,
+    notable_events,
+    result_row,
+    settings_rows,
+    summarize,
+    tour_length,
+    tour_time,
+    tours,
+)
+
+
+@dataclass(frozen=True)
+class Context:
+    """What the builders may use besides the data: the summary, true values (simulated
+    runs only; None leaves scoring out), the part mesh (vertices, faces) in mm or None."""
+
+    summary: Summary
+    true_values: Mapping[str, float] | None = None
+    mesh: Any = None
+
+
+Builder = Callable[[ReportData, Context], "dict[str, Any] | None"]
+
+
+def _summary(data: ReportData, ctx: Context) -> dict[str, Any]:
+    run = data.run
+    return {"kind": "summary", "title": "Summary", "summary": ctx.summary.to_dict(),
+            "run": {"id": run.id, "part": run.part, "part_dir": run.part_dir, "seed": run.seed,
+                    "status": run.state_label, "created": run.created, "ended": run.ended},
+            "settings": settings_rows(run), "colours": STATUS_COLOURS, "order": list(STATUS_ORDER)}
+
+
+def _results(data: ReportData, ctx: Context) -> dict[str, Any]:
+    return {"kind": "results", "title": "Results, feature by feature", "columns": list(COLUMNS),
+            "rows": [result_row(r) for r in data.results], "colours": STATUS_COLOURS}
+
+
+def _part(data: ReportData, ctx: Context) -> dict[str, Any] | None:
+    if not data.specs:
+        return None
+    return {"kind": "figure", "title": "The part: every measurement by decision or deviation",
+            "note": "Drag to rotate, scroll to zoom, hover a point for its result; click one to open it.",
+            "figure": figures.part_figure(data.specs, data.results, ctx.mesh), "id": "part3d", "clickable": True}
+
+
+def _gantt(data: ReportData, ctx: Context) -> dict[str, Any] | None:
+    if not any(e.kind in ("command", "wait", "plan_start") for e in data.events):
+        return {"kind": "text", "title": "Timeline of the command streams", "text": "No commands recorded."}
+    ivs = timeline.intervals(data.events)
+    waits = sum(1 for iv in ivs if iv.category == "waiting")
+    return {"kind": "figure", "title": "Timeline of the command streams", "id": "gantt",
+            "note": (f"{len(ivs) - waits} commands, {waits} WAITs (dotted: a stream waiting for another's "
+                     "command, until its CONTINUE). Drag to zoom in, double-click to zoom out; vertical marks: "
+                     "interrupts, stops, resumptions, exceptions."),
+            "figure": figures.gantt_figure(data.events, data.results)}
+
+
+def _breakdown(data: ReportData, ctx: Context) -> dict[str, Any] | None:
+    s = ctx.summary
+    if s.cycle_s <= 0:
+        return None
+    ivs = timeline.intervals(data.events, s.end_s)
+    parts = timeline.breakdown(ivs, s.start_s, s.end_s)
+    busy = timeline.stream_busy(ivs)
+    rows = [(k.replace("_", " "), f"{v:.1f} s", f"{100 * v / s.cycle_s:.1f} %") for k, v in parts.items()]
+    rows += [(f"stream {k}: busy / waiting", f"{b:.1f} s / {w:.1f} s", f"{100 * b / s.cycle_s:.1f} % busy")
+             for k, (b, w) in sorted(busy.items())]
+    return {"kind": "figure", "title": "Cycle-time breakdown", "id": "breakdown",
+            "note": ("Each instant counts once, as the first of measuring, tool change, motion, other, waiting "
+                     "that any stream is doing; idle: no stream busy."),
+            "figure": figures.breakdown_figure(parts, s.cycle_s), "rows": rows}
+
+
+def _tours(data: ReportData, ctx: Context) -> dict[str, Any] | None:
+    tl = tours(data.results)
+    if not tl:
+        return None
+    rows = [(str(i + 1), tool, str(len(rs)), f"{tour_length(rs):.0f} mm",
+             "-" if tour_time(rs) is None else f"{tour_time(rs):.1f} s") for i, (tool, rs) in enumerate(tl)]
+    return {"kind": "kv", "title": "Tours (consecutive measurements with one tool)",
+            "header": ["tour", "tool", "measurements", "path on the part", "simulated time"], "rows": rows,
+            "collapsed": len(rows) > 12}
+
+
+def _events(data: ReportData, ctx: Context) -> dict[str, Any]:
+    rows = notable_events(data.events)
+    n_exc = sum(1 for r in rows if r["kind"] == "exception")
+    return {"kind": "events", "title": "Exceptions and run events", "id": "events", "events": rows,
+            "note": (f"{n_exc} exception(s). Every exception, recovery, interrupt, stop, resumption and "
+                     "resequencing of the run, with what it recorded." if rows else "No exceptions.")}
+
+
+def _scoring(data: ReportData, ctx: Context) -> dict[str, Any] | None:
+    if ctx.true_values is None:
+        return None
+    from ita.scoring.compare import compare
+
+    sc = compare(data.results, ctx.true_values)
+    stats = sc.error_stats()
+    kinds = {r.spec_id: r.kind or "?" for r in data.results}
+    by_kind: dict[str, list[float]] = {}
+    for s in sc.scored:
+        if s.error is not None:
+            by_kind.setdefault(kinds.get(s.spec_id, "?"), []).append(1000 * s.error)
+    rows = [("results scored", str(len(sc.scored))),
+            ("false accepts (decided conforms, truly out of tolerance)", str(len(sc.false_accepts))),
+            ("false rejects (decided does not conform, truly in tolerance)", str(len(sc.false_rejects))),
+            ("nonconformities not proven (uncertain or not measured, truly out)", str(len(sc.missed))),
+            ("results without a true value", str(len(sc.unscored)))]
+    if stats["n"]:
+        rows += [("error mean / std / rms (µm)",
+                  f"{1000 * stats['mean']:.2f} / {1000 * stats['std']:.2f} / {1000 * stats['rms']:.2f}"),
+                 ("largest |error| (µm)", f"{1000 * stats['max_abs']:.2f}"),
+                 ("|error| within U", f"{100 * stats['within_u']:.1f} %")]
+    statuses = [s for s in STATUS_ORDER if any(k[0] == s for k in sc.confusion)]
+    confusion = [(s.replace("_", " "), str(sc.confusion.get((s, True), 0)), str(sc.confusion.get((s, False), 0)))
+                 for s in statuses]
+    wrong = set(sc.false_accepts) | set(sc.false_rejects)
+    wrong_rows = [(s.spec_id, s.status.replace("_", " "), f"{s.value:.4f}", f"{s.true_value:.4f}",
+                   f"{s.expanded_u:.4f}") for s in sc.scored if s.spec_id in wrong]
+    return {"kind": "scoring", "title": "Scoring against the as-built part (simulation only)", "id": "scoring",
+            "note": ("This section compares the results with the true dimensions of the simulated part, which "
+                     "the inspection itself never sees. A real inspection has no such section."),
+            "rows": rows, "confusion": confusion, "wrong": wrong_rows,
+            "figure": figures.error_histogram_figure(by_kind) if by_kind else None}
+
+
+#: the report's sections, in order
+SECTIONS: tuple[tuple[str, Builder], ...] = (
+    ("summary", _summary),
+    ("results", _results),
+    ("part3d", _part),
+    ("gantt", _gantt),
+    ("breakdown", _breakdown),
+    ("events", _events),
+    ("tours", _tours),
+    ("scoring", _scoring),
+)
+
+
+def build_sections(data: ReportData, ctx: Context, only: tuple[str, ...] | None = None) -> list[dict[str, Any]]:
+    """The sections of SECTIONS (or those named in `only`) that have something to show."""
+    out = []
+    for name, build in SECTIONS:
+        if only is not None and name not in only:
+            continue
+        section = build(data, ctx)
+        if section is not None:
+            out.append({"id": name} | section)
+    return out
+
+
+def report_payload(data: ReportData, *, true_values: Mapping[str, float] | None = None, mesh: Any = None,
+                   only: tuple[str, ...] | None = None) -> dict[str, Any]:
+    """Everything a page needs to draw the report of `data`: run, summary and sections."""
+    summary = summarize(data)
+    ctx = Context(summary, true_values, mesh)
+    return {"run": data.run.id, "part": data.run.part, "status": data.run.state_label,
+            "summary": summary.to_dict(), "sections": build_sections(data, ctx, only)}

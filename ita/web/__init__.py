@@ -1,0 +1,7 @@
+"""The System Monitor as a web application: `ita serve`.
+
+:mod:`~ita.web.app` (the Starlette app: pages, API, live stream, exports),
+:mod:`~ita.web.pages` (the HTML shells), :mod:`~ita.web.runner` (runs started from the
+page, as `ita inspect` / `ita continue` child processes), `static/web.js` (page glue).
+The views are :mod:`ita.report`'s, so the report and the monitor show the same.
+"""

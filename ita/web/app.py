@@ -1,0 +1,404 @@
+"""The System Monitor's web application (Starlette): pages, a JSON API, a live stream.
+
+    app = create_app(runs_dir)          # served by `ita serve` through uvicorn
+
+Pages: `/` runs (and a form to start one), `/runs/{id}` a run (live view, controls,
+results table, 3-D part, Gantt chart, events), `/runs/{id}/results/{spec}` one result
+(range image with Vision's fit, gauge reading, plan, events, timeline, arm path),
+`/runs/{id}/scoring` the scoring against the as-built part (simulated runs only, on its
+own page).  API under `/api/`; `/api/runs/{id}/live` is a server-sent event stream.
+Exports: `/runs/{id}/results.csv|json`, `/runs/{id}/report.html|pdf`.  Scripts are
+served from the package (`/assets/`): no page loads anything from elsewhere.
+
+Requests that change something (POST) must carry the header `X-ITA: 1`, which a page of
+another site cannot send without this server's consent (it gives none): no cross-site
+request can start or stop a run.  No knowledge-base query is offered.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import csv
+import io
+import json
+import threading
+from pathlib import Path
+from typing import Any
+
+from starlette.applications import Starlette
+from starlette.concurrency import run_in_threadpool
+from starlette.requests import Request
+from starlette.responses import FileResponse, HTMLResponse, JSONResponse, Response, StreamingResponse
+from starlette.routing import Route
+
+from ita.archive import Archive, ArchiveError, NoArchive, archive_path
+from ita.report.assets import asset_path
+from ita.report.data import COLUMNS, STATUS_COLOURS, collect, jsonable, result_row
+from ita.web import pages
+from ita.web.runner import Processes
+
+ASSETS = {"plotly.min.js": "application/javascript", "ita.js": "application/javascript",
+          "ita.css": "text/css", "web.js": "application/javascript"}
+LIVE_POLL_S = 1.0
+LIVE_KEEPALIVE_S = 15.0
+
+
+class State:
+    """What the app keeps between requests: the runs directory, its child processes, the
+    part scenes it loaded, recent report payloads.  One per app, shared by its threads."""
+
+    def __init__(self, runs_dir: Path) -> None:
+        self.runs_dir = Path(runs_dir)
+        self.procs = Processes(self.runs_dir)
+        self._lock = threading.Lock()
+        self._scenes: dict[str, Any] = {}
+        self._payloads: dict[str, tuple[str, Any]] = {}
+
+    def archive(self) -> Archive:
+        """A fresh connection (each request thread its own); NoArchive when no run yet."""
+        return Archive.open(archive_path(self.runs_dir), create=False)
+
+    def scene(self, part_dir: str | None) -> Any:
+        """The part scene of a run's part directory (loaded once); None when unreadable."""
+        if not part_dir:
+            return None
+        with self._lock:
+            if part_dir in self._scenes:
+                return self._scenes[part_dir]
+        from ita.report.scene import PartScene
+
+        try:
+            scene = PartScene.load(part_dir) if Path(part_dir).is_dir() else None
+        except Exception:  # noqa: BLE001 - a run whose part cannot be read is still shown, without it
+            scene = None
+        with self._lock:
+            self._scenes[part_dir] = scene
+        return scene
+
+    def payload(self, run_id: str, key: str, make: Any) -> Any:
+        with self._lock:
+            hit = self._payloads.get(run_id)
+            if hit is not None and hit[0] == key:
+                return hit[1]
+        value = make()
+        with self._lock:
+            if len(self._payloads) > 8:
+                self._payloads.clear()
+            self._payloads[run_id] = (key, value)
+        return value
+
+
+def _json(obj: Any, status: int = 200) -> JSONResponse:
+    return JSONResponse(jsonable(obj), status_code=status)
+
+
+def _error(message: str, status: int) -> JSONResponse:
+    return JSONResponse({"error": message}, status_code=status)
+
+
+def _state(request: Request) -> State:
+    return request.app.state.ita
+
+
+def _checked(request: Request) -> JSONResponse | None:
+    if request.headers.get("x-ita") != "1":
+        return _error("a request that changes something needs the header X-ITA: 1", 403)
+    return None
+
+
+# ------------------------------------------------------------------------------ pages
+async def page_runs(request: Request) -> HTMLResponse:
+    return HTMLResponse(pages.runs_page())
+
+
+async def page_run(request: Request) -> HTMLResponse:
+    return HTMLResponse(pages.run_page(request.path_params["run"]))
+
+
+async def page_result(request: Request) -> HTMLResponse:
+    return HTMLResponse(pages.result_page(request.path_params["run"], request.path_params["spec"]))
+
+
+async def page_scoring(request: Request) -> HTMLResponse:
+    return HTMLResponse(pages.scoring_page(request.path_params["run"]))
+
+
+async def asset(request: Request) -> Response:
+    name = request.path_params["name"]
+    if name not in ASSETS:
+        return Response("not found", status_code=404)
+    path = pages.web_asset(name) if name == "web.js" else asset_path(name)
+    return FileResponse(path, media_type=ASSETS[name], headers={"Cache-Control": "max-age=300"})
+
+
+# -------------------------------------------------------------------------------- API
+def _runs(state: State) -> list[dict[str, Any]]:
+    try:
+        archive = state.archive()
+    except NoArchive:
+        return []
+    with archive:
+        return [{"id": r.id, "part": r.part, "part_dir": r.part_dir, "seed": r.seed, "state": r.state_label,
+                 "done": r.done, "total": r.total, "sim_time": r.sim_time, "created": r.created, "ended": r.ended,
+                 "running": r.status.value == "running" and r.alive is not False,
+                 "continuable": r.state_label in ("interrupted", "stopped", "dead", "failed")}
+                for r in reversed(archive.runs())]
+
+
+async def api_runs(request: Request) -> JSONResponse:
+    state = _state(request)
+    if request.method == "POST":
+        bad = _checked(request)
+        if bad:
+            return bad
+        try:
+            body = await request.json()
+        except json.JSONDecodeError:
+            body = {}
+        try:
+            limit = body.get("limit")
+            limit = None if limit in (None, "", 0) else int(limit)
+            if limit is not None and limit < 1:
+                raise ValueError("limit must be at least 1")
+            seed = int(body.get("seed") or 0)
+        except (TypeError, ValueError) as exc:
+            return _error(f"bad field: {exc}", 400)
+        part = (body.get("part") or "").strip() or None
+        if part is not None and not Path(part).expanduser().is_dir():
+            return _error(f"part: {part} is not a directory", 400)
+        run_id = await run_in_threadpool(state.procs.start_inspect, limit=limit, seed=seed,
+                                         part=None if part is None else str(Path(part).expanduser().resolve()))
+        return _json({"run": run_id, "started": True}, 201)
+    return _json(await run_in_threadpool(_runs, state))
+
+
+def _with_archive(state: State, fn: Any) -> Any:
+    try:
+        archive = state.archive()
+    except NoArchive:
+        return None
+    with archive:
+        return fn(archive)
+
+
+async def api_control(request: Request) -> JSONResponse:
+    bad = _checked(request)
+    if bad:
+        return bad
+    state, run_id = _state(request), request.path_params["run"]
+    try:
+        body = await request.json()
+    except json.JSONDecodeError:
+        body = {}
+    command = str(body.get("command", "")).upper()
+    if command not in ("STOP", "INTERRUPT", "CONTINUE"):
+        return _error("command must be STOP, INTERRUPT or CONTINUE", 400)
+
+    def act(archive: Archive) -> JSONResponse:
+        rid = archive.resolve(run_id)
+        if command == "CONTINUE":
+            info = archive.run(rid)
+            if info.state_label not in ("interrupted", "stopped", "dead", "failed"):
+                return _error(f"run {rid} is {info.state_label}: nothing to continue", 409)
+            state.procs.continue_run(rid)
+            return _json({"run": rid, "sent": command})
+        request_id = archive.issue_control(rid, command)
+        return _json({"run": rid, "sent": command, "request": request_id})
+
+    try:
+        out = await run_in_threadpool(_with_archive, state, act)
+    except ArchiveError as exc:
+        return _error(str(exc), 409)
+    except RuntimeError as exc:
+        return _error(str(exc), 409)
+    return out if out is not None else _error("no archive yet", 404)
+
+
+def _report(state: State, run_id: str) -> Any:
+    from ita.report.sections import report_payload
+
+    def make(archive: Archive) -> Any:
+        rid = archive.resolve(run_id)
+        info = archive.run(rid)
+        last = archive.events(rid, last=1)
+        key = f"{info.status.value}:{info.done}:{last[0].seq if last else 0}"
+        scene = state.scene(info.part_dir)
+
+        def build() -> Any:
+            data = collect(archive, rid, scene.specs if scene is not None else None)
+            payload = report_payload(data, mesh=None if scene is None else scene.mesh,
+                                     only=("summary", "results", "part3d", "gantt", "breakdown", "events", "tours"))
+            payload["scoring_available"] = _has_truth(info)
+            return jsonable(payload)
+
+        return state.payload(rid, key, build)
+
+    return _with_archive(state, make)
+
+
+def _has_truth(info: Any) -> bool:
+    from ita import scoring
+
+    return bool(info.settings.get("simulated", True)) and scoring.has_true_values(info.part_dir)
+
+
+async def api_report(request: Request) -> JSONResponse:
+    try:
+        payload = await run_in_threadpool(_report, _state(request), request.path_params["run"])
+    except ArchiveError as exc:
+        return _error(str(exc), 404)
+    return _json(payload) if payload is not None else _error("no archive yet", 404)
+
+
+async def api_scoring(request: Request) -> JSONResponse:
+    state, run_id = _state(request), request.path_params["run"]
+
+    def make(archive: Archive) -> Any:
+        from ita import scoring
+        from ita.report.sections import report_payload
+
+        rid = archive.resolve(run_id)
+        info = archive.run(rid)
+        if not _has_truth(info):
+            return {"run": rid, "sections": [], "note": "This run has no as-built truth to score against."}
+        scene = state.scene(info.part_dir)
+        data = collect(archive, rid, scene.specs if scene is not None else None)
+        return report_payload(data, true_values=scoring.true_values(info.part_dir), only=("scoring",))
+
+    try:
+        out = await run_in_threadpool(_with_archive, state, make)
+    except ArchiveError as exc:
+        return _error(str(exc), 404)
+    return _json(out) if out is not None else _error("no archive yet", 404)
+
+
+async def api_result(request: Request) -> JSONResponse:
+    state, run_id, spec = _state(request), request.path_params["run"], request.path_params["spec"]
+
+    def make(archive: Archive) -> Any:
+        from ita.report.result import result_payload
+
+        rid = archive.resolve(run_id)
+        info = archive.run(rid)
+        return result_payload(archive, rid, spec, scene=state.scene(info.part_dir))
+
+    try:
+        out = await run_in_threadpool(_with_archive, state, make)
+    except ArchiveError as exc:
+        return _error(str(exc), 404)
+    return _json(out) if out is not None else _error(f"no result {spec} in run {run_id}", 404)
+
+
+def _live(state: State, run_id: str) -> dict[str, Any]:
+    from ita.report.live import live_state
+
+    def make(archive: Archive) -> dict[str, Any]:
+        try:
+            rid = archive.resolve(run_id)
+        except ArchiveError:
+            return {}
+        return live_state(archive, rid)
+
+    out = _with_archive(state, make) or {}
+    if not out:        # started here, still loading the system (or it failed before the run existed)
+        code = state.procs.exit_code(run_id)
+        starting = state.procs.running(run_id)
+        out = {"run": run_id, "state": "starting" if starting else ("failed to start" if code else "unknown"),
+               "running": starting, "done": 0, "total": None, "counts": {}, "current": {}, "last": [],
+               "exceptions": [], "exception_count": 0, "sim_s": None, "wall_s": None, "eta_wall_s": None,
+               "eta_sim_s": None, "key": f"starting:{starting}:{code}"}
+    out["log"] = state.procs.log_tail(run_id) if state.procs.log_path(run_id).exists() else ""
+    out["continuable"] = out["state"] in ("interrupted", "stopped", "dead", "failed")
+    out["key"] = out["key"] + f":{len(out['log'])}"
+    return out
+
+
+async def api_live(request: Request) -> StreamingResponse:
+    """Server-sent events: the run's live state whenever it changes (polled every second),
+    a comment line every LIVE_KEEPALIVE_S otherwise."""
+    state, run_id = _state(request), request.path_params["run"]
+
+    async def stream() -> Any:
+        key, quiet = None, 0.0
+        while not await request.is_disconnected():
+            now = await run_in_threadpool(_live, state, run_id)
+            if now["key"] != key:
+                key, quiet = now["key"], 0.0
+                yield f"event: state\ndata: {json.dumps(jsonable(now))}\n\n"
+            elif quiet >= LIVE_KEEPALIVE_S:
+                quiet = 0.0
+                yield ": keep-alive\n\n"
+            await asyncio.sleep(LIVE_POLL_S)
+            quiet += LIVE_POLL_S
+
+    return StreamingResponse(stream(), media_type="text/event-stream",
+                             headers={"Cache-Control": "no-cache", "X-Accel-Buffering": "no"})
+
+
+async def api_live_once(request: Request) -> JSONResponse:
+    return _json(await run_in_threadpool(_live, _state(request), request.path_params["run"]))
+
+
+# ----------------------------------------------------------------------------- exports
+async def export(request: Request) -> Response:
+    state, run_id, what = _state(request), request.path_params["run"], request.path_params["what"]
+
+    def make(archive: Archive) -> Response:
+        rid = archive.resolve(run_id)
+        if what in ("results.csv", "results.json"):
+            rows = [result_row(r) for r in archive.results(rid)]
+            if what == "results.json":
+                return JSONResponse(jsonable({"run": rid, "columns": list(COLUMNS), "results": rows}))
+            buf = io.StringIO()
+            w = csv.DictWriter(buf, fieldnames=list(COLUMNS), lineterminator="\n")
+            w.writeheader()
+            for row in rows:
+                w.writerow({k: ("" if v is None else v) for k, v in row.items()})
+            return Response(buf.getvalue(), media_type="text/csv",
+                            headers={"Content-Disposition": f'attachment; filename="{rid}-results.csv"'})
+        from ita import report
+
+        info = archive.run(rid)
+        scene = state.scene(info.part_dir)
+        truth = None
+        if _has_truth(info):
+            from ita import scoring
+
+            truth = scoring.true_values(info.part_dir)
+        if what == "report.pdf":
+            return Response(report.build_pdf(archive, rid, true_values=truth, scene=scene),
+                            media_type="application/pdf",
+                            headers={"Content-Disposition": f'attachment; filename="{rid}-report.pdf"'})
+        return HTMLResponse(report.build_report(archive, rid, true_values=truth, scene=scene),
+                            headers={"Content-Disposition": f'attachment; filename="{rid}-report.html"'})
+
+    if what not in ("results.csv", "results.json", "report.html", "report.pdf"):
+        return _error("no such export", 404)
+    try:
+        out = await run_in_threadpool(_with_archive, state, make)
+    except ArchiveError as exc:
+        return _error(str(exc), 404)
+    return out if out is not None else _error("no archive yet", 404)
+
+
+def create_app(runs_dir: Path | str) -> Starlette:
+    """The System Monitor over the archive in `runs_dir`."""
+    routes = [
+        Route("/", page_runs),
+        Route("/runs/{run}", page_run),
+        Route("/runs/{run}/results/{spec}", page_result),
+        Route("/runs/{run}/scoring", page_scoring),
+        Route("/runs/{run}/{what:str}", export),
+        Route("/assets/{name}", asset),
+        Route("/api/runs", api_runs, methods=["GET", "POST"]),
+        Route("/api/runs/{run}/control", api_control, methods=["POST"]),
+        Route("/api/runs/{run}/report", api_report),
+        Route("/api/runs/{run}/scoring", api_scoring),
+        Route("/api/runs/{run}/results/{spec}", api_result),
+        Route("/api/runs/{run}/live", api_live),
+        Route("/api/runs/{run}/state", api_live_once),
+    ]
+    app = Starlette(routes=routes)
+    app.state.ita = State(Path(runs_dir))
+    app.state.colours = STATUS_COLOURS
+    return app

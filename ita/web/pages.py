@@ -1,0 +1,65 @@
+"""The HTML pages of the System Monitor: thin shells that load the shipped scripts
+(plotly.js, ita.js, web.js) and draw what the API returns."""
+
+from __future__ import annotations
+
+import html
+import json
+from importlib import resources
+from pathlib import Path
+
+
+def web_asset(name: str) -> Path:
+    return Path(str(resources.files("ita.web") / "static" / name))
+
+
+def _page(title: str, body: str, boot: str, *, plotly: bool = True) -> str:
+    scripts = ('<script src="/assets/plotly.min.js"></script>' if plotly else "") + \
+        '<script src="/assets/ita.js"></script><script src="/assets/web.js"></script>'
+    return ("<!DOCTYPE html><html lang=\"en\"><head><meta charset=\"utf-8\">"
+            "<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">"
+            f"<title>{html.escape(title)}</title><link rel=\"stylesheet\" href=\"/assets/ita.css\"></head><body>"
+            "<header class=\"bar\"><a class=\"brand\" href=\"/\">ITA System Monitor</a><a href=\"/\">runs</a></header>"
+            f"<main>{body}</main>{scripts}<script>{boot}</script></body></html>")
+
+
+def _arg(x: str) -> str:
+    return json.dumps(x).replace("<", "\\u003c")
+
+
+def runs_page() -> str:
+    body = ("<h1>Runs</h1><div id=\"runs\"></div>"
+            "<h2>Start a run</h2><form id=\"start\" class=\"filters\">"
+            "<label>part directory <input name=\"part\" placeholder=\"built-in bulkhead\" size=\"30\"></label>"
+            "<label>limit <input name=\"limit\" type=\"number\" min=\"1\" placeholder=\"every measurement\"></label>"
+            "<label>seed <input name=\"seed\" type=\"number\" value=\"0\"></label>"
+            "<button type=\"submit\" id=\"start-run\">start inspection</button> <span id=\"start-msg\" class=\"note\"></span>"
+            "</form><p class=\"note\">A run started here is `ita inspect` in a process of its own, on this server's "
+            "runs directory; loading the system takes about a minute before the first measurement. Faults to inject "
+            "will be offered here once the simulator has them.</p>")
+    return _page("ITA runs", body, "ITAWeb.runsPage();", plotly=False)
+
+
+def run_page(run_id: str) -> str:
+    body = (f"<h1>Run {html.escape(run_id)}</h1><p class=\"tabs\" id=\"tabs\"></p>"
+            "<div class=\"live\"><div class=\"controls\">"
+            "<button class=\"stop\" id=\"btn-stop\" disabled>STOP</button>"
+            "<button class=\"interrupt\" id=\"btn-interrupt\" disabled>INTERRUPT</button>"
+            "<button class=\"continue\" id=\"btn-continue\" disabled>CONTINUE</button>"
+            "<span id=\"control-msg\" class=\"note\"></span></div><div id=\"live\">connecting ...</div></div>"
+            "<div id=\"report\"></div>")
+    return _page(f"ITA run {run_id}", body, f"ITAWeb.runPage({_arg(run_id)});")
+
+
+def result_page(run_id: str, spec: str) -> str:
+    body = (f"<p><a href=\"/runs/{html.escape(run_id)}\">run {html.escape(run_id)}</a></p>"
+            "<div id=\"result\">loading ...</div>")
+    return _page(f"ITA {spec}", body, f"ITAWeb.resultPage({_arg(run_id)}, {_arg(spec)});")
+
+
+def scoring_page(run_id: str) -> str:
+    body = (f"<p><a href=\"/runs/{html.escape(run_id)}\">run {html.escape(run_id)}</a></p>"
+            "<h1>Scoring against the as-built part</h1><p class=\"note\">Simulation only: this view compares the "
+            "results with the simulated part's true dimensions, which the inspection never sees.</p>"
+            "<div id=\"report\">loading ...</div>")
+    return _page(f"ITA scoring {run_id}", body, f"ITAWeb.scoringPage({_arg(run_id)});")

@@ -1,0 +1,114 @@
+/* ITA System Monitor: the page glue of `ita serve` (fetches the API, streams the live
+ * view, sends STOP / INTERRUPT / CONTINUE).  The views themselves are ita.js. */
+(function () {
+  "use strict";
+  const W = {};
+  const enc = encodeURIComponent;
+  const resultHref = (run) => (spec) => `/runs/${enc(run)}/results/${enc(spec)}`;
+
+  async function getJSON(url) {
+    const r = await fetch(url, { cache: "no-store" });
+    const body = await r.json();
+    if (!r.ok) throw new Error(body.error || r.statusText);
+    return body;
+  }
+  async function post(url, body) {
+    const r = await fetch(url, { method: "POST", headers: { "Content-Type": "application/json", "X-ITA": "1" }, body: JSON.stringify(body || {}) });
+    const out = await r.json();
+    if (!r.ok) throw new Error(out.error || r.statusText);
+    return out;
+  }
+
+  W.runsPage = async function () {
+    const root = document.getElementById("runs");
+    async function draw() {
+      const runs = await getJSON("/api/runs");
+      if (!runs.length) { root.innerHTML = "<p>No runs yet.</p>"; return; }
+      root.innerHTML = '<table class="results" id="runs-table"><tr><th>run</th><th>part</th><th>status</th><th>done</th><th>simulated</th><th>started (UTC)</th></tr>' +
+        runs.map((r) => `<tr><td><a href="/runs/${enc(r.id)}">${ITA.esc(r.id)}</a></td><td>${ITA.esc(r.part)}</td>` +
+          `<td>${ITA.esc(r.state)}</td><td class="num">${r.done}/${r.total ?? "?"}</td><td class="num">${r.sim_time === null ? "-" : ITA.num(r.sim_time, 0) + " s"}</td>` +
+          `<td>${ITA.esc((r.created || "").replace("T", " ").replace("+00:00", ""))}</td></tr>`).join("") + "</table>";
+    }
+    await draw();
+    setInterval(draw, 5000);
+    document.getElementById("start").addEventListener("submit", async (e) => {
+      e.preventDefault();
+      const f = new FormData(e.target);
+      const msg = document.getElementById("start-msg");
+      try {
+        const out = await post("/api/runs", { part: f.get("part"), limit: f.get("limit"), seed: f.get("seed") });
+        window.location.href = `/runs/${enc(out.run)}`;
+      } catch (err) { msg.textContent = err.message; msg.className = "err"; }
+    });
+    document.body.dataset.ready = "1";
+  };
+
+  W.runPage = function (run) {
+    const live = document.getElementById("live");
+    const report = document.getElementById("report");
+    const msg = document.getElementById("control-msg");
+    const buttons = { STOP: "btn-stop", INTERRUPT: "btn-interrupt", CONTINUE: "btn-continue" };
+    let lastState = null, drawnKey = null;
+    document.getElementById("tabs").innerHTML =
+      `exports: <a href="/runs/${enc(run)}/results.csv">results.csv</a> <a href="/runs/${enc(run)}/results.json">results.json</a> ` +
+      `<a href="/runs/${enc(run)}/report.html">report.html</a> <a href="/runs/${enc(run)}/report.pdf">report.pdf</a> <span id="scoring-link"></span>`;
+    for (const [command, id] of Object.entries(buttons)) {
+      document.getElementById(id).addEventListener("click", async () => {
+        try {
+          await post(`/api/runs/${enc(run)}/control`, { command });
+          msg.textContent = `${command} sent`;
+          msg.className = "note";
+        } catch (err) { msg.textContent = err.message; msg.className = "err"; }
+      });
+    }
+    async function drawReport() {
+      try {
+        const data = await getJSON(`/api/runs/${enc(run)}/report`);
+        report.innerHTML = "";
+        ITA.renderSections(report, data.sections, { resultHref: resultHref(run) });
+        if (data.scoring_available) document.getElementById("scoring-link").innerHTML =
+          ` · <a href="/runs/${enc(run)}/scoring">scoring against the as-built part (simulation only)</a>`;
+        document.body.dataset.ready = "1";
+      } catch (err) { report.innerHTML = `<p class="note">${ITA.esc(err.message)}</p>`; }
+    }
+    function onState(s) {
+      ITA.renderLive(live, s, { colours: { conforms: "#2ca02c", does_not_conform: "#d62728", uncertain: "#ff9f1c", not_done: "#6b6b6b", cannot_be_done: "#9467bd" }, resultHref: resultHref(run) });
+      document.getElementById("btn-stop").disabled = !s.running || s.state === "starting";
+      document.getElementById("btn-interrupt").disabled = !s.running || s.state === "starting";
+      document.getElementById("btn-continue").disabled = !s.continuable;
+      const key = `${s.state}:${s.done}`;
+      // the full views: at once, then again when the run ends or every 10 results while it runs
+      if (s.state !== "starting" && (drawnKey === null || (lastState && lastState.state !== s.state) || s.done - (drawnKey || 0) >= 10)) {
+        drawnKey = s.done;
+        drawReport();
+      }
+      lastState = s;
+      live.dataset.key = key;
+    }
+    const source = new EventSource(`/api/runs/${enc(run)}/live`);
+    source.addEventListener("state", (e) => onState(JSON.parse(e.data)));
+    source.onerror = () => { msg.textContent = "live stream interrupted; retrying ..."; };
+  };
+
+  W.resultPage = async function (run, spec) {
+    const root = document.getElementById("result");
+    try {
+      const d = await getJSON(`/api/runs/${enc(run)}/results/${enc(spec)}`);
+      root.innerHTML = "";
+      ITA.renderResult(root, d, { resultHref: resultHref(run) });
+    } catch (err) { root.innerHTML = `<p class="err">${ITA.esc(err.message)}</p>`; }
+    document.body.dataset.ready = "1";
+  };
+
+  W.scoringPage = async function (run) {
+    const root = document.getElementById("report");
+    try {
+      const d = await getJSON(`/api/runs/${enc(run)}/scoring`);
+      root.innerHTML = d.note ? `<p>${ITA.esc(d.note)}</p>` : "";
+      ITA.renderSections(root, d.sections, {});
+    } catch (err) { root.innerHTML = `<p class="err">${ITA.esc(err.message)}</p>`; }
+    document.body.dataset.ready = "1";
+  };
+
+  window.ITAWeb = W;
+})();

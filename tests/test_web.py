@@ -1,0 +1,208 @@
+"""`ita serve` driven in a real browser (headless Chromium through selenium), and the HTML
+report opened from a file with no network.
+
+One server and one browser for the module.  Skipped when Chromium or its driver is not
+installed (`bash setup.sh test` installs them).
+"""
+
+from __future__ import annotations
+
+import shutil
+import socket
+import threading
+import time
+from collections import Counter
+from pathlib import Path
+
+import numpy as np
+import pytest
+from archive_synth import fake_specs, record_synthetic_run, true_values
+
+from ita.archive import Archive, Outcome, Result, StoredFrame, archive_path
+
+CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"
+DRIVER = shutil.which("chromedriver") or "/usr/bin/chromedriver"
+pytestmark = pytest.mark.skipif(not (Path(CHROMIUM).exists() and Path(DRIVER).exists()),
+                                reason="needs Debian's chromium and chromium-driver")
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def _synthetic_frame_result(archive: Archive, run_id: str) -> str:
+    """A result with a range frame and Vision's overlay, as the Top Level keeps them."""
+    spec = fake_specs(1)[0]
+    spec = type(spec)("ring-1", "hole_diameter", (10.0, 10.0, 0.0), 6.35, -0.05, 0.05)
+    rows, cols = np.mgrid[0:64, 0:80]
+    rng = np.where(np.hypot(rows - 32, cols - 40) < 12, 0.60, 0.45) + 0.0002 * cols
+    circle = [[32 + 12 * np.sin(a), 40 + 12 * np.cos(a)] for a in np.linspace(0, 2 * np.pi, 40)]
+    frame = StoredFrame("ring-1", 0, rng, np.ones_like(rng) * 0.5, np.eye(4), (30.0, 24.0), {"group": "g"})
+    archive.record_result(run_id, Result.measured(spec, 6.36, 0.004, tool="slra_1"),
+                          details={"tool": "slra_1", "vision": {"patch": [10, 54, 15, 65], "circle": circle,
+                                                                "rim": circle[::2], "nominal": [32, 40], "frame": 0},
+                                   "plan": {"source": "macrop", "macrop": "m1", "steps": [
+                                       {"n": 1, "text": "slra_scan(slra_1, t3, ring-1)", "after": []}]}},
+                          frames=[frame])
+    return "ring-1"
+
+
+@pytest.fixture(scope="module")
+def site(tmp_path_factory):
+    """A runs directory with a synthetic run (and a frame), a server on it, a browser."""
+    import uvicorn
+    from selenium import webdriver
+    from selenium.webdriver.chrome.service import Service
+
+    from ita.web.app import create_app
+
+    runs = tmp_path_factory.mktemp("web-runs")
+    specs = fake_specs(80)
+    with Archive.open(archive_path(runs)) as a:
+        rid = record_synthetic_run(a, specs, true_values(specs))
+        ring = _synthetic_frame_result(a, rid)
+    port = _free_port()
+    server = uvicorn.Server(uvicorn.Config(create_app(runs), host="127.0.0.1", port=port, log_level="warning",
+                                           timeout_graceful_shutdown=1))
+    thread = threading.Thread(target=server.run, daemon=True)
+    thread.start()
+    deadline = time.monotonic() + 20
+    while not server.started and time.monotonic() < deadline:
+        time.sleep(0.05)
+    opts = webdriver.ChromeOptions()
+    opts.binary_location = CHROMIUM
+    for arg in ("--headless=new", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
+                "--disable-background-networking", "--disable-component-update", "--disable-sync",
+                "--enable-unsafe-swiftshader", "--use-angle=swiftshader", "--window-size=1300,1500",
+                f"--user-data-dir={tmp_path_factory.mktemp('chromium')}"):
+        opts.add_argument(arg)
+    browser = webdriver.Chrome(service=Service(DRIVER), options=opts)
+    browser.set_page_load_timeout(60)
+    try:
+        yield {"base": f"http://127.0.0.1:{port}", "runs": runs, "run": rid, "ring": ring, "browser": browser,
+               "specs": specs}
+    finally:
+        browser.quit()
+        server.should_exit = True
+        thread.join(timeout=10)
+
+
+def _wait(browser, script: str, timeout: float = 30.0):
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        value = browser.execute_script(script)
+        if value:
+            return value
+        time.sleep(0.2)
+    raise AssertionError(f"timed out waiting for: {script}")
+
+
+def _canvas_is_drawn(browser, css: str) -> bool:
+    """Whether the element's picture (a screenshot of it) has more than a few colours."""
+    import io
+
+    from PIL import Image
+
+    el = browser.find_element("css selector", css)
+    img = Image.open(io.BytesIO(el.screenshot_as_png)).convert("RGB")
+    return len(img.getcolors(maxcolors=1 << 20) or []) > 20
+
+
+def test_runs_list_loads(site) -> None:
+    b = site["browser"]
+    b.get(site["base"] + "/")
+    _wait(b, "return document.body.dataset.ready")
+    table = b.find_element("id", "runs-table").text
+    assert site["run"] in table and "completed" in table
+
+
+def test_results_table_filters_and_sorts(site) -> None:
+    b = site["browser"]
+    b.get(f"{site['base']}/runs/{site['run']}")
+    _wait(b, "return document.body.dataset.ready && document.querySelector('table.results tbody tr[data-spec]')")
+    count = b.find_element("css selector", "#sec-results .count")
+    total = len(b.find_elements("css selector", "#sec-results tbody tr"))
+    assert total == 81 and f"{total} of {total}" in count.text
+    box = b.find_element("css selector", "#sec-results input[type=search]")
+    box.send_keys("hole_diameter")
+    shown = b.find_elements("css selector", "#sec-results tbody tr")
+    assert 0 < len(shown) < total and all("hole_diameter" in r.text for r in shown)
+    box.clear()
+    b.execute_script("const s = document.querySelector('#sec-results select[data-f=decision]');"
+                     "s.value = 'does_not_conform'; s.dispatchEvent(new Event('change'));")
+    shown = b.find_elements("css selector", "#sec-results tbody tr")
+    assert shown and all("does not conform" in r.text for r in shown)
+    # the live panel says the run is completed; only CONTINUE would make sense, and it does not
+    assert "completed" in b.find_element("id", "live").text
+    assert b.find_element("id", "btn-stop").get_attribute("disabled")
+
+
+def test_3d_view_renders(site) -> None:
+    b = site["browser"]
+    b.get(f"{site['base']}/runs/{site['run']}")
+    _wait(b, "return document.querySelector('#fig-part3d canvas')")
+    time.sleep(1.0)
+    assert _canvas_is_drawn(b, "#fig-part3d")
+
+
+def test_result_page_shows_its_range_image(site) -> None:
+    b = site["browser"]
+    b.get(f"{site['base']}/runs/{site['run']}/results/{site['ring']}")
+    _wait(b, "return document.body.dataset.ready")
+    _wait(b, "return document.querySelector('#fig-range .heatmaplayer image, #fig-range .hm image')")
+    text = b.find_element("id", "result").text
+    assert "Range image" in text and "fitted circle" in text and "slra_scan" in text
+    assert _canvas_is_drawn(b, "#fig-range")
+
+
+def test_html_report_from_a_file_draws_its_charts_offline(site, tmp_path: Path) -> None:
+    from ita.report import build_report, write_report
+
+    with Archive.open(archive_path(site["runs"])) as a:
+        page = build_report(a, site["run"], specs=site["specs"], true_values=true_values(site["specs"]))
+    out = write_report(tmp_path / "report.html", page)
+    b = site["browser"]
+    b.get(out.as_uri())
+    _wait(b, "return document.body.dataset.ready")
+    drawn = b.execute_script("return document.querySelectorAll('.js-plotly-plot .main-svg').length")
+    assert drawn >= 4
+    assert "PART REJECT" in b.find_element("id", "verdict").text
+    assert b.find_element("id", "sec-scoring").text.startswith("Scoring against the as-built part")
+    errors = [e for e in b.get_log("browser") if e["level"] == "SEVERE" and "favicon" not in e["message"]]
+    assert not errors, errors
+
+
+def _live_text(b) -> str:
+    return b.find_element("id", "live").text
+
+
+def test_start_stop_continue_from_the_page(site, builtin_part) -> None:
+    """A real run started on the runs page: it progresses, STOP stops it, CONTINUE finishes
+    it, and every measurement has exactly one result."""
+    b = site["browser"]
+    b.get(site["base"] + "/")
+    _wait(b, "return document.body.dataset.ready")
+    b.find_element("css selector", "#start input[name=limit]").send_keys("40")
+    b.find_element("id", "start-run").click()
+    _wait(b, "return window.location.pathname.startsWith('/runs/r')", 20)
+    run_id = b.current_url.rsplit("/", 1)[-1]
+    _wait(b, "return Number((document.getElementById('live-done') || {}).textContent || 0) >= 2", 240)
+    b.find_element("id", "btn-stop").click()
+    _wait(b, "return document.getElementById('control-msg').textContent", 10)
+    assert b.find_element("id", "control-msg").text == "STOP sent"
+    _wait(b, "return (document.getElementById('live-state') || {}).textContent === 'stopped'", 60)
+    with Archive.open(archive_path(site["runs"])) as a:
+        stopped = a.run(run_id)
+        assert stopped.status.value == "stopped" and 2 <= stopped.done < 40
+    _wait(b, "return !document.getElementById('btn-continue').disabled", 10)
+    b.find_element("id", "btn-continue").click()
+    _wait(b, "return (document.getElementById('live-state') || {}).textContent === 'completed'", 240)
+    with Archive.open(archive_path(site["runs"])) as a:
+        results = a.results(run_id)
+        ids = Counter(r.spec_id for r in results)
+        assert len(results) == 40 and set(ids.values()) == {1}
+        assert ids.keys() == set(a.run(run_id).settings["specs"])
+        assert [e.kind for e in a.events(run_id, kinds=["stop", "resume"])] == ["stop", "resume"]
+    assert any(r.outcome is Outcome.MEASURED for r in results)
