@@ -59,19 +59,20 @@ def report(run: str, output: Path, no_score: bool, part_dir: Path | None, runs_d
         run_id = resolve_run(archive, run, part_dir)
         info = archive.run(run_id)
         scene = run_scene(info.part_dir if info.part_dir else None, part_dir)
-        values = None
+        values = injected = None
         if not no_score and info.settings.get("simulated", True):
             from ita import scoring
 
             source = str(part_dir) if part_dir is not None else info.part_dir
+            injected = scoring.injected_faults(archive.path.parent, run_id)
             if scoring.has_true_values(source):
                 values = scoring.true_values(source)
             else:
                 click.echo("note: the run's part has no as-built values; no scoring section", err=True)
         if fmt == "pdf":
-            content: str | bytes = build_pdf(archive, run_id, true_values=values, scene=scene)
+            content: str | bytes = build_pdf(archive, run_id, true_values=values, scene=scene, injected=injected)
         else:
-            content = build_report(archive, run_id, true_values=values, scene=scene)
+            content = build_report(archive, run_id, true_values=values, scene=scene, injected=injected)
     write_report(output, content)
     click.echo(f"{output}: {fmt.upper()} report of run {run_id} ({info.done} results"
                + (", scored" if values is not None else "") + ")")

@@ -45,7 +45,7 @@ def report_format(path: Path | str) -> str:
 
 def build_report(archive: Archive, run_id: str, *, specs: Iterable[Any] | None = None,
                  true_values: Mapping[str, float] | None = None, scene: Any = None,
-                 drill_limit: int = DRILL_LIMIT) -> str:
+                 drill_limit: int = DRILL_LIMIT, injected: Any = None) -> str:
     """The self-contained HTML report of run `run_id` (scoring only with `true_values`);
     scene (ita.report.scene.PartScene): the part's mesh and workcell for the 3-D views."""
     from ita.report.page import html_page
@@ -53,7 +53,8 @@ def build_report(archive: Archive, run_id: str, *, specs: Iterable[Any] | None =
     from ita.report.sections import report_payload
 
     data = collect(archive, run_id, specs if specs is not None else (scene.specs if scene else None))
-    payload = report_payload(data, true_values=true_values, mesh=None if scene is None else scene.mesh)
+    payload = report_payload(data, true_values=true_values, mesh=None if scene is None else scene.mesh,
+                             injected=injected)
     failed = [r.spec_id for r in data.results if r.failed][:drill_limit]
     drill = {}
     for spec_id in failed:
@@ -64,14 +65,14 @@ def build_report(archive: Archive, run_id: str, *, specs: Iterable[Any] | None =
 
 
 def build_pdf(archive: Archive, run_id: str, *, specs: Iterable[Any] | None = None,
-              true_values: Mapping[str, float] | None = None, scene: Any = None) -> bytes:
+              true_values: Mapping[str, float] | None = None, scene: Any = None, injected: Any = None) -> bytes:
     """The printable PDF report of run `run_id` (the part's verdict on page 1)."""
     from ita.report.pdf import pdf_report
     from ita.report.sections import report_payload
 
     data = collect(archive, run_id, specs if specs is not None else (scene.specs if scene else None))
     payload = report_payload(data, true_values=true_values, only=("summary", "results", "breakdown", "events",
-                                                                  "scoring"))
+                                                                  "exceptions", "scoring"), injected=injected)
     return pdf_report(data, payload, mesh=None if scene is None else scene.mesh)
 
 

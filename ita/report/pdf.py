@@ -156,6 +156,13 @@ def pdf_report(data: ReportData, payload: Mapping[str, Any], *, mesh: Any = None
         story.append(grid(cells, widths=[12 * mm, 20 * mm, 22 * mm, 16 * mm, 28 * mm, width - 98 * mm], font=7))
     else:
         story.append(Paragraph("No exceptions.", body))
+    exceptions = sections.get("exceptions")
+    if exceptions:
+        story += [PageBreak(), Paragraph(esc(exceptions["title"]), styles["Heading2"]),
+                  Paragraph(esc(exceptions["note"]), body), Spacer(1, 2 * mm)]
+        cells = [list(exceptions["header"])] + [[Paragraph(esc(c), small) for c in r] for r in exceptions["rows"]]
+        story.append(grid(cells, widths=[16 * mm, 24 * mm, 26 * mm, 40 * mm, 70 * mm, 30 * mm, 30 * mm, None],
+                          font=7))
     story += [PageBreak(), Paragraph(f"Every result ({len(rows)})", styles["Heading2"]), result_table(rows)]
 
     scoring = sections.get("scoring")

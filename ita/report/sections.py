@@ -44,6 +44,7 @@ class Context:
     summary: Summary
     true_values: Mapping[str, float] | None = None
     mesh: Any = None
+    injected: Any = None            # the faults injected (simulated runs; only scoring shows them)
 
 
 Builder = Callable[[ReportData, Context], "dict[str, Any] | None"]
@@ -117,6 +118,31 @@ def _events(data: ReportData, ctx: Context) -> dict[str, Any]:
                      "resequencing of the run, with what it recorded." if rows else "No exceptions.")}
 
 
+def _exceptions(data: ReportData, ctx: Context) -> dict[str, Any] | None:
+    """The Exception Handler's diagnoses: the exception, each test in order with its
+    result and cost, the cause isolated, the world updated, the recovery."""
+    found = [e for e in data.events if e.kind == "diagnosis"]
+    if not found:
+        return None
+    rows = []
+    for e in found:
+        d = e.payload
+        tests = "; ".join(f"{t['test']} -> {t['outcome']} ({t['seconds']:.0f} s, est. {t['estimated_s']:.0f} s)"
+                          for t in d.get("tests", [])) or "none"
+        posterior = ", ".join(f"{c} {p:.2f}" for c, p in d.get("posterior", [])[:4])
+        rows.append((f"{e.sim_time:.1f}" if e.sim_time is not None else "", d.get("spec", ""),
+                     d.get("exception", ""), posterior, tests,
+                     d.get("cause") or "unresolved: " + ", ".join(c for c, _ in d.get("remaining", [])),
+                     "; ".join(d.get("updates", [])) or "-", d.get("recovery", "")))
+    return {"kind": "kv", "title": "Exceptions and their diagnoses",
+            "note": (f"{len(rows)} diagnoses: the posterior over the exception's causes, the tests the Exception "
+                     "Handler made in the cell in the order its decision tree chose them, what each found and "
+                     "cost, the cause isolated, the world model's update and the recovery."),
+            "header": ["sim time (s)", "spec", "exception", "posterior (first four)", "tests in order",
+                       "cause", "world update", "recovery"],
+            "rows": rows, "collapsed": len(rows) > 12}
+
+
 def _scoring(data: ReportData, ctx: Context) -> dict[str, Any] | None:
     if ctx.true_values is None:
         return None
@@ -139,6 +165,14 @@ def _scoring(data: ReportData, ctx: Context) -> dict[str, Any] | None:
                   f"{1000 * stats['mean']:.2f} / {1000 * stats['std']:.2f} / {1000 * stats['rms']:.2f}"),
                  ("largest |error| (µm)", f"{1000 * stats['max_abs']:.2f}"),
                  ("|error| within U", f"{100 * stats['within_u']:.1f} %")]
+    if ctx.injected:
+        from ita.scoring import diagnosis_score
+
+        diagnoses = [e.payload for e in data.events if e.kind == "diagnosis"]
+        scored = diagnosis_score(list(ctx.injected), diagnoses)
+        named = sum(1 for f in scored if f["found"])
+        rows += [("faults injected (simulation)", str(len(scored))),
+                 ("diagnoses that named the injected cause", f"{named} of {len(scored)}")]
     statuses = [s for s in STATUS_ORDER if any(k[0] == s for k in sc.confusion)]
     confusion = [(s.replace("_", " "), str(sc.confusion.get((s, True), 0)), str(sc.confusion.get((s, False), 0)))
                  for s in statuses]
@@ -160,6 +194,7 @@ SECTIONS: tuple[tuple[str, Builder], ...] = (
     ("gantt", _gantt),
     ("breakdown", _breakdown),
     ("events", _events),
+    ("exceptions", _exceptions),
     ("tours", _tours),
     ("scoring", _scoring),
 )
@@ -178,9 +213,10 @@ def build_sections(data: ReportData, ctx: Context, only: tuple[str, ...] | None 
 
 
 def report_payload(data: ReportData, *, true_values: Mapping[str, float] | None = None, mesh: Any = None,
-                   only: tuple[str, ...] | None = None) -> dict[str, Any]:
-    """Everything a page needs to draw the report of `data`: run, summary and sections."""
+                   only: tuple[str, ...] | None = None, injected: Any = None) -> dict[str, Any]:
+    """Everything a page needs to draw the report of `data`: run, summary and sections
+    (`injected`: the faults injected, for scoring the diagnoses)."""
     summary = summarize(data)
-    ctx = Context(summary, true_values, mesh)
+    ctx = Context(summary, true_values, mesh, injected)
     return {"run": data.run.id, "part": data.run.part, "status": data.run.state_label,
             "summary": summary.to_dict(), "sections": build_sections(data, ctx, only)}

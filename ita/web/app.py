@@ -263,7 +263,8 @@ async def api_scoring(request: Request) -> JSONResponse:
             return {"run": rid, "sections": [], "note": "This run has no as-built truth to score against."}
         scene = state.scene(info.part_dir)
         data = collect(archive, rid, scene.specs if scene is not None else None)
-        return report_payload(data, true_values=scoring.true_values(info.part_dir), only=("scoring",))
+        return report_payload(data, true_values=scoring.true_values(info.part_dir), only=("scoring",),
+                              injected=scoring.injected_faults(archive.path.parent, rid))
 
     try:
         out = await run_in_threadpool(_with_archive, state, make)
