@@ -280,13 +280,15 @@ predicts(compare_neighbours, thin_section,               outlier).
 %       recalibrate_arm, clean_window;
 %     * `call_person(What)`: the cell cannot do it; a person is called and the run
 %       waits (an obstacle removed, the part re-clamped);
+%     * `replace_if_no_spare(Tool)`: when no usable tool of Tool's type is left in the
+%       rack, a person replaces Tool from the stores (the run waits);
 %     * `accept_reading`: the reading stands: it is the part, not the instrument;
 %     * `accept_second_view`: the value the second stand-off gave stands (the first view
 %       was occluded);
 %     * `retry`: nothing to put right but to try again.
 
-recovery(broken_probe(P),           [mark(P, broken)]).
-recovery(worn_probe(P),             [mark(P, worn)]).
+recovery(broken_probe(P),           [mark(P, broken), replace_if_no_spare(P)]).
+recovery(worn_probe(P),             [mark(P, worn), replace_if_no_spare(P)]).
 recovery(dry_couplant(P),           [operator(purge_dispenser(P))]).
 recovery(empty_couplant_station,    [operator(refill_couplant)]).
 recovery(couplant_missed,           []).

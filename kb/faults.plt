@@ -40,7 +40,7 @@ test(a_test_verifies_what_it_does_not_list, true(O == ok)) :-
 test(outcomes_of_the_couplant_check, true(Os == [ok, empty, silent])) :-
     findall(O, outcome(check_couplant_station, O), Os).
 
-test(a_broken_probe_is_marked, true(A == [mark(us_probe_1, broken)])) :-
+test(a_broken_probe_is_marked, true(A == [mark(us_probe_1, broken), replace_if_no_spare(us_probe_1)])) :-
     recovery(broken_probe(us_probe_1), A).
 
 test(unknown_exception, error(existence_error(exception, smoke))) :-

@@ -30,6 +30,7 @@ COMMANDS: dict[str, str] = {
     "continue": "ita.cli.inspect:continue_",
     "monitor": "ita.cli.inspect:monitor",
     "measure": "ita.cli.measure:measure",
+    "diagnosis": "ita.cli.diagnosis:diagnosis",
     "serve": "ita.cli.serve:serve",
 }
 

@@ -41,7 +41,7 @@ from ita.diagnosis.classify import Classified, classify
 from ita.diagnosis.counts import FaultCounts
 from ita.diagnosis.knowledge import FaultKnowledge
 from ita.diagnosis.tests import Situation, TestBench, TestRun
-from ita.logic.terms import Term
+from ita.logic.terms import Term, Var
 from ita.planning.operation import format_term
 from ita.toplevel.measure import MeasureOutcome, MeasureStatus, execute_measurement, measure_one
 
@@ -244,6 +244,18 @@ class ExceptionHandler:
 
                 s.world.faults = s.world.faults.without(Fault.OBSTACLE)
             return [f"person called: {what} ({PERSON_SECONDS.get(what, 300.0):.0f} s)"], situation, None
+        if name == "replace_if_no_spare":
+            tool = str(action.args[0])
+            tool_class = s.ctx.workcell.tool(tool).tool_class.value
+            if s.kb.holds("world", "usable", situation.state.arm, tool_class, Var("_T")):
+                return [], situation, None
+            from ita.sim.faults import Fault
+
+            s.world.clock.advance(PERSON_SECONDS["replace_tool"])
+            s.kb.once("world", "set_tool_condition", tool, "ok")
+            s.world.faults = s.world.faults.without(Fault.BROKEN_PROBE, tool).without(Fault.WORN_PROBE, tool)
+            return [f"person called: replace_tool {tool} from the stores ({PERSON_SECONDS['replace_tool']:.0f} s); "
+                    f"world: {tool} ok"], situation, None
         if name == "accept_reading":
             reading = situation.reading
             raw = getattr(reading.source, "thickness_mm", None) if reading is not None else None

@@ -25,6 +25,10 @@ from ita.archive import new_run_id
 LOG_DIR = "monitor-logs"
 
 
+#: seconds a new child for a run waits for the run's previous one to finish closing
+EXIT_WAIT_S = 60.0
+
+
 @dataclass(eq=False)
 class Processes:
     """The child processes this server started (reaped as they end), by run id."""
@@ -44,7 +48,10 @@ class Processes:
             self._reap()
             old = self._children.get(run_id)
             if old is not None and old.poll() is None:
-                raise RuntimeError(f"run {run_id} already has a process of this server (pid {old.pid})")
+                try:                  # a stopped run's process may still be saving and closing: let it
+                    old.wait(timeout=EXIT_WAIT_S)
+                except subprocess.TimeoutExpired:
+                    raise RuntimeError(f"run {run_id} already has a process of this server (pid {old.pid})") from None
             with open(log, "ab") as out:
                 self._children[run_id] = subprocess.Popen(
                     [self.python, "-m", "ita.cli", *args, "--runs-dir", str(self.runs_dir)],

@@ -1,0 +1,88 @@
+"""`ita diagnosis`: the Exception Handler's diagnoses and what it has learned.
+
+    ita diagnosis show [RUN] [--json]     each diagnosis of a run: exception, posterior,
+                                          tests in order with results and costs, cause,
+                                          world update, recovery
+    ita diagnosis counts [--json]         how often each exception and cause has occurred
+    ita diagnosis reset                   forget the learned counts (the stated priors stay)
+
+The diagnosis knowledge itself is kb/faults.pl; ask it with `ita kb query` or see why a
+cause is isolated with, e.g.,
+`ita kb why "diagnosis:isolated(no_echo, [probe=us_probe_1, device=gauge], [read_cal_block-no_echo], C)"`.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import click
+
+from ita.cli.common import reports_errors
+from ita.cli.runs import open_archive, resolve_run, runs_dir_option
+
+
+@click.group()
+def diagnosis() -> None:
+    """The Exception Handler's diagnoses of a run, and the fault counts it has learned."""
+
+
+@diagnosis.command()
+@click.argument("run", default="last")
+@runs_dir_option
+@click.option("--json", "as_json", is_flag=True, help="Print JSON.")
+@reports_errors
+def show(run: str, runs_dir: Path | None, as_json: bool) -> None:
+    """Every diagnosis of RUN (an id, a unique prefix, or "last"), in order."""
+    with open_archive(runs_dir) as archive:
+        run_id = resolve_run(archive, run)
+        found = archive.events(run_id, kinds=["diagnosis"])
+    if as_json:
+        click.echo(json.dumps([{"sim_time": e.sim_time, **e.payload} for e in found], indent=1))
+        return
+    if not found:
+        click.echo(f"run {run_id}: no exception needed a diagnosis")
+        return
+    click.echo(f"run {run_id}: {len(found)} diagnoses")
+    for e in found:
+        d = e.payload
+        click.echo(f"\n{e.sim_time:9.1f} s  {d['spec']}: {d['exception']}  ({d.get('reply', '')[:90]})")
+        click.echo("   posterior: " + ", ".join(f"{c} {p:.2f}" for c, p in d.get("posterior", [])))
+        click.echo(f"   decision tree's expected cost: {d.get('expected_s', 0):.1f} s")
+        for k, t in enumerate(d.get("tests", []), 1):
+            click.echo(f"   test {k}: {t['test']} -> {t['outcome']}  ({t['seconds']:.1f} s, "
+                       f"estimated {t['estimated_s']:.1f} s){'  ' + t['note'] if t.get('note') else ''}")
+        cause = d.get("cause") or "unresolved: " + ", ".join(c for c, _ in d.get("remaining", []))
+        click.echo(f"   cause: {cause}")
+        for u in d.get("updates", []):
+            click.echo(f"   update: {u}")
+        click.echo(f"   recovery: {d.get('recovery', '')}")
+
+
+@diagnosis.command()
+@click.option("--json", "as_json", is_flag=True, help="Print JSON.")
+@reports_errors
+def counts(as_json: bool) -> None:
+    """How often each exception and each cause has occurred (learned across runs)."""
+    from ita.diagnosis import FaultCounts, counts_path
+
+    c = FaultCounts.load()
+    if as_json:
+        click.echo(json.dumps({"causes": c.causes, "exceptions": c.exceptions, "path": str(counts_path())}, indent=1))
+        return
+    click.echo(f"learned fault counts ({counts_path()}):")
+    for title, table in (("exceptions", c.exceptions), ("causes", c.causes)):
+        click.echo(f"  {title}:" + ("" if table else " none yet"))
+        for name, n in sorted(table.items(), key=lambda kv: -kv[1]):
+            click.echo(f"    {n:6d}  {name}")
+
+
+@diagnosis.command()
+@reports_errors
+def reset() -> None:
+    """Forget the learned counts (the stated priors of kb/faults.pl stay)."""
+    from ita.diagnosis import FaultCounts, counts_path
+
+    path = counts_path()
+    FaultCounts().save(path)
+    click.echo(f"fault counts reset: {path}")
