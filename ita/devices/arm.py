@@ -186,10 +186,13 @@ class ArmDevice:
         kept_end = dict(zip(keep, ends))
         t_prev = 0.0
         failed_at = None if reply.ok else reply.time_s
+        if not reply.ok and reply.q is None:     # a silent controller: the arm did not move at all
+            failed_at = 0.0
         for i, c in enumerate(batch):
             t_end = kept_end.get(i, t_prev)
             if failed_at is not None and t_end >= failed_at - 1e-9:
-                completions[c.step] = Completion(start_t + failed_at, self._motion_failure(reply, c))
+                completions[c.step] = Completion(start_t + reply.time_s if reply.q is None else start_t + failed_at,
+                                                 self._motion_failure(reply, c))
                 break
             completions[c.step] = Completion(start_t + (traj.duration if i == len(batch) - 1 and reply.ok else t_end),
                                              Reply.normal("DONE", data=flown if i == 0 else None))

@@ -67,6 +67,8 @@ def classify_reply(kind: str, payload: Any) -> str | None:
     if kind == "unexpected_reply":
         return "corrupt_reply"
     name, arg = _name_and_arg(payload)
+    if arg == "timeout":                      # a motion the controller never answered (REAPPROACH(timeout)...)
+        return "controller_timeout"
     if name == "GAUGE":
         return _GAUGE.get(arg or "")
     if name == "VISION":

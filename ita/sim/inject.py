@@ -11,7 +11,8 @@ the controller for the arm's motions, the SLRA in hand for SCAN), deterministic 
 given seed.  Scripted: ``fault[@target][:after=SECONDS]`` switches a fault on at the
 first command at or after that simulated time (target: a tool, or the device's default).
 A fault stays on until the Exception Handler's recovery takes it out (or, a TRANSIENT,
-until the command it hits).  Every fault injected is written to the log, apart from the
+until the command it hits).  Faults are injected into the run's measuring, not into the
+Exception Handler's own tests and repairs (`paused` while it works).  Every fault injected is written to the log, apart from the
 archive, like the as-built truth: only scoring reads it.
 
 Not injected: POSITION_DRIFT (a step of the arm's calibration that no device reports,
@@ -122,10 +123,11 @@ class FaultInjector:
         self.rng = np.random.default_rng([plan.seed, 77])
         self._pending = list(plan.scripted)
         self.count = 0
+        self.paused = False     # the Exception Handler's own tests and repairs meet no new fault
 
     def before(self, command: Any, device: str) -> None:
         """Maybe inject before `command` reaches `device` (``arm`` or ``slra``)."""
-        if not self.plan.active:
+        if not self.plan.active or self.paused:
             return
         kind = "slra" if device == "slra" else ("gauge" if command.name in _GAUGE_COMMANDS else "controller")
         now = self.world.clock.now

@@ -288,7 +288,7 @@ class TopLevel:
         failed = out.status is not MeasureStatus.MEASURED and out.report is not None and not out.report.ok
         if failed:
             self.exceptions += 1
-            handled = self.handler.handle(out) if self.handler is not None else None
+            handled = self._handle(out)
             if handled is not None:
                 self.diagnoses += 1
                 events += self._handled_events(handled)
@@ -319,6 +319,19 @@ class TopLevel:
                 self._unmeasured(other.spec_id, Outcome.NOT_DONE, other.reason or "", tool=tool, t0=out.t0,
                                  t1=out.t1, details=theirs)
         return out.state
+
+    def _handle(self, out: MeasureOutcome) -> Any:
+        """The Exception Handler on a failed measurement (fault injection paused meanwhile)."""
+        if self.handler is None:
+            return None
+        injector = getattr(self.session.arm, "injector", None)
+        if injector is not None:
+            injector.paused = True
+        try:
+            return self.handler.handle(out)
+        finally:
+            if injector is not None:
+                injector.paused = False
 
     def _handled_events(self, handled: Any) -> list[Event]:
         """The archive events of a diagnosis: its record (exception, posterior, tests with
