@@ -153,8 +153,8 @@ def _scored(home: Path, runs: Path, run_id: str) -> dict:
     injected = injected_faults(runs, run_id)
     scored = diagnosis_score(injected, diagnoses)
     return {"measured": {r.spec_id for r in results if r.outcome.value == "measured"},
-            "false_accepts": list(sc.false_accepts), "injected": scored, "diagnoses": diagnoses,
-            "cycle_s": info.sim_time}
+            "false_accepts": list(sc.false_accepts), "injected": scored, "n_injected": len(injected),
+            "diagnoses": diagnoses, "cycle_s": info.sim_time}
 
 
 def campaign(args: argparse.Namespace) -> dict:
@@ -167,19 +167,22 @@ def campaign(args: argparse.Namespace) -> dict:
         faulty = _inspect(home, runs, seed, ["--faults", str(args.rate)], args.limit)
         a, b = _scored(home, runs, clean["run_id"]), _scored(home, runs, faulty["run_id"])
         kept = len(a["measured"] & b["measured"]) / len(a["measured"]) if a["measured"] else 1.0
-        named = sum(1 for f in b["injected"] if f["found"])
+        named = b["injected"]["named"]
+        with_fault = b["injected"]["with_fault"]
         by_exc = Counter(d["exception"] for d in b["diagnoses"])
         by_cause = Counter(d.get("cause") or "unresolved" for d in b["diagnoses"])
-        row = {"seed": seed, "faults_injected": len(b["injected"]), "diagnoses": len(b["diagnoses"]),
-               "named_injected_cause": named, "measured_share_pct": 100.0 * kept,
+        row = {"seed": seed, "faults_injected": b["n_injected"], "diagnoses": len(b["diagnoses"]),
+               "diagnoses_with_a_fault": with_fault, "named_injected_cause": named,
+               "named_pct": 100.0 * named / with_fault if with_fault else 100.0,
+               "unexplained_injections": b["injected"]["unexplained"], "measured_share_pct": 100.0 * kept,
                "false_accepts_clean": len(a["false_accepts"]), "false_accepts_faulty": len(b["false_accepts"]),
                "cycle_clean_s": a["cycle_s"], "cycle_faulty_s": b["cycle_s"],
                "extra_cycle_s": b["cycle_s"] - a["cycle_s"], "by_exception": dict(by_exc), "by_cause": dict(by_cause),
-               "missed": [f for f in b["injected"] if not f["found"]],
+               "missed": [d for d in b["injected"]["diagnoses"] if d["injected"] and not d["named"]],
                "wall_s": {"clean": clean["wall_s_total"], "faulty": faulty["wall_s_total"]}}
         rows.append(row)
         print(f"seed {seed}: {row['faults_injected']} faults injected, {row['diagnoses']} diagnoses, "
-              f"{named}/{row['faults_injected']} named the injected cause; measured "
+              f"{named}/{with_fault} of those with a fault to find named the injected cause; measured "
               f"{row['measured_share_pct']:.2f} % of the fault-free run's points; false accepts "
               f"{row['false_accepts_faulty']} (fault-free {row['false_accepts_clean']}); cycle "
               f"{row['cycle_faulty_s']:.0f} s vs {row['cycle_clean_s']:.0f} s (+{row['extra_cycle_s']:.0f} s)",

@@ -185,15 +185,17 @@ test(compare_neighbours,       'compare the reading with the neighbouring measur
 %!  test_needs(?Test, ?Preconditions:list) is nondet.
 %
 %   What Test needs: `holding(ToolType)` (a tool of that type in hand), `at(Place)` (the
-%   arm at a place), `failed_measurement` (the measurement that failed, to retry or
-%   re-view it), `controller` (none: it talks to the controller itself).
+%   arm at a place), `failed_reading(Device)` (the measurement that failed, to retry or
+%   re-view it, when it failed on Device: `gauge` or `slra`; a repeat tells nothing of a
+%   failure elsewhere, say a controller that did not answer on the way there),
+%   `failed_measurement` (the failed measurement's reading, whatever failed).
 
 test_needs(read_cal_block,            [holding(us_tool), at(cal_block)]).
 test_needs(check_couplant_station,    [at(couplant_station)]).
-test_needs(retry_reading,             [holding(us_tool), failed_measurement]).
+test_needs(retry_reading,             [holding(us_tool), failed_reading(gauge)]).
 test_needs(query_controller,          []).
 test_needs(scan_cal_block,            [holding(slra_tool), at(cal_block)]).
-test_needs(rescan_second_standoff,    [holding(slra_tool), failed_measurement]).
+test_needs(rescan_second_standoff,    [holding(slra_tool), failed_reading(slra)]).
 test_needs(scan_tool_in_rack,         [holding(slra_tool), at(rack)]).
 test_needs(measure_reference_feature, [holding(slra_tool), at(reference_feature)]).
 test_needs(compare_neighbours,        [failed_measurement]).

@@ -200,3 +200,23 @@ def test_a_run_with_a_broken_probe_finishes_its_thicknesses_with_the_spare(sessi
     assert all(r.outcome.value == "measured" and r.tool == "us_probe_2" for r in results), \
         [(r.spec_id, r.outcome.value, r.tool, r.reason) for r in results]
     assert [d.payload["cause"] for d in diagnoses] == ["broken_probe(us_probe_1)"]
+
+
+def test_a_second_fault_met_while_handling_is_diagnosed_on_its_own_and_both_put_right(session, handler, arm):
+    """The window dirty (the view fails), then the controller stops answering while the
+    Exception Handler tests and cleans: the controller is diagnosed and reset as a fault
+    of its own, the window still found dirty and cleaned, the measurement made."""
+    spec_id = _first(session, "slra_1", "hole_diameter", skip=12)
+    session.kb.once("world", "reset_world")
+    session.world.faults = FaultSet().with_fault("dirty_window", "slra_1")
+    out = measure_one(session, spec_id, arm["state"], "slra_1")
+    assert out.status is MeasureStatus.NOT_DONE
+    session.world.faults = session.world.faults.with_fault("controller_silent", "controller")
+    handled = handler.handle(out)
+    arm["state"] = handled.outcome.state
+    assert handled.diagnosis.cause == "dirty_window(slra_1)", handled.diagnosis.summary
+    assert [d.cause for d in handled.nested] == ["controller_not_answering"], [d.summary for d in handled.nested]
+    assert handled.nested[0].exception == "controller_timeout"
+    assert handled.outcome.status is MeasureStatus.MEASURED, handled.outcome.reason
+    assert session.world.faults.names() == []
+    session.world.faults = FaultSet()

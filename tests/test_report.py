@@ -182,11 +182,16 @@ def test_commands_end_at_their_reply_waits_at_their_continue() -> None:
     assert timeline.span(events) == (0.0, 9.0)
     parts = timeline.breakdown(ivs, 0.0, 10.0)
     # 0-1 motion, 1-3 measuring (slra beats the arm's motion), 3-4 motion, 4-6 measuring, 6-9 tool change
-    assert parts == {"measuring": 4.0, "tool_change": 3.0, "motion": 2.0, "other": 0.0, "waiting": 0.0,
-                     "idle": 1.0}
+    assert parts == {"exceptions": 0.0, "measuring": 4.0, "tool_change": 3.0, "motion": 2.0, "other": 0.0,
+                     "waiting": 0.0, "idle": 1.0}
     assert sum(parts.values()) == 10.0
     busy = timeline.stream_busy(ivs)
     assert busy["arm"] == (7.0, 0.0) and busy["gauge"] == (2.0, 4.0)
+    # an exception handled from 5 to 7.5 s: that time is the exceptions', whatever the streams did
+    handled = events + [ev("diagnosis", "top", 5.0, t0=5.0, t1=7.5, exception="no_echo")]
+    parts = timeline.breakdown(timeline.intervals(handled), 0.0, 10.0)
+    assert parts["exceptions"] == 2.5 and parts["measuring"] == 3.0 and parts["tool_change"] == 1.5
+    assert sum(parts.values()) == 10.0
 
 
 def test_waiting_counts_when_no_stream_is_busy_and_open_intervals_close() -> None:

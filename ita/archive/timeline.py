@@ -10,13 +10,15 @@ Conventions the Executive follows when it records events (all times simulated se
 - `wait` on a stream at the time it starts waiting; it ends at payload "end" / "duration",
   or at the next `continue` on the same stream.
 - `tool_change` (stream arm unless given) with "end" or "duration": a tool change.
+- `diagnosis` (the Exception Handler's record, stream top) from its "t0" to its "t1":
+  the handling of an exception, tests, repairs and the measurement again included.
 An interval whose end cannot be found ends where the next command of its stream starts,
 or at the end of the run.
 
-The breakdown splits the run's span [start, end] into measuring, tool_change, motion,
-other, waiting and idle: at each instant the first of those that any stream is doing
-(measuring while the arm also moves counts as measuring), so the parts add up to the
-cycle time.
+The breakdown splits the run's span [start, end] into exceptions, measuring,
+tool_change, motion, other, waiting and idle: at each instant the first of those that any
+stream is doing (measuring while the arm also moves counts as measuring; anything while an
+exception is handled counts as exceptions), so the parts add up to the cycle time.
 """
 
 from __future__ import annotations
@@ -26,7 +28,7 @@ from dataclasses import dataclass
 
 from ita.archive.model import Event
 
-CATEGORIES = ("measuring", "tool_change", "motion", "other", "waiting")  # priority order
+CATEGORIES = ("exceptions", "measuring", "tool_change", "motion", "other", "waiting")  # priority order
 IDLE = "idle"
 
 _NAME_HINTS = (("measuring", ("measure", "scan", "pulse", "couplant", "range", "image", "gauge")),
@@ -82,6 +84,10 @@ def intervals(events: Sequence[Event], run_end: float | None = None) -> list[Int
         run_end = span(timed)[1]
     out: list[Interval] = []
     for i, e in enumerate(timed):
+        if e.kind == "diagnosis" and isinstance(e.payload.get("t1"), (int, float)):
+            t0 = float(e.payload.get("t0", e.sim_time))
+            out.append(Interval("top", t0, max(t0, float(e.payload["t1"])), "exceptions", "diagnosis", e.spec_id))
+            continue
         if e.kind not in ("command", "wait", "tool_change"):
             continue
         stream = e.stream or ("arm" if e.kind == "tool_change" else "top")

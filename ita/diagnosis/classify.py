@@ -97,7 +97,9 @@ def classify(outcome: Any, *, held: str | None, tool: str | None, slra_class: st
     if tool_class == slra_class and tool is not None:
         context.append(("slra", tool))
     stream = failure.command.stream.device
-    if failure.command.name in ("MEASURE", "COUPLANT") and stream == "path_planner":
+    if exception == "controller_timeout":     # whichever stream waited, the controller did not answer
+        context.append(("device", "controller"))
+    elif failure.command.name in ("MEASURE", "COUPLANT") and stream == "path_planner":
         context.append(("device", "gauge"))
     elif stream == "vision":
         context.append(("device", str(failure.command.stream.unit)))

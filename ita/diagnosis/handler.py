@@ -34,6 +34,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
+from types import SimpleNamespace
 from typing import TYPE_CHECKING, Any
 
 from ita.devices.data import MeasuredValue, measured_values
@@ -83,6 +84,7 @@ class Diagnosis:
     recovery: str
     t0: float
     t1: float
+    since: float = 0.0          # when the plan that failed began (the fault was on at some time since)
 
     @property
     def summary(self) -> str:
@@ -98,17 +100,19 @@ class Diagnosis:
                 "expected_s": round(self.expected_s, 2), "tests": [t.to_dict() for t in self.tests],
                 "cause": self.cause, "remaining": [[c, round(p, 4)] for c, p in self.remaining],
                 "actions": list(self.actions), "updates": list(self.updates), "recovery": self.recovery,
-                "t0": self.t0, "t1": self.t1}
+                "t0": self.t0, "t1": self.t1, "since": self.since}
 
 
 @dataclass(frozen=True, eq=False)
 class Handled:
     """The Exception Handler's answer: the diagnosis, the measurement's outcome after it,
-    and every plan it ran (label, plan, execution report), in order."""
+    every plan it ran (label, plan, execution report), in order, and the diagnoses of
+    second faults met on the way (a controller that stops answering during a test)."""
 
     diagnosis: Diagnosis
     outcome: MeasureOutcome
     executed: tuple[tuple[str, Any, Any], ...] = field(default_factory=tuple)
+    nested: tuple[Diagnosis, ...] = ()          # second faults met while handling, each diagnosed on its own
 
 
 class ExceptionHandler:
@@ -124,8 +128,9 @@ class ExceptionHandler:
         self.knowledge = FaultKnowledge(session.kb)
         self.method = method
         self.learn = learn
-        seconds = {name: info.seconds for name, info in self.knowledge.tests().items()}
-        self.bench = TestBench(session, neighbours, seconds)
+        tests = self.knowledge.tests()
+        self.bench = TestBench(session, neighbours, {name: info.seconds for name, info in tests.items()},
+                               {name: info.needs for name, info in tests.items()})
 
     # -- the whole of it --------------------------------------------------------------------
     def handle(self, failed: MeasureOutcome) -> Handled | None:
@@ -140,36 +145,17 @@ class ExceptionHandler:
         exc = classify(failed, held=s.world.held, tool=tool, tool_class=tool_class)
         if exc is None:
             return None
-        t0 = failed.t1
-        situation = Situation(failed.spec_id, tool, tool_class, exc.exception, failed.state, failed.value)
+        situation = Situation(failed.spec_id, tool, tool_class, exc.exception, failed.state, failed.value,
+                              dict(exc.context).get("device", ""))
         executed: list[tuple[str, Any, Any]] = []
-        runs, first, last = self._diagnose(exc, situation, executed)
-        situation = replace(situation, state=runs[-1].state if runs else situation.state)
-        cause = last.choice[1] if last.choice[0] == "isolated" else None
-        remaining = last.remaining
-        if self.learn:
-            FaultCounts.record(exc.exception, None if cause is None else self.knowledge.cause_name(cause))
-        retried = next((r.measured for r in runs if r.measured is not None), None)
-        actions, updates = [], []
-        outcome: MeasureOutcome | None = retried
-        recovery = "the retry during the tests measured it" if retried is not None else ""
-        if retried is None:
-            plan_actions = self.knowledge.recovery(cause) if cause is not None else []
-            for action in plan_actions:
-                text = format_term(action)
-                actions.append(text)
-                done, situation, accepted = self._act(action, situation, runs, executed)
-                updates += done
-                if accepted is not None:
-                    outcome, recovery = accepted, f"accepted: {text}"
-            if outcome is None:
-                if cause is not None and not plan_actions:
-                    recovery = f"not done: {cause} cannot be put right in the cell"
-                else:
-                    outcome, recovery = self._retry(failed, situation, executed)
-        diagnosis = Diagnosis(failed.spec_id, exc.exception, exc.context, exc.reply, first.posterior,
-                              first.expected_s, tuple(runs), cause, remaining, tuple(actions), tuple(updates),
-                              recovery, t0, s.world.clock.now)
+        nested: list[Diagnosis] = []
+        diagnosis, situation, outcome = self._diagnose_and_act(exc, situation, failed.t1, executed, nested, 0)
+        diagnosis = replace(diagnosis, since=failed.t0)
+        if outcome is None and diagnosis.cause is not None and not diagnosis.actions:
+            diagnosis = replace(diagnosis, recovery=f"not done: {diagnosis.cause} cannot be put right in the cell")
+        elif outcome is None:
+            outcome, recovery = self._retry(failed, situation, executed)
+            diagnosis = replace(diagnosis, recovery=recovery, t1=s.world.clock.now)
         if outcome is None or outcome.status is not MeasureStatus.MEASURED:
             base = outcome if outcome is not None else failed
             reason = f"{failed.reason}; diagnosis: {diagnosis.summary}"
@@ -177,10 +163,66 @@ class ExceptionHandler:
                               t1=s.world.clock.now)
         else:
             outcome = replace(outcome, t0=failed.t0)
-        return Handled(diagnosis, outcome, tuple(executed))
+        return Handled(diagnosis, outcome, tuple(executed), tuple(nested))
+
+    def _diagnose_and_act(self, exc: Classified, situation: Situation, t0: float, executed: list,
+                          nested: list, depth: int) -> tuple[Diagnosis, Situation, MeasureOutcome | None]:
+        """Steps 2 to 4 for one exception: its tests, the counts, the world updates and
+        the cell put right; the diagnosis (recovery said only when the tests or an
+        accepted reading measured it), the situation after, and the measurement if done."""
+        runs, first, last = self._diagnose(exc, situation, executed, nested, depth)
+        situation = replace(situation, state=runs[-1].state if runs else situation.state)
+        cause = last.choice[1] if last.choice[0] == "isolated" else None
+        if self.learn:
+            FaultCounts.record(exc.exception, None if cause is None else self.knowledge.cause_name(cause))
+        retried = next((r.measured for r in runs if r.measured is not None), None)
+        actions: list[str] = []
+        updates: list[str] = []
+        outcome: MeasureOutcome | None = retried
+        recovery = "the retry during the tests measured it" if retried is not None else ""
+        if retried is None and cause is not None:
+            for action in self.knowledge.recovery(cause):
+                actions.append(format_term(action))
+                done, situation, accepted = self._act(action, situation, runs, executed, nested, depth)
+                updates += done
+                if accepted is not None:
+                    outcome, recovery = accepted, f"accepted: {format_term(action)}"
+        diagnosis = Diagnosis(situation.spec_id, exc.exception, exc.context, exc.reply, first.posterior,
+                              first.expected_s, tuple(runs), cause, last.remaining, tuple(actions), tuple(updates),
+                              recovery, t0, self.session.world.clock.now)
+        return diagnosis, situation, outcome
+
+    def _second_fault(self, report: Any, situation: Situation, depth: int) -> Classified | None:
+        """A fault of another device met by a test or a repair (a controller that stops
+        answering while a window is being cleaned): its exception, when there is one to
+        handle on its own (one level deep), else None."""
+        if depth > 0 or report is None or report.failure is None:
+            return None
+        s = self.session
+        probe = SimpleNamespace(report=report)
+        exc = classify(probe, held=s.world.held, tool=situation.tool, tool_class=situation.tool_class)
+        if exc is None:
+            return None
+        device = dict(exc.context).get("device", "")
+        if device == situation.device or exc.exception == situation.exception:
+            return None
+        return exc
+
+    def _handle_second(self, exc: Classified, situation: Situation, since: float, executed: list, nested: list,
+                       depth: int) -> Situation:
+        """Diagnose and put right a second fault met during the handling (it is recorded
+        as a diagnosis of its own); the situation after."""
+        inner = replace(situation, exception=exc.exception, device=dict(exc.context).get("device", ""), reading=None)
+        diagnosis, inner, _ = self._diagnose_and_act(exc, inner, self.session.world.clock.now, executed, nested,
+                                                     depth + 1)
+        recovery = "put right; the handling of the first exception goes on" if diagnosis.cause else \
+            "not put right; the handling of the first exception goes on"
+        nested.append(replace(diagnosis, recovery=recovery, since=since))
+        return replace(situation, state=inner.state)
 
     # -- 2. the tests -----------------------------------------------------------------------
-    def _diagnose(self, exc: Classified, situation: Situation, executed: list) -> tuple[list[TestRun], Any, Any]:
+    def _diagnose(self, exc: Classified, situation: Situation, executed: list, nested: list, depth: int
+                  ) -> tuple[list[TestRun], Any, Any]:
         counts = FaultCounts.load().causes
         context = exc.context_terms()
         results: list[tuple[str, str]] = []
@@ -202,9 +244,17 @@ class ExceptionHandler:
             name = last.choice[1]
             tried.add(name)
             run = self.bench.run(name, situation, dict(tests)[name])
-            runs.append(run)
             if run.plan is not None:
                 executed.append((f"test {name}", run.plan, run.report))
+            second = self._second_fault(run.report, situation, depth)
+            if second is not None:          # the test met another fault: put it right, make the test again
+                runs.append(replace(run, outcome="not_run", note=f"interrupted by {second.exception}: {run.note}"))
+                situation = self._handle_second(second, replace(situation, state=run.state), run.t0, executed,
+                                                nested, depth)
+                run = self.bench.run(name, situation, dict(tests)[name])
+                if run.plan is not None:
+                    executed.append((f"test {name} again", run.plan, run.report))
+            runs.append(run)
             situation = replace(situation, state=run.state)
             if run.outcome != "not_run":
                 results.append((name, run.outcome))
@@ -213,8 +263,8 @@ class ExceptionHandler:
         return runs, first, last
 
     # -- 4. the world and the cell put right --------------------------------------------------
-    def _act(self, action: Any, situation: Situation, runs: list[TestRun], executed: list
-             ) -> tuple[list[str], Situation, MeasureOutcome | None]:
+    def _act(self, action: Any, situation: Situation, runs: list[TestRun], executed: list, nested: list,
+             depth: int) -> tuple[list[str], Situation, MeasureOutcome | None]:
         s = self.session
         name = action.name if isinstance(action, Term) else str(action)
         if name == "mark":
@@ -231,6 +281,13 @@ class ExceptionHandler:
             plan, report, state, note = self.bench.execute_goals([goal], situation.state, name=op_name)
             if plan is not None:
                 executed.append((f"repair {op_name}", plan, report))
+            second = self._second_fault(report, situation, depth)
+            if second is not None:          # another fault stopped the repair: put it right, repair again
+                situation = self._handle_second(second, replace(situation, state=state), report.started_s, executed,
+                                                nested, depth)
+                plan, report, state, note = self.bench.execute_goals([goal], situation.state, name=op_name)
+                if plan is not None:
+                    executed.append((f"repair {op_name} again", plan, report))
             ok = report is not None and report.ok
             return [f"cell: {format_term(op)} {'done' if ok else 'failed: ' + (note or report.failure.reason)}"], \
                 replace(situation, state=state), None

@@ -67,6 +67,7 @@ class Situation:
     exception: str
     state: WorldState
     reading: MeasuredValue | None = None
+    device: str = ""            # what failed: gauge, an SLRA unit, controller (classify's context)
 
 
 @dataclass(frozen=True, eq=False)
@@ -95,11 +96,29 @@ class TestRun:
                 "plan": [s.text for s in self.plan.steps] if self.plan is not None else []}
 
 
+def _timed_out(failure: Any) -> bool:
+    """Whether a failed step is the controller not answering (a time-out, a TIMEOUT reply,
+    or a device's reply that its motion timed out, REAPPROACH(timeout))."""
+    payload = failure.reply.payload
+    name = payload.name if isinstance(payload, Term) else str(payload)
+    return failure.kind.value == "timeout" or name == "TIMEOUT" or (
+        isinstance(payload, Term) and bool(payload.args) and str(payload.args[0]) == "timeout")
+
+
 def _gauge_outcome(payload: Any) -> str:
     exc = classify_reply("exception", payload)
     return {"no_echo": "no_echo", "no_couplant_film": "no_couplant", "doubled_thickness": "doubled",
             "corrupt_reply": "garbage", "misaligned": "misaligned", "no_contact": "misaligned",
             "implausible_thickness": "garbage"}.get(exc or "", "not_run")
+
+
+def _failed_on(device: str, situation: Situation) -> bool:
+    """Whether the situation's measurement failed on `device` (``gauge``, ``slra``)."""
+    if not situation.device:
+        return True                 # not known: the tool class decides
+    if device == "slra":
+        return situation.device not in ("gauge", "controller")
+    return situation.device == device
 
 
 class TestBench:
@@ -109,10 +128,11 @@ class TestBench:
     nearest first), for compare_neighbours."""
 
     def __init__(self, session: Session, neighbours: Callable[[str], Sequence[float]] | None = None,
-                 seconds: dict[str, float] | None = None) -> None:
+                 seconds: dict[str, float] | None = None, needs: dict[str, tuple[str, ...]] | None = None) -> None:
         self.session = session
         self.neighbours = neighbours or (lambda _id: ())
         self.seconds = seconds or {}
+        self.needs = needs or {}
         self._reference = self._reference_spec()
 
     # -- which tests apply, and what they cost ------------------------------------------------
@@ -138,6 +158,9 @@ class TestBench:
 
     def applicable(self, test: str, situation: Situation) -> bool:
         """Whether `test` can be made for this situation at all."""
+        for need in self.needs.get(test, ()):
+            if need.startswith("failed_reading(") and not _failed_on(need[len("failed_reading("):-1], situation):
+                return False
         if test == "retry_reading":
             return situation.tool_class == "us_tool"
         if test == "rescan_second_standoff":
@@ -243,7 +266,7 @@ class TestBench:
             failure = report.failure
             payload = failure.reply.payload
             name = payload.name if isinstance(payload, Term) else str(payload)
-            if failure.kind.value == "timeout" or name == "TIMEOUT":
+            if _timed_out(failure):
                 return "silent"
             if test == "read_cal_block" and name == "GAUGE" and failure.command.name == "CALIBRATE":
                 return _gauge_outcome(payload)
@@ -276,8 +299,7 @@ class TestBench:
         if spec_id is None or tool is None:
             return TestRun(test, "not_run", estimated_s, t0, t0, situation.state, note="no tool or feature for it")
         out = measure_one(s, spec_id, situation.state, tool)
-        silent = out.report is not None and out.report.failure is not None and (
-            out.report.failure.kind.value == "timeout" or getattr(out.report.failure.reply.payload, "name", "") == "TIMEOUT")
+        silent = out.report is not None and out.report.failure is not None and _timed_out(out.report.failure)
         if silent:
             return TestRun(test, "silent", estimated_s, t0, out.t1, out.state, out.plan, out.report, out.reason or "")
         if test == "retry_reading":

@@ -20,7 +20,7 @@ from ita.archive import timeline
 from ita.archive.model import Event, StoredResult
 from ita.report.data import STATUS_COLOURS, STATUS_ORDER, SpecPoint, status_of
 
-CATEGORY_COLOURS = {"measuring": "#1f77b4", "tool_change": "#9467bd", "motion": "#ff7f0e",
+CATEGORY_COLOURS = {"exceptions": "#d62728", "measuring": "#1f77b4", "tool_change": "#9467bd", "motion": "#ff7f0e",
                     "other": "#8c8c8c", "waiting": "#b0b0b0"}
 STREAM_ORDER = ("top", "arm", "slra", "gauge")
 MARK_COLOURS = {"interrupt": "#ff9f1c", "stop": "#d62728", "resume": "#2ca02c", "exception": "#d62728",

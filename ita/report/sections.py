@@ -94,8 +94,9 @@ def _breakdown(data: ReportData, ctx: Context) -> dict[str, Any] | None:
     rows += [(f"stream {k}: busy / waiting", f"{b:.1f} s / {w:.1f} s", f"{100 * b / s.cycle_s:.1f} % busy")
              for k, (b, w) in sorted(busy.items())]
     return {"kind": "figure", "title": "Cycle-time breakdown", "id": "breakdown",
-            "note": ("Each instant counts once, as the first of measuring, tool change, motion, other, waiting "
-                     "that any stream is doing; idle: no stream busy."),
+            "note": ("Each instant counts once, as the first of exceptions (handling one: tests, repairs, the "
+                     "measurement again), measuring, tool change, motion, other, waiting that any stream is doing; "
+                     "idle: no stream busy."),
             "figure": figures.breakdown_figure(parts, s.cycle_s), "rows": rows}
 
 
@@ -170,9 +171,10 @@ def _scoring(data: ReportData, ctx: Context) -> dict[str, Any] | None:
 
         diagnoses = [e.payload for e in data.events if e.kind == "diagnosis"]
         scored = diagnosis_score(list(ctx.injected), diagnoses)
-        named = sum(1 for f in scored if f["found"])
-        rows += [("faults injected (simulation)", str(len(scored))),
-                 ("diagnoses that named the injected cause", f"{named} of {len(scored)}")]
+        rows += [("faults injected (simulation)", str(len(ctx.injected))),
+                 ("diagnoses that named the injected cause (of those with one to find)",
+                  f"{scored['named']} of {scored['with_fault']}"),
+                 ("injected faults no diagnosis named (some raised no exception)", str(len(scored["unexplained"])))]
     statuses = [s for s in STATUS_ORDER if any(k[0] == s for k in sc.confusion)]
     confusion = [(s.replace("_", " "), str(sc.confusion.get((s, True), 0)), str(sc.confusion.get((s, False), 0)))
                  for s in statuses]

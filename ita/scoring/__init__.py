@@ -33,7 +33,8 @@ def true_values(part_dir: Path | str) -> dict[str, float]:
 
 def injected_faults(runs_dir: Path | str, run_id: str) -> list[dict]:
     """The faults injected into run `run_id` (ita.sim.inject's log beside the archive), in
-    order; empty when none were."""
+    order, each with ``cleared_time``: the simulated time it was found gone (None: on to
+    the end); empty when none were injected."""
     import json
 
     from ita.sim.inject import injected_log
@@ -41,28 +42,48 @@ def injected_faults(runs_dir: Path | str, run_id: str) -> list[dict]:
     path = injected_log(Path(runs_dir), run_id)
     if not path.is_file():
         return []
-    return [json.loads(line) for line in path.read_text(encoding="utf-8").splitlines() if line.strip()]
-
-
-def diagnosis_score(injected: list[dict], diagnoses: list[dict]) -> list[dict]:
-    """Each injected fault with the first diagnosis made at or after it that involves its
-    device, and whether that diagnosis named the injected cause (``found``): what only
-    the simulation can check.  diagnoses: the archive's ``diagnosis`` event payloads."""
-    out = []
-    used: set[int] = set()
-    for fault in injected:
-        match = None
-        for i, d in enumerate(diagnoses):
-            if i in used or d.get("t1", 0.0) < fault["sim_time"]:
-                continue
-            match = i
-            break
-        cause = None if match is None else diagnoses[match].get("cause")
-        if match is not None:
-            used.add(match)
-        name = (cause or "").partition("(")[0]
-        target = (cause or "").partition("(")[2].rstrip(")")
-        found = name == fault["cause"] and (not target or target in (fault["target"], "gauge", "controller"))
-        out.append({**fault, "diagnosis": None if match is None else diagnoses[match].get("summary"),
-                    "cause_found": cause, "found": bool(found)})
+    records = [json.loads(line) for line in path.read_text(encoding="utf-8").splitlines() if line.strip()]
+    out: list[dict] = []
+    for r in records:
+        if "cleared" in r:
+            hit = next((f for f in out if f["fault"] == r["cleared"] and f["target"] == r["target"]
+                        and f["cleared_time"] is None), None)
+            if hit is not None:
+                hit["cleared_time"] = r["sim_time"]
+        else:
+            out.append({**r, "cleared_time": None})
     return out
+
+
+def diagnosis_score(injected: list[dict], diagnoses: list[dict]) -> dict:
+    """Whether the diagnoses named the injected causes: what only the simulation can check.
+
+    Each diagnosis (the archive's ``diagnosis`` event payloads) is held against the
+    injected faults that were on while the plan that failed ran: injected before the
+    exception and not found gone (injected_faults' ``cleared_time``) before the plan
+    began (the diagnosis' ``since``; a transient is spent by the command it hits).  It names the injected
+    cause when its cause is one of theirs.  Returns {"diagnoses": [... each with
+    "injected" (the candidates' causes) and "named"], "with_fault": diagnoses that had an
+    injected fault to find, "named": those that found it, "unexplained": injected faults
+    no diagnosis named (some never raised an exception: a glitch met by a command that
+    did not need the device)}."""
+    rows = []
+    named_any: set[int] = set()
+    for d in diagnoses:
+        t = d.get("t0", 0.0)
+        since = d.get("since", t)
+        candidates = [i for i, f in enumerate(injected) if f["sim_time"] <= t + 1e-6
+                      and (f.get("cleared_time") is None or f["cleared_time"] >= since - 1e-6)]
+        cause = d.get("cause") or ""
+        name, _, target = cause.partition("(")
+        target = target.rstrip(")")
+        hit = next((i for i in candidates if injected[i]["cause"] == name
+                    and (not target or target in (injected[i]["target"], "gauge", "controller"))), None)
+        if hit is not None:
+            named_any.add(hit)
+        rows.append({"spec": d.get("spec"), "exception": d.get("exception"), "cause": d.get("cause"),
+                     "injected": [injected[i]["cause"] for i in candidates], "named": hit is not None,
+                     "summary": d.get("summary")})
+    with_fault = [r for r in rows if r["injected"]]
+    return {"diagnoses": rows, "with_fault": len(with_fault), "named": sum(r["named"] for r in with_fault),
+            "unexplained": [f for i, f in enumerate(injected) if i not in named_any]}

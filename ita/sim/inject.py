@@ -13,7 +13,8 @@ first command at or after that simulated time (target: a tool, or the device's d
 A fault stays on until the Exception Handler's recovery takes it out (or, a TRANSIENT,
 until the command it hits).  Faults are injected into the run's measuring, not into the
 Exception Handler's own tests and repairs (`paused` while it works).  Every fault injected is written to the log, apart from the
-archive, like the as-built truth: only scoring reads it.
+archive, like the as-built truth: only scoring reads it; so is the first command at which
+an injected fault is found gone (``{"cleared": fault, ...}``).
 
 Not injected: POSITION_DRIFT (a step of the arm's calibration that no device reports,
 so that only a check against a reference would find it) and SENSOR_GARBAGE of an SLRA.
@@ -124,10 +125,14 @@ class FaultInjector:
         self._pending = list(plan.scripted)
         self.count = 0
         self.paused = False     # the Exception Handler's own tests and repairs meet no new fault
+        self._on: list[tuple[str, str]] = []     # injected and not yet taken out
 
     def before(self, command: Any, device: str) -> None:
         """Maybe inject before `command` reaches `device` (``arm`` or ``slra``)."""
-        if not self.plan.active or self.paused:
+        if not self.plan.active:
+            return
+        self._note_cleared()
+        if self.paused:
             return
         kind = "slra" if device == "slra" else ("gauge" if command.name in _GAUGE_COMMANDS else "controller")
         now = self.world.clock.now
@@ -180,14 +185,30 @@ class FaultInjector:
             self.world.drift_m = self.world.drift_m + self.rng.normal(0.0, 1.0, 3) / np.sqrt(3) * 2e-3
         self.world.faults = self.world.faults.with_fault(fault, target)
         self.count += 1
-        if self.log is not None:
-            self.log.parent.mkdir(parents=True, exist_ok=True)
-            with open(self.log, "a", encoding="utf-8") as out:
-                out.write(json.dumps({"sim_time": round(self.world.clock.now, 3), "fault": fault, "target": target,
-                                      "cause": CAUSE_OF.get(fault, fault), "command": command.text}) + "\n")
+        self._on.append((fault, target))
+        self._write({"sim_time": round(self.world.clock.now, 3), "fault": fault, "target": target,
+                     "cause": CAUSE_OF.get(fault, fault), "command": command.text})
+
+    def _note_cleared(self) -> None:
+        """Log the injected faults no longer on (put right by a recovery, or a transient
+        spent on the command it hit), so that scoring knows which were there when."""
+        for fault, target in list(self._on):
+            gone = not self.world.faults.has(fault, target) if fault != "obstacle" \
+                else target not in self.world.obstacles
+            if gone:
+                self._on.remove((fault, target))
+                self._write({"sim_time": round(self.world.clock.now, 3), "cleared": fault, "target": target})
+
+    def _write(self, record: dict[str, Any]) -> None:
+        if self.log is None:
+            return
+        self.log.parent.mkdir(parents=True, exist_ok=True)
+        with open(self.log, "a", encoding="utf-8") as out:
+            out.write(json.dumps(record) + "\n")
 
     def _place_obstacle(self, name: str, command: Any) -> bool:
-        """A box where a MOVE is going (the arm bumps it on the way in)."""
+        """A box where a MOVE is going (the arm bumps it on the way in); none where the arm
+        already is (a batch of moves flown at its first command is there already)."""
         if command.name != "MOVE" or self.poses is None or len(command.args) < 2:
             return False
         try:
@@ -199,4 +220,7 @@ class FaultInjector:
             return False
         pose = self.world.tcp_pose(q)
         self.world.add_obstacle(name, pose[:3, 3], (0.12, 0.12, 0.12))
+        if any(c.obstacle == name for c in self.world.contacts()):   # the arm is there already: not ahead of it
+            self.world.remove_obstacle(name)
+            return False
         return True

@@ -339,6 +339,11 @@ class TopLevel:
         updates."""
         d = handled.diagnosis
         events = [Event("diagnosis", "top", d.t0, {**d.to_dict(), "summary": d.summary})]
+        for inner in handled.nested:        # second faults met during the handling, each on its own
+            events.append(Event("diagnosis", "top", inner.t0, {**inner.to_dict(), "summary": inner.summary,
+                                                               "during": d.exception}))
+            events += [Event("world_update", "top", inner.t1, {"update": u, "spec": inner.spec_id})
+                       for u in inner.updates]
         for label, plan, report in handled.executed:
             if report is None:
                 continue
