@@ -1,6 +1,7 @@
 """Benchmarks of the Exception Handler: test selection quality, and a fault campaign.
 
     .venv/bin/python bench/diagnosis.py selection [--instances 40] [--seed 1]
+    .venv/bin/python bench/diagnosis.py recovery [--failures 24] [--seed 11]
     .venv/bin/python bench/diagnosis.py campaign [--seeds 31,32,33] [--rate 0.05] [--limit N]
 
 selection: over every exception of kb/faults.pl (with the cell's tests and their own
@@ -9,6 +10,16 @@ costs 1 to 100, 2 or 3 outcomes per test): the expected test cost of the exact o
 (prolog/diagnosis.pl's tabled DP), of the one-step rollout (what `auto` uses beyond 20
 causes), of greedy information gain per cost and of cheapest-test-first; mean and worst
 percent above the optimum; CPU time per selection.  Writes bench/results/diagnosis_selection.json.
+
+recovery: real mid-plan failures in the simulated cell (measurements of the default
+bulkhead with a fault switched on: a gauge glitch, a silent controller, a controller
+glitch, a dirty window), each recovered two ways from where the failure left the arm and
+from where a diagnosis test would leave it (the couplant station): plan repair
+(macrop:repair_plan/6, the unfinished steps after a prefix for their preconditions) and
+replanning (the Operation Planner from the state to the measurement's goal, MACROP
+lookup first).  Per way: wall time to the recovery plan, its length, how many steps of
+the failed plan it keeps, and whether it measures when run in the cell.  Writes
+bench/results/diagnosis_recovery.json.
 
 campaign: whole inspections of the default bulkhead with `ita inspect --faults RATE` over
 the seeds, each against a fault-free run of the same seed (in the same fresh ITA_HOME, so
@@ -124,6 +135,140 @@ def selection(args: argparse.Namespace) -> dict:
     return out
 
 
+# -- recovery -------------------------------------------------------------------------------
+
+_RECOVERY_FAULTS = (("transient", "us_gauge", "us_tool"), ("controller_silent", "controller", "us_tool"),
+                    ("transient", "controller", "slra_tool"), ("dirty_window", "", "slra_tool"))
+
+
+def recovery(args: argparse.Namespace) -> dict:
+    """Plan repair against replanning from real mid-plan failures (module docstring)."""
+    from ita.diagnosis.tests import TestBench
+    from ita.logic.terms import Term, Var
+    from ita.planning import NoPlanError, WorldState
+    from ita.sim.faults import FaultSet
+    from ita.toplevel import MeasureStatus, measure_one, open_session
+    from ita.toplevel.measure import execute_measurement
+
+    session = open_session(None, seed=args.seed)
+    bench = TestBench(session)
+    rows: list[dict] = []
+    state = WorldState(arm="t3")
+    try:
+        by_class: dict[str, list[tuple[str, str]]] = {}
+        for g in session.plan.groups:
+            if g.tool is None:
+                continue
+            cls = session.ctx.workcell.tool(g.tool).tool_class.value
+            by_class.setdefault(cls, []).extend((i, g.tool) for i in g.order)
+        picks = {cls: iter(items[::max(1, len(items) // args.failures)]) for cls, items in by_class.items()}
+        attempt = 0
+        while len(rows) < 2 * args.failures and attempt < 6 * args.failures:
+            fault, target, cls = _RECOVERY_FAULTS[attempt % len(_RECOVERY_FAULTS)]
+            attempt += 1
+            spec_id, tool = next(picks[cls], (None, None))
+            if spec_id is None:
+                continue
+            session.kb.once("world", "reset_world")
+            session.world.faults = FaultSet().with_fault(fault, target or tool)
+            out = measure_one(session, spec_id, state, tool)
+            session.world.faults = FaultSet()
+            state = out.state
+            if out.status is not MeasureStatus.NOT_DONE or out.report is None or out.report.failure is None:
+                continue
+            failed_step = out.report.failure.step.number
+            done = tuple(out.report.failure.completed)
+            for origin in ("where it failed", "at the couplant station"):
+                start = state
+                if origin != "where it failed":     # where a diagnosis test leaves the arm
+                    _, report, start, note = bench.execute_goals(
+                        [Term("couplant_checked", ("couplant_station",))], state, name="to the couplant station")
+                    if report is None or not report.ok:
+                        print(f"   no move to the couplant station: {note}", flush=True)
+                        break
+                row = {"spec": spec_id, "tool": tool, "fault": fault, "failed_step": failed_step,
+                       "plan_steps": len(out.plan.steps), "origin": origin}
+                t0 = time.perf_counter()
+                repaired = session.planner.repair_plan(out.plan, done, start)
+                row["repair_ms"] = 1000 * (time.perf_counter() - t0)
+                kept = len(out.plan.steps) - len(done)
+                row["repair_steps"] = None if repaired is None else len(repaired.steps)
+                row["repair_kept"] = 0 if repaired is None else kept
+                t0 = time.perf_counter()
+                try:
+                    replanned = session.planner.plan_measurement(session.specs[spec_id], start, tool)
+                except NoPlanError:
+                    replanned = None
+                row["replan_ms"] = 1000 * (time.perf_counter() - t0)
+                row["replan_steps"] = None if replanned is None else len(replanned.steps)
+                remaining = [(st.action, st.args) for st in out.plan.steps if st.number not in set(done)]
+                row["replan_kept"] = 0 if replanned is None else _kept(remaining, replanned.steps)
+                lengths = ["none" if p is None else Term("steps", (len(p.steps),)) for p in (repaired, replanned)]
+                way = session.kb.once("faults", "recovery_way", *lengths, Var("W"))
+                row["rule"] = str(way["W"]) if way else "none"
+                state = start
+                for way, plan in (("repair", repaired), ("replan", replanned)):
+                    if plan is None:
+                        row[f"{way}_measures"] = None
+                        continue
+                    if state != start:       # the other way ran first: the arm back where this one starts
+                        goals = [Term("holding", (start.arm, start.holding_atom())),
+                                 Term("at", (start.arm, start.pose.to_term()))]
+                        _, report, state, note = bench.execute_goals(goals, state, name="back")
+                        if report is None or not report.ok or state != start:
+                            row[f"{way}_measures"] = None
+                            print(f"   could not put the arm back ({state} for {start}): {note}", flush=True)
+                            continue
+                    ran = execute_measurement(session, spec_id, tool, plan)
+                    row[f"{way}_measures"] = ran.status is MeasureStatus.MEASURED
+                    state = ran.state
+                rows.append(row)
+                print(f"{spec_id:12} {fault:17} step {failed_step}/{row['plan_steps']} {origin:24} "
+                      f"repair {row['repair_steps']} steps ({row['repair_kept']} kept) {row['repair_ms']:.0f} ms "
+                      f"{'measures' if row['repair_measures'] else 'FAILS'} | replan {row['replan_steps']} steps "
+                      f"({row['replan_kept']} kept) {row['replan_ms']:.0f} ms "
+                      f"{'measures' if row['replan_measures'] else 'FAILS'} | rule: {row['rule']}", flush=True)
+    finally:
+        session.close()
+    summary = {}
+    for way in ("repair", "replan"):
+        ok = [r for r in rows if r[f"{way}_steps"] is not None]
+        summary[way] = {"plans": len(ok), "of": len(rows),
+                        "ms_median": statistics.median(r[f"{way}_ms"] for r in rows) if rows else None,
+                        "ms_max": max((r[f"{way}_ms"] for r in rows), default=None),
+                        "steps_mean": statistics.mean(r[f"{way}_steps"] for r in ok) if ok else None,
+                        "kept_mean": statistics.mean(r[f"{way}_kept"] for r in ok) if ok else None,
+                        "measured": sum(1 for r in ok if r[f"{way}_measures"])}
+        s = summary[way]
+        print(f"{way:7}: a plan for {s['plans']} of {s['of']}, measured {s['measured']}; wall to the plan median "
+              f"{s['ms_median']:.1f} ms, max {s['ms_max']:.1f} ms; {s['steps_mean']:.2f} steps, "
+              f"{s['kept_mean']:.2f} of the failed plan's kept (mean)")
+    chosen = [r for r in rows if r["rule"] != "none"]
+    summary["rule"] = {"repair": sum(r["rule"] == "repair" for r in rows),
+                       "replan": sum(r["rule"] == "replan" for r in rows),
+                       "none": len(rows) - len(chosen),
+                       "steps_mean": statistics.mean(r[f"{r['rule']}_steps"] for r in chosen) if chosen else None,
+                       "measured": sum(1 for r in chosen if r[f"{r['rule']}_measures"])}
+    s = summary["rule"]
+    print(f"the rule (kb/faults.pl recovery_way/3): repair {s['repair']}, replan {s['replan']}, none {s['none']}; "
+          f"{s['steps_mean']:.2f} steps (mean), measured {s['measured']} of {len(chosen)}")
+    out = {"seed": args.seed, "rows": rows, "summary": summary}
+    RESULTS.mkdir(parents=True, exist_ok=True)
+    (RESULTS / "diagnosis_recovery.json").write_text(json.dumps(out, indent=1, default=str) + "\n")
+    return out
+
+
+def _kept(remaining: list[tuple], steps) -> int:
+    """How many of the failed plan's unfinished steps a new plan runs unchanged, in order
+    (its longest common subsequence with them)."""
+    new = [(st.action, st.args) for st in steps]
+    table = [[0] * (len(new) + 1) for _ in range(len(remaining) + 1)]
+    for i, a in enumerate(remaining):
+        for j, b in enumerate(new):
+            table[i + 1][j + 1] = table[i][j] + 1 if a == b else max(table[i][j + 1], table[i + 1][j])
+    return table[-1][-1]
+
+
 # -- campaign -------------------------------------------------------------------------------
 
 def _inspect(home: Path, runs: Path, seed: int, extra: list[str], limit: int | None) -> dict:
@@ -200,12 +345,15 @@ def main(argv: list[str] | None = None) -> int:
     sel = sub.add_parser("selection", help="test selection quality against the exact optimum")
     sel.add_argument("--instances", type=int, default=40, help="random instances per size and prior (default 40)")
     sel.add_argument("--seed", type=int, default=1)
+    rec = sub.add_parser("recovery", help="plan repair against replanning from real mid-plan failures")
+    rec.add_argument("--failures", type=int, default=24, help="mid-plan failures to make (default 24)")
+    rec.add_argument("--seed", type=int, default=11)
     camp = sub.add_parser("campaign", help="whole runs with injected faults against fault-free ones")
     camp.add_argument("--seeds", default="31,32,33")
     camp.add_argument("--rate", type=float, default=0.05)
     camp.add_argument("--limit", type=int, default=None, help="only the first N measurements (a quick check)")
     args = parser.parse_args(argv)
-    selection(args) if args.what == "selection" else campaign(args)
+    {"selection": selection, "recovery": recovery, "campaign": campaign}[args.what](args)
     return 0
 
 

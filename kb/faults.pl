@@ -8,6 +8,7 @@
             predicts/3,                 % ?Test, ?Cause, ?Outcome
             outcome/2,                  % +Test, ?Outcome
             recovery/2,                 % ?Cause, ?Actions
+            recovery_way/3,             % +Repair, +Replan, -Way
             candidate_causes/3,         % +Exception, +Context, -Causes
             instantiate_cause/3,        % +Cause, +Context, -Instance
             test_outcome/4              % +Test, +Cause, +Context, -Outcome
@@ -305,6 +306,22 @@ recovery(out_of_tolerance,          [accept_reading]).
 recovery(thin_section,              []).
 recovery(tool_missing(T),           [mark(T, missing)]).
 recovery(transient_glitch,          [retry]).
+
+%!  recovery_way(+Repair, +Replan, -Way) is det.
+%
+%   How the measurement is taken again once the cell is put right: Repair and Replan are
+%   `steps(N)`, the length of the repaired plan (the failed plan's unfinished steps after
+%   a plan for their preconditions) and of a new plan from the arm's state, or `none`
+%   when there is no such plan.  Way is `repair` (it keeps the failed plan's work: the
+%   seed's authors' wish) unless a new plan is shorter (the unfinished steps begin with
+%   moves the arm no longer needs) or there is no repair; `replan` then; `none` when
+%   neither exists.
+
+recovery_way(none, none, none) :- !.
+recovery_way(none, steps(_), replan) :- !.
+recovery_way(steps(_), none, repair) :- !.
+recovery_way(steps(R), steps(P), replan) :- P < R, !.
+recovery_way(steps(_), steps(_), repair).
 
 
                  /*******************************

@@ -43,6 +43,11 @@ test(outcomes_of_the_couplant_check, true(Os == [ok, empty, silent])) :-
 test(a_broken_probe_is_marked, true(A == [mark(us_probe_1, broken), replace_if_no_spare(us_probe_1)])) :-
     recovery(broken_probe(us_probe_1), A).
 
+test(repair_unless_a_new_plan_is_shorter, true(Ws == [repair, repair, replan, replan, repair, none])) :-
+    findall(W, ( member(R-P, [steps(4)-steps(4), steps(3)-steps(5), steps(6)-steps(4), none-steps(4),
+                              steps(2)-none, none-none]),
+                 recovery_way(R, P, W) ), Ws).
+
 test(unknown_exception, error(existence_error(exception, smoke))) :-
     candidate_causes(smoke, [], _).
 

@@ -44,7 +44,7 @@ from ita.diagnosis.knowledge import FaultKnowledge
 from ita.diagnosis.tests import Situation, TestBench, TestRun
 from ita.logic.terms import Term, Var
 from ita.planning.operation import format_term
-from ita.toplevel.measure import MeasureOutcome, MeasureStatus, execute_measurement, measure_one
+from ita.toplevel.measure import MeasureOutcome, MeasureStatus, execute_measurement
 
 if TYPE_CHECKING:
     from ita.toplevel.session import Session
@@ -336,29 +336,53 @@ class ExceptionHandler:
     # -- 5. the measurement again -------------------------------------------------------------
     def _retry(self, failed: MeasureOutcome, situation: Situation, executed: list
                ) -> tuple[MeasureOutcome | None, str]:
-        """Take the measurement again: plan repair with the same tool when it is usable,
-        else replanning with the tool the rules choose now (none: not done)."""
+        """Take the measurement again with the same tool when it is usable, else with the
+        tool the rules choose now (none: not done): by plan repair or by replanning, as
+        kb/faults.pl recovery_way/3 says from the two plans' lengths."""
+        from ita.planning import NoPlanError
+        from ita.toplevel.measure import placement_problem
+
         s = self.session
         arm = situation.state.arm
         tool = situation.tool
-        usable = s.kb.holds("world", "usable", arm, situation.tool_class, tool)
-        if not usable:
+        if not s.kb.holds("world", "usable", arm, situation.tool_class, tool):
             from ita.sequence.plan import choose_tool
 
             chosen = choose_tool(s.ctx, situation.spec_id)
             if chosen.tool is None:
                 return None, f"not done: no tool left ({chosen.reason})"
             tool = chosen.tool
+        repaired = None
+        done: tuple[int, ...] = ()
         if tool == situation.tool and failed.plan is not None and failed.report is not None:
-            done = failed.report.failure.completed if failed.report.failure is not None else ()
+            done = tuple(failed.report.failure.completed) if failed.report.failure is not None else ()
             repaired = s.planner.repair_plan(failed.plan, done, situation.state)
-            if repaired is not None:
-                out = execute_measurement(s, situation.spec_id, tool, repaired)
-                executed.append(("recovery: plan repair", repaired, out.report))
-                kept = sum(1 for st in failed.plan.steps if st.number not in set(failed.report.failure.completed))
-                return out, f"plan repair ({len(repaired.steps)} steps, {kept} of the failed plan's kept)"
-        out = measure_one(s, situation.spec_id, situation.state, tool)
-        if out.plan is not None:
-            executed.append(("recovery: replanning", out.plan, out.report))
-        how = "replanning" + (f" with {tool}" if tool != situation.tool else "")
-        return out, f"{how} ({len(out.plan.steps)} steps)" if out.plan is not None else f"{how}: {out.reason}"
+        replanned, why = None, ""
+        problem = placement_problem(s, situation.spec_id, tool)
+        if problem is not None:
+            why = problem
+        else:
+            try:
+                replanned = s.planner.plan_measurement(s.specs[situation.spec_id], situation.state, tool)
+            except NoPlanError as exc:
+                why = f"no plan: {exc.reason}"
+        way = s.kb.once("faults", "recovery_way", _steps(repaired), _steps(replanned), Var("W"))
+        way = str(way["W"]) if way else "none"
+        if way == "repair" and repaired is not None and failed.plan is not None:
+            out = execute_measurement(s, situation.spec_id, tool, repaired)
+            executed.append(("recovery: plan repair", repaired, out.report))
+            kept = sum(1 for st in failed.plan.steps if st.number not in set(done))
+            also = f"; a new plan: {len(replanned.steps)}" if replanned is not None else ""
+            return out, f"plan repair ({len(repaired.steps)} steps, {kept} of the failed plan's kept{also})"
+        if way == "replan" and replanned is not None:
+            out = execute_measurement(s, situation.spec_id, tool, replanned)
+            executed.append(("recovery: replanning", replanned, out.report))
+            how = "replanning" + (f" with {tool}" if tool != situation.tool else "")
+            also = f"; plan repair: {len(repaired.steps)}" if repaired is not None else ""
+            return out, f"{how} ({len(replanned.steps)} steps{also})"
+        return None, f"not done: no plan to take it again ({why or 'plan repair and replanning both failed'})"
+
+
+def _steps(plan: Any) -> Any:
+    """A plan's length as recovery_way/3 takes it."""
+    return "none" if plan is None else Term("steps", (len(plan.steps),))

@@ -30,7 +30,7 @@ if TYPE_CHECKING:
     from ita.planning import OperationPlan
     from ita.toplevel.session import Session
 
-__all__ = ["MeasureOutcome", "MeasureStatus", "execute_measurement", "measure_one", "state_after"]
+__all__ = ["MeasureOutcome", "MeasureStatus", "execute_measurement", "measure_one", "placement_problem", "state_after"]
 
 
 class MeasureStatus(str, Enum):
@@ -93,7 +93,7 @@ def state_after(plan: Any, report: Any) -> WorldState:
     return WorldState(state.arm, pose, None if holding == NOTHING else holding)
 
 
-def _placement_problem(session: Session, spec_id: str, tool: str) -> str | None:
+def placement_problem(session: Session, spec_id: str, tool: str) -> str | None:
     """Why the MKB cannot place `spec_id` for `tool`, or None when it can."""
     tool_class = session.ctx.workcell.tool(tool).tool_class.value
     entry = session.mkb.entry_for(spec_id, tool_class)
@@ -120,7 +120,7 @@ def measure_one(session: Session, spec_id: str, state: WorldState, tool: str) ->
     spec = session.specs[spec_id]
     clock = session.world.clock
     t0 = clock.now
-    problem = _placement_problem(session, spec_id, tool)
+    problem = placement_problem(session, spec_id, tool)
     if problem is not None:
         return MeasureOutcome(spec_id, tool, MeasureStatus.CANNOT_BE_DONE, None, problem, (), None, None,
                               state, t0, t0)
