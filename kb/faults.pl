@@ -11,7 +11,8 @@
             recovery_way/3,             % +Repair, +Replan, -Way
             candidate_causes/3,         % +Exception, +Context, -Causes
             instantiate_cause/3,        % +Cause, +Context, -Instance
-            test_outcome/4              % +Test, +Cause, +Context, -Outcome
+            test_outcome/4,             % +Test, +Cause, +Context, -Outcome
+            isolated/4                  % +Exception, +Context, +Results, -Cause
           ]).
 
 /** <module> Fault diagnosis knowledge: exceptions, causes, tests and recoveries
@@ -45,6 +46,7 @@ hand (`probe=P` or `slra=S`), the device (`device=D`).  A cause such as
 :- use_module(library(error)).
 :- use_module(library(lists)).
 :- use_module(library(apply)).
+:- use_module(library(pairs)).
 
 
                  /*******************************
@@ -373,3 +375,21 @@ test_outcome(Test, Cause, Context, Outcome) :-
     ->  Outcome = Outcome0
     ;   Outcome = ok
     ).
+
+
+%!  isolated(+Exception, +Context:list, +Results:list, -Cause) is semidet.
+%
+%   Cause is the one cause of Exception in Context consistent with every test result of
+%   Results (`Test-Outcome`).  For `ita kb why`: its proof shows the causes the
+%   exception can have and each test's prediction for the one left, e.g.
+%
+%       ita kb why "faults:isolated(controller_timeout, [device=controller],
+%                                   [query_controller-silent], C)"
+
+isolated(Exception, Context, Results, Cause) :-
+    candidate_causes(Exception, Context, Candidates),
+    pairs_keys(Candidates, Causes),
+    include(agrees_with(Context, Results), Causes, [Cause]).
+
+agrees_with(Context, Results, Cause) :-
+    forall(member(Test-Outcome, Results), test_outcome(Test, Cause, Context, Outcome)).

@@ -45,6 +45,7 @@ benchmarked on random instances (problem_tree/5).
 :- use_module(library(pairs)).
 :- use_module(library(aggregate)).
 :- use_module('../kb/faults', [candidate_causes/3, prior/2, instantiate_cause/3, test_outcome/4]).
+:- reexport('../kb/faults', [isolated/4]).
 
 :- dynamic problem_prob/2.              % problem_prob(Index, P): the problem being solved
 :- dynamic problem_test/3.              % problem_test(Name, Cost, Masks): outcome class masks
@@ -123,20 +124,8 @@ outcome_partition(Causes, Test, Context, Partition) :-
     keysort(Pairs, Sorted),
     group_pairs_by_key(Sorted, Partition).
 
-%!  isolated(+Exception, +Context:list, +Results:list, -Cause) is semidet.
-%
-%   Cause is the one cause of Exception in Context consistent with every test result
-%   of Results (`Test-Outcome`).  For `ita kb why`: the proof shows the cause's rule,
-%   and each test's prediction.
-
-isolated(Exception, Context, Results, Cause) :-
-    candidate_causes(Exception, Context, Candidates),
-    pairs_keys(Candidates, Causes),
-    include(agrees_with(Context, Results), Causes, [Cause]).
-
-agrees_with(Context, Results, Cause) :-
-    forall(member(Test-Outcome, Results), test_outcome(Test, Cause, Context, Outcome)).
-
+%   isolated/4 (re-exported from kb/faults.pl): the one cause consistent with every test
+%   result, for `ita kb why`.
 
                  /*******************************
                  *        TEST SELECTION        *

@@ -220,3 +220,25 @@ def test_a_second_fault_met_while_handling_is_diagnosed_on_its_own_and_both_put_
     assert handled.outcome.status is MeasureStatus.MEASURED, handled.outcome.reason
     assert session.world.faults.names() == []
     session.world.faults = FaultSet()
+
+
+def test_kb_why_explains_a_recorded_diagnosis(knowledge_base, tmp_path, monkeypatch):
+    """`ita diagnosis show` prints, for each cause found, the `ita kb why` goal whose proof
+    shows the exception's causes and the test results that leave only that one."""
+    from click.testing import CliRunner
+
+    from ita.cli import main
+    from ita.cli.diagnosis import why_goal
+
+    monkeypatch.setenv("ITA_HOME", str(tmp_path / "home"))
+    recorded = {"exception": "too_few_pixels", "context": {"device": "slra_1", "slra": "slra_1", "tool": "slra_1"},
+                "tests": [{"test": "rescan_second_standoff", "outcome": "fails_again"},
+                          {"test": "scan_cal_block", "outcome": "not_run"}], "cause": "dirty_window(slra_1)"}
+    goal = why_goal(recorded)
+    assert goal == ("faults:isolated(too_few_pixels, [device=slra_1, slra=slra_1, tool=slra_1], "
+                    "[rescan_second_standoff-fails_again], Cause)")
+    result = CliRunner().invoke(main, ["kb", "why", goal])
+    assert result.exit_code == 0, result.output
+    first = result.output.splitlines()[0]
+    assert "dirty_window(slra_1))" in first                       # the cause it isolates
+    assert "raises(" in result.output or "candidate_causes(" in result.output

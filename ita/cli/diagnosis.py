@@ -14,6 +14,7 @@ cause is isolated with, e.g.,
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import click
@@ -54,9 +55,24 @@ def show(run: str, runs_dir: Path | None, as_json: bool) -> None:
                        f"estimated {t['estimated_s']:.1f} s){'  ' + t['note'] if t.get('note') else ''}")
         cause = d.get("cause") or "unresolved: " + ", ".join(c for c, _ in d.get("remaining", []))
         click.echo(f"   cause: {cause}")
+        if d.get("cause"):
+            click.echo(f"   why: ita kb why \"{why_goal(d)}\"")
         for u in d.get("updates", []):
             click.echo(f"   update: {u}")
         click.echo(f"   recovery: {d.get('recovery', '')}")
+
+
+def _atom(text: str) -> str:
+    return text if re.fullmatch(r"[a-z][A-Za-z0-9_]*", text) else "'" + text.replace("'", "\\'") + "'"
+
+
+def why_goal(d: dict) -> str:
+    """The goal whose proof (`ita kb why`) shows why a diagnosis isolated its cause: the
+    exception's causes in its context and each test result's prediction."""
+    context = ", ".join(f"{_atom(k)}={_atom(str(v))}" for k, v in d.get("context", {}).items())
+    results = ", ".join(f"{_atom(t['test'])}-{_atom(t['outcome'])}" for t in d.get("tests", [])
+                        if t.get("outcome") != "not_run")
+    return f"faults:isolated({_atom(d['exception'])}, [{context}], [{results}], Cause)"
 
 
 @diagnosis.command()
