@@ -71,7 +71,7 @@ def why_goal(d: dict) -> str:
     exception's causes in its context and each test result's prediction."""
     context = ", ".join(f"{_atom(k)}={_atom(str(v))}" for k, v in d.get("context", {}).items())
     results = ", ".join(f"{_atom(t['test'])}-{_atom(t['outcome'])}" for t in d.get("tests", [])
-                        if t.get("outcome") != "not_run")
+                        if t.get("outcome") not in ("not_run", "interrupted"))
     return f"faults:isolated({_atom(d['exception'])}, [{context}], [{results}], Cause)"
 
 

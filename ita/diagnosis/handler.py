@@ -248,7 +248,7 @@ class ExceptionHandler:
                 executed.append((f"test {name}", run.plan, run.report))
             second = self._second_fault(run.report, situation, depth)
             if second is not None:          # the test met another fault: put it right, make the test again
-                runs.append(replace(run, outcome="not_run", note=f"interrupted by {second.exception}: {run.note}"))
+                runs.append(replace(run, outcome="interrupted", note=f"by {second.exception}: {run.note}"))
                 situation = self._handle_second(second, replace(situation, state=run.state), run.t0, executed,
                                                 nested, depth)
                 run = self.bench.run(name, situation, dict(tests)[name])

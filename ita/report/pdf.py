@@ -160,9 +160,11 @@ def pdf_report(data: ReportData, payload: Mapping[str, Any], *, mesh: Any = None
     if exceptions:
         story += [PageBreak(), Paragraph(esc(exceptions["title"]), styles["Heading2"]),
                   Paragraph(esc(exceptions["note"]), body), Spacer(1, 2 * mm)]
-        cells = [list(exceptions["header"])] + [[Paragraph(esc(c), small) for c in r] for r in exceptions["rows"]]
-        story.append(grid(cells, widths=[16 * mm, 24 * mm, 26 * mm, 40 * mm, 70 * mm, 30 * mm, 30 * mm, None],
-                          font=7))
+        header = list(exceptions["header"])
+        cells = [[Paragraph(esc(c), small) for c in header]] + \
+            [[Paragraph(esc(c), small) for c in r] for r in exceptions["rows"]]
+        fixed = [14 * mm, 20 * mm, 24 * mm, 36 * mm, 62 * mm, 28 * mm, 28 * mm, 32 * mm][:len(header) - 1]
+        story.append(grid(cells, widths=fixed + [width - sum(fixed)], font=7))
     story += [PageBreak(), Paragraph(f"Every result ({len(rows)})", styles["Heading2"]), result_table(rows)]
 
     scoring = sections.get("scoring")

@@ -125,8 +125,13 @@ def _exceptions(data: ReportData, ctx: Context) -> dict[str, Any] | None:
     found = [e for e in data.events if e.kind == "diagnosis"]
     if not found:
         return None
+    scored = None
+    if ctx.injected:
+        from ita.scoring import diagnosis_score
+
+        scored = diagnosis_score(list(ctx.injected), [e.payload for e in found])["diagnoses"]
     rows = []
-    for e in found:
+    for i, e in enumerate(found):
         d = e.payload
         tests = "; ".join(f"{t['test']} -> {t['outcome']} ({t['seconds']:.0f} s, est. {t['estimated_s']:.0f} s)"
                           for t in d.get("tests", [])) or "none"
@@ -134,14 +139,26 @@ def _exceptions(data: ReportData, ctx: Context) -> dict[str, Any] | None:
         rows.append((f"{e.sim_time:.1f}" if e.sim_time is not None else "", d.get("spec", ""),
                      d.get("exception", ""), posterior, tests,
                      d.get("cause") or "unresolved: " + ", ".join(c for c, _ in d.get("remaining", [])),
-                     "; ".join(d.get("updates", [])) or "-", d.get("recovery", "")))
-    return {"kind": "kv", "title": "Exceptions and their diagnoses",
-            "note": (f"{len(rows)} diagnoses: the posterior over the exception's causes, the tests the Exception "
-                     "Handler made in the cell in the order its decision tree chose them, what each found and "
-                     "cost, the cause isolated, the world model's update and the recovery."),
-            "header": ["sim time (s)", "spec", "exception", "posterior (first four)", "tests in order",
-                       "cause", "world update", "recovery"],
+                     "; ".join(d.get("updates", [])) or "-", d.get("recovery", ""))
+                    + ((_injected_found(scored[i]),) if scored is not None else ()))
+    header = ["sim time (s)", "spec", "exception", "posterior (first four)", "tests in order",
+              "cause", "world update", "recovery"]
+    note = (f"{len(rows)} diagnoses: the posterior over the exception's causes, the tests the Exception "
+            "Handler made in the cell in the order its decision tree chose them, what each found and "
+            "cost, the cause isolated, the world model's update and the recovery.")
+    if scored is not None:
+        header.append("injected cause found (simulation)")
+        note += (" The last column holds each diagnosis against the faults the simulation injected and that "
+                 "were on while the failed plan ran; the system never reads them.")
+    return {"kind": "kv", "title": "Exceptions and their diagnoses", "note": note, "header": header,
             "rows": rows, "collapsed": len(rows) > 12}
+
+
+def _injected_found(row: dict) -> str:
+    """The last column of the exceptions table: whether the diagnosis named an injected cause."""
+    if not row["injected"]:
+        return "no fault injected"
+    return "yes" if row["named"] else "no (injected: " + ", ".join(row["injected"]) + ")"
 
 
 def _scoring(data: ReportData, ctx: Context) -> dict[str, Any] | None:
