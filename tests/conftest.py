@@ -7,13 +7,31 @@ writes the user's real data; the built-in bulkhead is materialised there once.
 from __future__ import annotations
 
 import os
+import shutil
 import subprocess
 import sys
+import tempfile
 from pathlib import Path
 
 import pytest
 
 REPO = Path(__file__).resolve().parent.parent
+
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    """hypothesis keeps no example database and no cache in the checkout: tests write only
+    under their temporary directories."""
+    try:
+        from hypothesis import settings
+        from hypothesis.configuration import set_hypothesis_home_dir
+    except ImportError:
+        return
+    home = tempfile.mkdtemp(prefix="ita-hypothesis-")
+    config.add_cleanup(lambda: shutil.rmtree(home, ignore_errors=True))
+    set_hypothesis_home_dir(home)
+    settings.register_profile("ita", database=None)
+    settings.load_profile("ita")
 
 
 @pytest.fixture(scope="session", autouse=True)

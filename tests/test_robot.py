@@ -124,6 +124,21 @@ def test_joint_limits_are_refused_before_moving(ctl):
     assert reply.status is MotionStatus.JOINT_LIMIT and reply.joint == "j6" and "speed" in reply.message
 
 
+def test_a_move_onto_a_joint_limit_leaves_the_arm_where_the_next_move_can_start(ctl):
+    """The arm settles by its repeatability, but never past a limit: a view whose joint
+    solution lies on a limit (IK snaps solutions onto it) does not strand every later
+    move with start_out_of_limits."""
+    world = ctl.world
+    edge = READY.copy()
+    edge[0] = world.model.upper[0]                       # j1 on its limit, as IK gives it
+    for _ in range(20):                                   # many settle draws: some push outwards
+        world.set_q(READY)
+        reply = ctl.execute(from_waypoints(world.model, [READY, edge]))
+        assert reply.ok, reply.message
+        # the Path Planner's start check (within_limits), even with no slack at all
+        assert world.model.within_limits(world.q) and world.model.within_limits(world.q, tol=0.0)
+
+
 def test_trajectory_must_start_at_the_arm(ctl):
     far = READY + 0.2
     reply = ctl.execute(from_waypoints(ctl.world.model, [far, READY]))

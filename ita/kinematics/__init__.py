@@ -17,6 +17,7 @@ every angle in radians.
 
 from ita.kinematics.choice import choose_centred, choose_nearest, limit_margin, reachable
 from ita.kinematics.fk import (
+    JOINT_LIMIT_TOL,
     ArmModel,
     arm_model,
     axis_rotations,
@@ -40,6 +41,7 @@ from ita.kinematics.tool_poses import (
 __all__ = [
     "DEFAULT_ROLLS",
     "IK_STATUS_DESCRIPTIONS",
+    "JOINT_LIMIT_TOL",
     "ArmModel",
     "IKSolutions",
     "IKStatus",

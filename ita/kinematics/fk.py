@@ -25,6 +25,10 @@ from ita.workcell.frames import homogeneous, rpy_to_matrix
 from ita.workcell.model import ArmKinematics, ArmSpec
 
 FloatArray = NDArray[np.float64]
+#: rad: the one slack at the joint limits, for every check that a configuration is within
+#: them (IK, path planning, the motion kernels, the controller); IK snaps solutions within it
+#: onto the limit, and the arm never settles outside the limits
+JOINT_LIMIT_TOL = 1e-6
 
 
 @dataclass(frozen=True, eq=False, repr=False)
@@ -67,7 +71,7 @@ class ArmModel:
         """Number of joints (6)."""
         return len(self.joint_names)
 
-    def within_limits(self, q: ArrayLike, tol: float = 1e-9) -> NDArray[np.bool_]:
+    def within_limits(self, q: ArrayLike, tol: float = JOINT_LIMIT_TOL) -> NDArray[np.bool_]:
         """Bool (...): whether configurations q (..., 6) lie within the position limits."""
         q = np.asarray(q, dtype=float)
         return np.all((q >= self.lower - tol) & (q <= self.upper + tol), axis=-1)

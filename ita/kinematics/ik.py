@@ -32,12 +32,12 @@ from itertools import product
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ita.kinematics.fk import ArmModel, invert_poses
+from ita.kinematics.fk import JOINT_LIMIT_TOL, ArmModel, invert_poses
 
 FloatArray = NDArray[np.float64]
 TWO_PI = 2.0 * np.pi
-_ANGLE_TOL = 1e-7   # rad: slack at the joint limits (IK near a singularity loses ~1e-8 rad);
-                    # solutions within it are clipped onto the limit
+_ANGLE_TOL = JOINT_LIMIT_TOL   # rad: slack at the joint limits (IK at a limit and near a singularity
+                               # loses up to ~4e-7 rad); solutions within it are clipped onto the limit
 _REACH_TOL = 1e-12  # slack on |sin j3| <= 1 at the edge of the workspace
 _TURN_SLACK = 1e-3  # rad: a range this little over a turn (j4's +-3.141593) gives no second turn
 

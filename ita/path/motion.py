@@ -33,7 +33,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ita.collision import ArmChecker
 from ita.collision.kernels import check_arm, pair_gap, tube_clearance
-from ita.kinematics import ArmModel
+from ita.kinematics import JOINT_LIMIT_TOL, ArmModel
 
 FloatArray = NDArray[np.float64]
 
@@ -125,7 +125,7 @@ def _configs_free(q, lower, upper, base, origins, axes, flange_offset, tube_link
     joint = np.empty((4, 4))
     for i in range(n):
         for j in range(dof):
-            if q[i, j] < lower[j] - 1e-9 or q[i, j] > upper[j] + 1e-9:
+            if q[i, j] < lower[j] - JOINT_LIMIT_TOL or q[i, j] > upper[j] + JOINT_LIMIT_TOL:
                 inside[i] = False
         _link_segments(q[i], base, origins, axes, flange_offset, tube_links, tube_ends, frames, joint, segs[i])
     hit, _ = check_arm(segs, radii, cyl, world, ignore, pairs, kind, pos, rot, half, rad, bound, solid, obj,
@@ -176,7 +176,7 @@ def _configs_clear(q, margin, moving, lower, upper, base, origins, axes, flange_
     for i in range(n):
         inside = True
         for j in range(dof):
-            if q[i, j] < lower[j] - 1e-9 or q[i, j] > upper[j] + 1e-9:
+            if q[i, j] < lower[j] - JOINT_LIMIT_TOL or q[i, j] > upper[j] + JOINT_LIMIT_TOL:
                 inside = False
         if not inside:
             continue
@@ -286,8 +286,8 @@ def _motions_free(a, b, bounds, floor, budget, probe, lower, upper, base, origin
     for i in range(n):
         ok = True
         for j in range(dof):
-            if (a[i, j] < lower[j] - 1e-9 or a[i, j] > upper[j] + 1e-9
-                    or b[i, j] < lower[j] - 1e-9 or b[i, j] > upper[j] + 1e-9):
+            if (a[i, j] < lower[j] - JOINT_LIMIT_TOL or a[i, j] > upper[j] + JOINT_LIMIT_TOL
+                    or b[i, j] < lower[j] - JOINT_LIMIT_TOL or b[i, j] > upper[j] + JOINT_LIMIT_TOL):
                 ok = False
         if not ok:
             continue

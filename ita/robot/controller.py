@@ -28,7 +28,7 @@ from enum import Enum
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ita.kinematics import ArmModel, flange_poses
+from ita.kinematics import JOINT_LIMIT_TOL, ArmModel, flange_poses
 from ita.robot.waypoints import TimedTrajectory
 from ita.sim.faults import Fault
 from ita.sim.world import Contact, SimWorld
@@ -36,7 +36,7 @@ from ita.sim.world import Contact, SimWorld
 FloatArray = NDArray[np.float64]
 CONTROLLER = "controller"       # the fault target naming the robot controller
 _START_TOLERANCE = 0.01         # rad: how far a trajectory may start from the arm's joints
-_LIMIT_TOLERANCE = 1e-9         # rad, and relative for speeds
+_SPEED_TOLERANCE = 1e-6         # relative: a speed this little over the limit is rounding
 
 
 class MotionStatus(str, Enum):
@@ -122,7 +122,8 @@ class RobotController:
             hits = world.contacts(self.contact_margin, skip)
             if hits:
                 return self._bump(command, float(t), hits)
-        world.set_q(trajectory.end + self._settle_error(trajectory.end))
+        # the arm settles off its goal by its repeatability, but never past a joint's limit
+        world.set_q(np.clip(trajectory.end + self._settle_error(trajectory.end), world.model.lower, world.model.upper))
         hits = world.contacts(self.contact_margin, skip)
         if hits:
             return self._bump(command, trajectory.duration, hits)
@@ -146,7 +147,7 @@ class RobotController:
             j = int(np.argmax(gap))
             return MotionReply(MotionStatus.REJECTED, "", 0.0, tuple(q), joint=names[j],
                          message=f"trajectory starts {gap[j]:.4f} rad from the arm at {names[j]}")
-        outside = (trajectory.q < model.lower - _LIMIT_TOLERANCE) | (trajectory.q > model.upper + _LIMIT_TOLERANCE)
+        outside = (trajectory.q < model.lower - JOINT_LIMIT_TOL) | (trajectory.q > model.upper + JOINT_LIMIT_TOL)
         if outside.any():
             k, j = map(int, np.argwhere(outside)[0])
             return MotionReply(MotionStatus.JOINT_LIMIT, "", 0.0, tuple(q), joint=names[j],
@@ -154,7 +155,7 @@ class RobotController:
                                  f"is outside [{model.lower[j]:.4f}, {model.upper[j]:.4f}]")
         if len(trajectory.times) > 1:
             speed = np.abs(trajectory.velocities()).max(axis=0)
-            over = speed > model.velocity * (1.0 + 1e-6)
+            over = speed > model.velocity * (1.0 + _SPEED_TOLERANCE)
             if over.any():
                 j = int(np.argmax(speed / model.velocity))
                 return MotionReply(MotionStatus.JOINT_LIMIT, "", 0.0, tuple(q), joint=names[j],
