@@ -95,7 +95,8 @@ def progress_line(p: Any, columns: int) -> str:
 
 def _summary_text(summary: Any) -> str:
     d = summary.to_dict()
-    lines = [f"run {summary.run_id}: {summary.status}, {summary.done}/{summary.total} results",
+    lines = [f"run {summary.run_id}: {summary.status}, {summary.done}/{summary.total} results"
+             + (f"\n  ALARM, the run stopped itself: {summary.alarm}" if summary.alarm else ""),
              "  " + ", ".join(f"{k} {v}" for k, v in sorted(summary.counts.items())),
              f"  simulated cycle time {format_duration(summary.sim_end_s)} ({summary.sim_end_s:.0f} s)"
              f"; wall-clock {summary.wall_s:.1f} s for {summary.measured_now} results"

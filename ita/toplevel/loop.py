@@ -110,6 +110,7 @@ class RunSummary:
     breakdown: dict[str, float] = field(default_factory=dict)
     devices: dict[str, float] = field(default_factory=dict)
     continue_hint: str | None = None
+    alarm: str = ""             # why the Top Level stopped the run itself (failures in a row)
 
     @property
     def cycle_s(self) -> float:
@@ -123,17 +124,28 @@ class RunSummary:
                 "recorded_now": self.measured_now, "exceptions": self.exceptions, "slra_scans": self.frames,
                 "breakdown_s": {k: round(v, 2) for k, v in self.breakdown.items()},
                 "devices": {k: round(v, 3) for k, v in self.devices.items()},
-                "continue": self.continue_hint}
+                "continue": self.continue_hint, "alarm": self.alarm or None}
 
 
 # -- the loop ---------------------------------------------------------------------------------
 
+#: measurements not done in a row (after the Exception Handler) at which the Top Level stops the
+#: run: something systematic is wrong, and going on would only fill the run with "not done"
+MAX_FAILURES_IN_A_ROW = 10
+
+
 class TopLevel:
-    """Runs (or continues) one inspection run of `session` recorded in `archive`."""
+    """Runs (or continues) one inspection run of `session` recorded in `archive`.
+
+    max_failures_in_a_row: stop the run (status stopped, with an alarm; `ita continue`
+    goes on once the cause is put right) after this many measurements in a row end not
+    done; 0: never."""
 
     def __init__(self, session: Session, archive: Any, run_id: str, signals: RunSignals | None = None, *,
-                 handle_exceptions: bool = True) -> None:
+                 handle_exceptions: bool = True, max_failures_in_a_row: int = MAX_FAILURES_IN_A_ROW) -> None:
         self.session = session
+        self.max_failures_in_a_row = max_failures_in_a_row
+        self.failures_in_a_row: list[str] = []      # reasons of the last measurements not done, in a row
         self.archive = archive
         self.run_id = run_id
         self.signals = signals or RunSignals(message=None)
@@ -196,6 +208,7 @@ class TopLevel:
                                                   if i in self.done or i not in self.todo_set))
         state = WorldState(arm=self._arm_name())
         status = RunStatus.COMPLETED
+        alarm = ""
         current: tuple[int | None, str | None, str | None] = (None, None, None)
         try:
             for spec_id, reason in s.plan.cannot:
@@ -221,6 +234,11 @@ class TopLevel:
                 state = self._measure(step, state)
                 if on_progress is not None:
                     on_progress(self._progress(current, wall0, sim0, n_done0, "measuring"))
+                if self.max_failures_in_a_row and len(self.failures_in_a_row) >= self.max_failures_in_a_row:
+                    alarm = (f"{len(self.failures_in_a_row)} measurements in a row not done; the last: "
+                             f"{self.failures_in_a_row[-1][:300]}")
+                    status = RunStatus.STOPPED
+                    break
         except StopNow:
             status = RunStatus.STOPPED
         end_t = s.world.clock.now
@@ -231,7 +249,7 @@ class TopLevel:
         kind = {RunStatus.COMPLETED: "run_end", RunStatus.INTERRUPTED: "interrupt",
                 RunStatus.STOPPED: "stop"}[status]
         self.archive.set_status(self.run_id, status, event=Event(kind, "top", end_t, {
-            "reason": self.signals.reason or None, "done": len(self.done), "total": len(self.todo)}))
+            "reason": alarm or self.signals.reason or None, "done": len(self.done), "total": len(self.todo)}))
         self.archive.update_totals(self.run_id, specs=len(self.todo), done=len(self.done),
                                    sim_time_s=end_t, counts=dict(self.counts))
         summary = RunSummary(
@@ -240,7 +258,7 @@ class TopLevel:
             devices={**{f"arm_{k}": v for k, v in s.arm.stats.items()},
                      **{f"slra_{k}": v for k, v in s.slra.stats.items()},
                      "path_planning_wall_s": s.arm.planning_seconds},
-            continue_hint=None if status is RunStatus.COMPLETED else f"ita continue {self.run_id}")
+            continue_hint=None if status is RunStatus.COMPLETED else f"ita continue {self.run_id}", alarm=alarm)
         summary.breakdown = self.breakdown()
         if on_progress is not None:
             on_progress(self._progress(current, wall0, sim0, n_done0, status.value))
@@ -300,6 +318,10 @@ class TopLevel:
         mine = extra.details.get(step.spec_id)
         spec = self.session.specs[step.spec_id]
         tool = out.tool or step.tool
+        if out.status is MeasureStatus.MEASURED:
+            self.failures_in_a_row = []
+        else:
+            self.failures_in_a_row.append(f"{step.spec_id}: {out.reason or 'not done'}")
         if out.status is MeasureStatus.MEASURED:
             assert out.value is not None
             self._record(Result.measured(spec, out.value.value, out.value.u, tool=tool,
