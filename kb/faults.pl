@@ -134,6 +134,7 @@ raises(transient_glitch,           controller_timeout,      0.1).
 raises(part_displaced,             out_of_view,             0.7).
 raises(arm_drift,                  out_of_view,             0.3).
 raises(view_cannot_measure,        out_of_view,             0.8).
+raises(occlusion,                  out_of_view,             0.3).
 raises(view_cannot_measure,        too_few_pixels,          0.5).
 raises(view_cannot_measure,        fit_residual,            0.3).
 raises(dirty_window(slra),         too_few_pixels,          0.9).

@@ -129,6 +129,11 @@ test(out_of_view_asks_the_part_before_a_person_is_called, true(Choice == test(me
     step(out_of_view, C, [], [rescan_second_standoff-fails_again],
          [rescan_second_standoff-4.0, measure_reference_feature-8.0], auto, [Choice|_]).
 
+test(a_second_view_that_sees_it_is_an_occlusion, true(Choice == isolated(occlusion))) :-
+    C = [slra=slra_1, device=slra_1],
+    step(out_of_view, C, [], [rescan_second_standoff-ok, measure_reference_feature-ok],
+         [rescan_second_standoff-4.0, measure_reference_feature-8.0], auto, [Choice|_]).
+
 test(nothing_left_to_separate, true(Choice = unresolved([_, _, _, _]))) :-
     probe_ctx(C),
     step(no_echo, C, [], [], [], auto, [Choice|_]).
