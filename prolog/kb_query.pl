@@ -1,7 +1,8 @@
 :- module(kb_query,
           [ run_query/4,                % +Text, +Modules, +Options, -Result
             with_user_goal/5,           % +Text, +Modules, +Options, :Action, -Result
-            term_text/2                 % +Term, -Text
+            term_text/2,                % +Term, -Text
+            goal_hazard/2               % +Goal, -Reason
           ]).
 
 /** <module> Run a user's goal against the knowledge bases, safely
@@ -15,6 +16,15 @@ changes to other modules), and run
   - inside snapshot/1, so even a retract/assert that the sandbox lets through (one
     that a knowledge-base predicate itself performs) is rolled back;
   - under a time limit and an inference limit, so a goal that loops is stopped.
+
+Before library(sandbox) looks at it, goal_hazard/2 refuses what the sandbox lets
+through but should not: the message system (print_message/2 and friends translate a
+message term with format/2, whose `~@` directive calls any goal, and message hooks),
+`~@` in any text of the goal (a format string built at run time starts as text),
+format column or repeat counts so large they would fill memory, threads (a thread
+outlives snapshot/1), and global variables.  The commands of ITA run this whole
+predicate in a child process with operating-system limits (ita/logic/sandbox.py,
+kb_sandbox.pl), so a goal that gets past both checks still meets the process's walls.
 
 Problems with the user's goal are results, not exceptions: `refused(Reason)`,
 `limit_exceeded(Reason)` and `error(Reason)` carry a one-line Reason string.
@@ -101,6 +111,9 @@ syntax_reason(error(syntax_error(What), Context), Reason) :- !,
     ->  format(string(Reason), "refused: syntax error: ~w (at character ~d)", [Words, CharNo])
     ;   format(string(Reason), "refused: syntax error: ~w", [Words])
     ).
+syntax_reason(error(resource_error(Resource), _), Reason) :- !,
+    format(string(Reason),
+           "refused: the goal is too large or nested too deep to read (out of ~w)", [Resource]).
 syntax_reason(Error, Reason) :-
     message_words(Error, Reason).
 
@@ -111,6 +124,8 @@ import_exports(Modules, Into) :-
            ),
            catch(@(import(Module:PI), Into), _, true)).
 
+guarded(_Module, Goal, _Bindings, _Limits, _Action, refused(Reason)) :-
+    goal_hazard(Goal, Reason), !.
 guarded(Module, Goal, Bindings, Time-Inferences, Action, Result) :-
     (   catch(safe_goal(Module:Goal), Error, true)
     ->  true
@@ -142,8 +157,11 @@ run_limited(Module, Goal, Bindings, Time-Inferences, Action, Result) :-
 exception_result(time_limit_exceeded, Time, limit_exceeded(Reason)) :- !,
     format(string(Reason),
            "stopped: the goal ran longer than ~w s (time limit); it may loop", [Time]).
+exception_result(error(resource_error(c_stack), _), _, limit_exceeded(Reason)) :- !,
+    Reason = "stopped: a term is nested too deep (out of C stack, a resource limit)".
 exception_result(error(resource_error(Resource), _), _, limit_exceeded(Reason)) :- !,
-    format(string(Reason), "stopped: out of ~w; the goal may loop", [Resource]).
+    format(string(Reason), "stopped: out of ~w (a resource limit); the goal may loop \c
+                            or build a huge term", [Resource]).
 exception_result(Error, _, error(Reason)) :-
     message_words(Error, Reason).
 
@@ -179,6 +197,91 @@ refusal_reason(error(instantiation_error, _), Reason) :- !,
 refusal_reason(Error, Reason) :-
     message_words(Error, Words),
     format(string(Reason), "refused: ~w", [Words]).
+
+%!  goal_hazard(+Goal, -Reason:string) is semidet.
+%
+%   True when Goal (a parsed user goal) contains something the query sandbox refuses
+%   although library(sandbox) would accept it; Reason is a one-line refusal.  The
+%   check is on the whole term, data included, because data can become a goal (a
+%   message term, a closure, a format argument).
+
+goal_hazard(Goal, Reason) :-
+    sub_term(Sub, Goal),
+    sub_hazard(Sub, Reason), !.
+
+sub_hazard(Sub, Reason) :-
+    (   atom(Sub) -> Atom = Sub
+    ;   compound(Sub) -> compound_name_arity(Sub, Atom, _)
+    ),
+    denied_name(Atom, Why), !,
+    format(string(Reason), "refused: ~q is not allowed in a query (~w)", [Atom, Why]).
+sub_hazard(Text, Reason) :-
+    (   atom(Text) ; string(Text) ),
+    text_hazard(Text, Reason), !.
+sub_hazard(Codes, Reason) :-
+    is_list(Codes), Codes = [C|_], integer(C),
+    catch(string_codes(Text, Codes), _, fail),
+    text_hazard(Text, Reason).
+
+text_hazard(Text, Reason) :-
+    sub_string(Text, _, _, _, "~@"), !,
+    Reason = "refused: the format directive ~@ (it runs a goal) is not allowed in a query".
+text_hazard(Text, Reason) :-
+    sub_string(Text, Before, _, _, "~"),
+    sub_string(Text, Before, _, 0, Rest),
+    string_codes(Rest, [0'~|Codes]),
+    directive_count(Codes, Count),
+    Count > 1_000_000, !,
+    format(string(Reason),
+           "refused: format count or column ~D is too large (at most 1,000,000)", [Count]).
+
+%   directive_count(+CodesAfterTilde, -Count): the numeric argument of a directive,
+%   also after a `c fill character (~`xt~2000|).
+directive_count([0'`, _|Codes], Count) :- !,
+    directive_count(Codes, Count).
+directive_count(Codes, Count) :-
+    digits(Codes, Digits),
+    Digits \== [],
+    number_codes(Count, Digits).
+directive_count([0'~|Codes], Count) :-
+    directive_count(Codes, Count).
+directive_count([C|Codes], Count) :-
+    \+ code_type(C, digit),
+    C \== 0'~,
+    directive_count(Codes, Count).
+
+digits([C|Cs], [C|Ds]) :- code_type(C, digit), !, digits(Cs, Ds).
+digits(_, []).
+
+denied_name(print_message, "messages are formatted with goals that can run anything").
+denied_name(print_message_lines, "messages are formatted with goals that can run anything").
+denied_name(message_to_codes, "messages are formatted with goals that can run anything").
+denied_name(translate_message, "messages are formatted with goals that can run anything").
+denied_name(message_hook, "message hooks run outside the sandbox").
+denied_name(message_property, "message hooks run outside the sandbox").
+denied_name(prolog_message, "message hooks run outside the sandbox").
+denied_name('$messages', "message internals run outside the sandbox").
+denied_name(assertion, "a failed assertion prints a message and starts the debugger").
+denied_name(format_predicate, "it changes how format/2 works for every later goal").
+denied_name(thread_create, "a thread outlives the query's rollback").
+denied_name(thread_create_in_pool, "a thread outlives the query's rollback").
+denied_name(thread_signal, "it runs a goal in another thread").
+denied_name(thread_send_message, "threads are not allowed in a query").
+denied_name(thread_get_message, "threads are not allowed in a query").
+denied_name(thread_join, "threads are not allowed in a query").
+denied_name(thread_detach, "threads are not allowed in a query").
+denied_name(thread_exit, "threads are not allowed in a query").
+denied_name(first_solution, "it runs goals in threads").
+denied_name(concurrent, "it runs goals in threads").
+denied_name(concurrent_forall, "it runs goals in threads").
+denied_name(concurrent_maplist, "it runs goals in threads").
+denied_name(call_in_thread, "it runs goals in threads").
+denied_name(nb_setval, "global variables outlive the query").
+denied_name(b_setval, "global variables are not allowed in a query").
+denied_name(nb_linkval, "global variables outlive the query").
+denied_name(set_prolog_flag, "flags would change how later goals are read and run").
+denied_name(create_prolog_flag, "flags would change how later goals are read and run").
+denied_name(op, "operators would change how later goals are read").
 
 database_change(Goal) :-
     compound(Goal),
