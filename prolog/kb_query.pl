@@ -64,7 +64,9 @@ run_query(Text, Modules, Options, Result) :-
 %   snapshot/1 and the limits.  Bindings is the `Name=Var` list of the goal.  Action
 %   must be deterministic.  Options:
 %
-%     - time_limit(+Seconds): CPU-independent wall time limit (default 10)
+%     - time_limit(+Seconds): CPU-independent wall time limit (default 10), or `none`
+%       when the caller enforces one from outside (the child process of
+%       ita/logic/sandbox.py, which may not start the alarm thread)
 %     - inference_limit(+Count): inference limit (default 10,000,000)
 %
 %   Result is Action's result, or `refused(Reason)` (syntax error, unsafe goal,
@@ -76,8 +78,11 @@ with_user_goal(Text, Modules, Options, Action, Result) :-
     must_be(list(atom), Modules),
     must_be(list, Options),
     option(time_limit(Time), Options, 10),
-    must_be(number, Time),
-    (   Time > 0 -> true ; domain_error(positive_number, Time) ),
+    (   Time == none
+    ->  true
+    ;   must_be(number, Time),
+        (   Time > 0 -> true ; domain_error(positive_number, Time) )
+    ),
     option(inference_limit(Inferences), Options, 10_000_000),
     must_be(positive_integer, Inferences),
     parse_goal(Text, Parsed),
@@ -90,7 +95,7 @@ with_user_goal(Text, Modules, Options, Action, Result) :-
     ).
 
 parse_goal(Text, Parsed) :-
-    catch(term_string(Goal, Text, [variable_names(Bindings)]), Error, true),
+    catch(read_goal(Text, Goal, Bindings, Rest), Error, true),
     (   nonvar(Error)
     ->  syntax_reason(Error, Reason),
         Parsed = refused(Reason)
@@ -98,8 +103,33 @@ parse_goal(Text, Parsed) :-
     ->  Parsed = refused("refused: the goal is a variable; write a goal such as type(X, arm)")
     ;   Goal == end_of_file
     ->  Parsed = refused("refused: empty goal")
+    ;   Rest \== end_of_file
+    ->  Parsed = refused("refused: one goal at a time: there is more text after the full stop \c
+                          (join goals with a comma)")
     ;   Parsed = goal(Goal, Bindings)
     ).
+
+%   read_goal(+Text, -Goal, -Bindings, -Rest): Goal is the first term of Text (its
+%   full stop may be left out), Rest is end_of_file when nothing follows it, else
+%   `more`.
+read_goal(Text, Goal, Bindings, Rest) :-
+    catch(read_first(Text, Goal, Bindings, Rest), error(syntax_error(end_of_file), _), fail),
+    !.
+read_goal(Text, Goal, Bindings, Rest) :-
+    atomics_to_string([Text, "\n."], Stopped),
+    read_first(Stopped, Goal, Bindings, Rest).
+
+read_first(Text, Goal, Bindings, Rest) :-
+    setup_call_cleanup(
+        open_string(Text, In),
+        ( read_term(In, Goal, [variable_names(Bindings), syntax_errors(error)]),
+          (   Goal == end_of_file
+          ->  Rest = end_of_file
+          ;   catch(read_term(In, Next, [syntax_errors(error)]), _, Next = more),
+              (   Next == end_of_file -> Rest = end_of_file ; Rest = more )
+          )
+        ),
+        close(In)).
 
 syntax_reason(error(syntax_error(What), Context), Reason) :- !,
     message_words(error(syntax_error(What), _), Words0),
@@ -107,7 +137,8 @@ syntax_reason(error(syntax_error(What), Context), Reason) :- !,
     ->  sub_string(Words0, _, After, 0, Words)
     ;   Words = Words0
     ),
-    (   Context = string(_, CharNo), integer(CharNo)
+    (   (   Context = string(_, CharNo) ; Context = stream(_, _, _, CharNo) ),
+        integer(CharNo)
     ->  format(string(Reason), "refused: syntax error: ~w (at character ~d)", [Words, CharNo])
     ;   format(string(Reason), "refused: syntax error: ~w", [Words])
     ).
@@ -138,12 +169,13 @@ guarded(Module, Goal, Bindings, Time-Inferences, Action, Result) :-
     ).
 
 run_limited(Module, Goal, Bindings, Time-Inferences, Action, Result) :-
-    catch(call_with_time_limit(
-              Time,
-              call_with_inference_limit(
+    Limited = call_with_inference_limit(
                   snapshot(call(Action, Module, Goal, Bindings, Result0)),
-                  Inferences, Outcome)),
-          Error, true),
+                  Inferences, Outcome),
+    (   Time == none
+    ->  catch(Limited, Error, true)
+    ;   catch(call_with_time_limit(Time, Limited), Error, true)
+    ),
     (   nonvar(Error)
     ->  exception_result(Error, Time, Result)
     ;   Outcome == inference_limit_exceeded
@@ -282,6 +314,15 @@ denied_name(nb_linkval, "global variables outlive the query").
 denied_name(set_prolog_flag, "flags would change how later goals are read and run").
 denied_name(create_prolog_flag, "flags would change how later goals are read and run").
 denied_name(op, "operators would change how later goals are read").
+denied_name(at_halt, "it runs a goal when the process ends, outside the sandbox").
+denied_name(cancel_halt, "it changes how the process ends").
+denied_name(prolog_listen, "event hooks run outside the sandbox").
+denied_name(prolog_unlisten, "event hooks run outside the sandbox").
+denied_name(put_attr, "attribute hooks run goals outside the sandbox").
+denied_name(put_attrs, "attribute hooks run goals outside the sandbox").
+denied_name(attr_unify_hook, "attribute hooks run goals outside the sandbox").
+denied_name(portray_goal, "it calls a goal while printing").
+denied_name(portray, "it calls a hook while printing").
 
 database_change(Goal) :-
     compound(Goal),

@@ -13,14 +13,16 @@ process group.  The main ITA process never runs a user goal.
 The protocol is small.  The parent writes one JSON object on standard input:
 
     {"action": "query" | "why", "goal": Text, "engine_files": [Path...],
-     "kb_files": [Path...], "bridge_modules": [Name...], "reply_fd": N,
-     "limit": N, "max_depth": N, "time_limit": Seconds, "inference_limit": N}
+     "kb_files": [Path...], "bridge_modules": [Name...],
+     "limit": N, "max_depth": N, "inference_limit": N}
 
 The child loads the files (a fresh copy of the knowledge bases that dies with it, so
 nothing the goal does can reach another query), writes `ready` and then one JSON reply
-on the file descriptor `reply_fd`, and halts.  Standard output and error stay the
-user's: whatever the goal prints there is shown as it is, and cannot be mistaken for
-the reply.  The reply is one of
+on standard output, and halts.  Before the goal runs, `user_output` and the current
+output become standard error: whatever the goal prints goes there (the parent shows
+it) and cannot be mistaken for the reply.  The time limit is the parent's (it kills
+the process), so no alarm thread is needed: the child may run without the right to
+start threads or processes.  The reply is one of
 
     {"status": "answers", "variables": [..], "rows": [[..]..], "truncated": Bool}
     {"status": "proof", "tree": Node}    Node = {"kind", "goal", "file", "line", "children"}
@@ -55,15 +57,16 @@ sandbox_main :-
     ;   format(user_error, "kb_sandbox: cannot read the request~n", []),
         halt(3)
     ),
-    format(atom(ReplyFile), "/dev/fd/~d", [Request.reply_fd]),
-    open(ReplyFile, write, Reply, [encoding(utf8)]),
+    stream_property(Reply, alias(user_output)),
+    set_stream(user_error, alias(user_output)),
+    set_output(user_error),
     catch(answer(Request, Reply, Answer),
           Error,
           ( message_to_text(Error, Text),
             Answer = _{status: "error", reason: Text} )),
     json_write_dict(Reply, Answer, [width(0)]),
     nl(Reply),
-    close(Reply),
+    flush_output(Reply),
     halt(0).
 
 answer(Request, Reply, Answer) :-
@@ -84,7 +87,7 @@ answer(Request, Reply, Answer) :-
     ).
 
 run(Request, KbModules, Engines, Answer) :-
-    Options = [ time_limit(Request.time_limit),
+    Options = [ time_limit(none),
                 inference_limit(Request.inference_limit)
               ],
     (   Request.action == "why"

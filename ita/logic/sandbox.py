@@ -9,6 +9,9 @@ operating-system limits set before SWI-Prolog starts:
 - ``RLIMIT_AS``: the address space (1 GiB by default), so memory of a query is capped;
 - ``RLIMIT_FSIZE`` 0: the child cannot write a byte to any file;
 - ``RLIMIT_NOFILE``: few open files; ``RLIMIT_CORE`` 0: no core dumps;
+- when ITA runs as root: the child drops to the user ``nobody`` with ``RLIMIT_NPROC``
+  0, so it can start no process and no thread and write no file of root's (used only
+  when every Prolog file it loads is readable by others);
 
 and Prolog's own stack limit, so a deeply nested term raises a resource error rather
 than crashing.  The parent enforces a wall-clock limit: once the child says it is ready
@@ -26,12 +29,13 @@ from __future__ import annotations
 
 import json
 import os
+import pwd
 import resource
 import selectors
 import shutil
 import signal
+import stat
 import subprocess
-import tempfile
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -98,11 +102,10 @@ class SandboxFiles:
 
 @dataclass(frozen=True)
 class Outcome:
-    """What a child said and printed."""
+    """What a child said, and what the goal printed (its standard error)."""
 
     reply: dict[str, Any]
-    stdout: str
-    stderr: str
+    printed: str
 
 
 def _pl_files(directory: Path) -> tuple[Path, ...]:
@@ -141,8 +144,8 @@ def explain(goal: str, files: SandboxFiles, limits: SandboxLimits, max_depth: in
 
 
 def _echo(outcome: Outcome, echo: Callable[[str], None] | None) -> None:
-    if echo is not None and outcome.stdout:
-        echo(outcome.stdout)
+    if echo is not None and outcome.printed:
+        echo(outcome.printed)
 
 
 def _node(data: dict[str, Any]) -> ProofNode:
@@ -172,7 +175,31 @@ def _check_text(goal: str) -> bytes:
         ) from None
 
 
-def _preexec(limits: SandboxLimits) -> Callable[[], None]:
+def _unprivileged(files: SandboxFiles) -> tuple[int, int] | None:
+    """(uid, gid) of ``nobody`` when ITA runs as root and nobody can read every file the
+    child loads; else None (the child keeps the caller's user)."""
+    if os.geteuid() != 0:
+        return None
+    try:
+        entry = pwd.getpwnam("nobody")
+    except KeyError:
+        return None
+    for path in (files.entry, *files.engine_files, *files.kb_files):
+        if not _world_readable(path):
+            return None
+    return entry.pw_uid, entry.pw_gid
+
+
+def _world_readable(path: Path) -> bool:
+    try:
+        if not path.stat().st_mode & stat.S_IROTH:
+            return False
+        return all(parent.stat().st_mode & stat.S_IXOTH for parent in path.parents)
+    except OSError:
+        return False
+
+
+def _preexec(limits: SandboxLimits, user: tuple[int, int] | None) -> Callable[[], None]:
     cpu = int(limits.load_seconds + limits.time_limit + limits.grace) + 1
 
     def set_limits() -> None:  # runs in the child, between fork and exec
@@ -181,6 +208,12 @@ def _preexec(limits: SandboxLimits) -> Callable[[], None]:
         resource.setrlimit(resource.RLIMIT_FSIZE, (0, 0))
         resource.setrlimit(resource.RLIMIT_NOFILE, (limits.open_files, limits.open_files))
         resource.setrlimit(resource.RLIMIT_CORE, (0, 0))
+        if user is not None:
+            uid, gid = user
+            os.setgroups([])
+            os.setgid(gid)
+            os.setuid(uid)
+            resource.setrlimit(resource.RLIMIT_NPROC, (0, 0))  # no process, no thread
 
     return set_limits
 
@@ -192,19 +225,15 @@ def run_user_goal(action: str, goal: str, files: SandboxFiles, limits: SandboxLi
     Raises QueryRefused, QueryLimitExceeded, PrologError or KBLoadError for every
     reply or end of the child that is not an answer.
     """
-    goal_bytes = _check_text(goal)
-    del goal_bytes
-    reply_read, reply_write = os.pipe()
+    _check_text(goal)
     request = {
         "action": action,
         "goal": goal,
         "engine_files": [str(p) for p in files.engine_files],
         "kb_files": [str(p) for p in files.kb_files],
         "bridge_modules": list(BRIDGE_MODULES),
-        "reply_fd": reply_write,
         "limit": 100,
         "max_depth": 30,
-        "time_limit": float(limits.time_limit),
         "inference_limit": int(limits.inference_limit),
         **extra,
     }
@@ -212,25 +241,20 @@ def run_user_goal(action: str, goal: str, files: SandboxFiles, limits: SandboxLi
     command = [_swipl(), "-q", "-f", "none", "--no-packs", "--no-tty",
                f"--stack-limit={stack}m", "-g", "kb_sandbox:sandbox_main", "-t", "halt(4)",
                str(files.entry)]
-    with tempfile.TemporaryDirectory(prefix="ita-kb-") as scratch:
-        env = {"PATH": os.environ.get("PATH", "/usr/bin:/bin"), "LANG": "C.UTF-8",
-               "LC_ALL": "C.UTF-8", "HOME": scratch}
-        try:
-            child = subprocess.Popen(
-                command, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                pass_fds=(reply_write,), start_new_session=True, preexec_fn=_preexec(limits),
-                cwd=scratch, env=env,
-            )
-        except OSError as exc:
-            os.close(reply_read)
-            os.close(reply_write)
-            raise ItaError(f"cannot start the query process ({command[0]}): {exc}") from None
-        os.close(reply_write)
-        try:
-            return _converse(child, reply_read, request, limits)
-        finally:
-            _kill_group(child)
-            os.close(reply_read)
+    env = {"PATH": os.environ.get("PATH", "/usr/bin:/bin"), "LANG": "C.UTF-8",
+           "LC_ALL": "C.UTF-8", "HOME": "/nonexistent"}
+    try:
+        child = subprocess.Popen(
+            command, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+            start_new_session=True, preexec_fn=_preexec(limits, _unprivileged(files)),
+            cwd="/", env=env,
+        )
+    except (OSError, subprocess.SubprocessError) as exc:
+        raise ItaError(f"cannot start the query process ({command[0]}): {exc}") from None
+    try:
+        return _converse(child, request, limits)
+    finally:
+        _kill_group(child)
 
 
 def _kill_group(child: subprocess.Popen) -> None:
@@ -248,8 +272,7 @@ def _kill_group(child: subprocess.Popen) -> None:
                 pass
 
 
-def _converse(child: subprocess.Popen, reply_fd: int, request: dict[str, Any],
-              limits: SandboxLimits) -> Outcome:
+def _converse(child: subprocess.Popen, request: dict[str, Any], limits: SandboxLimits) -> Outcome:
     """Send the request, collect output and reply under the wall-clock limits."""
     assert child.stdin is not None and child.stdout is not None and child.stderr is not None
     try:
@@ -257,9 +280,9 @@ def _converse(child: subprocess.Popen, reply_fd: int, request: dict[str, Any],
         child.stdin.close()
     except BrokenPipeError:
         pass
-    out_fd, err_fd = child.stdout.fileno(), child.stderr.fileno()
-    buffers: dict[int, bytearray] = {out_fd: bytearray(), err_fd: bytearray(), reply_fd: bytearray()}
-    caps = {out_fd: limits.output_bytes, err_fd: limits.output_bytes, reply_fd: limits.reply_bytes}
+    reply_fd, err_fd = child.stdout.fileno(), child.stderr.fileno()
+    buffers: dict[int, bytearray] = {err_fd: bytearray(), reply_fd: bytearray()}
+    caps = {err_fd: limits.output_bytes, reply_fd: limits.reply_bytes}
     selector = selectors.DefaultSelector()
     for fd in buffers:
         os.set_blocking(fd, False)
@@ -304,8 +327,7 @@ def _converse(child: subprocess.Popen, reply_fd: int, request: dict[str, Any],
         except subprocess.TimeoutExpired:
             killed_for = "time"
     _kill_group(child)
-    stdout = buffers[out_fd].decode("utf-8", "replace")
-    stderr = buffers[err_fd].decode("utf-8", "replace")
+    printed = buffers[err_fd].decode("utf-8", "replace")
     reply_lines = buffers[reply_fd].decode("utf-8", "replace").splitlines()
     if killed_for is None and len(reply_lines) >= 2 and reply_lines[0] == "ready":
         try:
@@ -313,8 +335,8 @@ def _converse(child: subprocess.Popen, reply_fd: int, request: dict[str, Any],
         except (ValueError, RecursionError):
             raise PrologError(request["goal"], "the query process sent a reply that cannot be read") from None
         _raise_for(reply, request["goal"])
-        return Outcome(reply, stdout, stderr)
-    raise _ended(child.returncode, killed_for, limits, stderr, request["goal"])
+        return Outcome(reply, printed)
+    raise _ended(child.returncode, killed_for, limits, printed, request["goal"])
 
 
 def _raise_for(reply: dict[str, Any], goal: str) -> None:
