@@ -20,9 +20,7 @@ from __future__ import annotations
 import csv
 import io
 import math
-import os
 import re
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Iterable, Sequence
@@ -221,35 +219,21 @@ def format_specs(specs: Iterable[MeasurementSpec]) -> str:
     return buf.getvalue()
 
 
-def atomic_write_text(path: Path, text: str) -> None:
-    """Write `text` to `path` atomically: temp file in the same directory, fsync, rename."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8", newline="") as fh:
-            fh.write(text)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except FileNotFoundError:
-            pass
-        raise
-    dir_fd = os.open(path.parent, os.O_RDONLY)
-    try:
-        os.fsync(dir_fd)
-    finally:
-        os.close(dir_fd)
+def atomic_write_text(path: Path, text: str, *, make_dirs: bool = True, what: str = "") -> None:
+    """Write `text` to `path` atomically (ita.files.atomic): never over a device or other
+    non-regular file; parent directories made only with `make_dirs`."""
+    from ita.files.atomic import write_atomic
+
+    write_atomic(path, text, what=what, make_dirs=make_dirs)
 
 
-def write_specs(path: Path, specs: Sequence[MeasurementSpec]) -> None:
-    """Write specs as CSV atomically.  Raises InputError on duplicate ids (nothing written)."""
+def write_specs(path: Path, specs: Sequence[MeasurementSpec], *, make_dirs: bool = True,
+                what: str = "") -> None:
+    """Write specs as CSV atomically.  Raises InputError on duplicate ids or a target that
+    cannot be written (nothing written)."""
     seen: set[str] = set()
     for spec in specs:
         if spec.id in seen:
             raise InputError([(Location(str(path), field="id"), f"duplicate id {spec.id!r}")])
         seen.add(spec.id)
-    atomic_write_text(Path(path), format_specs(specs))
+    atomic_write_text(Path(path), format_specs(specs), make_dirs=make_dirs, what=what)
