@@ -135,12 +135,19 @@ def parse_row(
 def parse_specs_text(text: str, file: str) -> SpecTable:
     """Parse the text of a specs CSV file; raises InputError listing every bad row."""
     problems: list[tuple[Location, str]] = []
+    text = text.removeprefix("\ufeff")  # a UTF-8 byte-order mark is not part of the header
     lines = text.splitlines(keepends=True)
     body = [(i + 1, ln) for i, ln in enumerate(lines) if ln.strip() and not ln.lstrip().startswith("#")]
     if not body:
         raise InputError([(Location(file), "empty specs file: a header row is required")])
     header_line, header_text = body[0]
-    header = [h.strip() for h in next(csv.reader([header_text]))]
+    try:
+        header = [h.strip() for h in _cells(header_text)]
+    except csv.Error as exc:
+        raise InputError([(Location(file, header_line), f"header is not valid CSV: {exc}")]) from None
+    repeated = sorted({h for h in header if header.count(h) > 1})
+    if repeated:
+        raise InputError([(Location(file, header_line), f"header repeats column(s): {', '.join(repeated)}")])
     missing = [c for c in REQUIRED if c not in header]
     unknown = [h for h in header if h not in COLUMNS]
     if missing or unknown:
@@ -153,7 +160,11 @@ def parse_specs_text(text: str, file: str) -> SpecTable:
     spec_lines: list[int] = []
     first_line_of: dict[str, int] = {}
     for line_no, raw in body[1:]:
-        cells = next(csv.reader([raw]), [])
+        try:
+            cells = _cells(raw)
+        except csv.Error as exc:
+            problems.append((Location(file, line_no), f"not valid CSV: {exc}"))
+            continue
         if len(cells) > len(header):
             problems.append((Location(file, line_no), f"{len(cells)} cells but the header has {len(header)}"))
             continue
@@ -173,6 +184,12 @@ def parse_specs_text(text: str, file: str) -> SpecTable:
     if problems:
         raise InputError(problems)
     return SpecTable(Path(file), tuple(specs), tuple(spec_lines))
+
+
+def _cells(line: str) -> list[str]:
+    """The cells of one CSV line; csv.Error for an unterminated quote, a stray quote or a
+    cell over the csv module's field limit (128 KiB)."""
+    return next(csv.reader([line], strict=True), [])
 
 
 def read_spec_table(path: Path) -> SpecTable:
