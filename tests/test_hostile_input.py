@@ -98,3 +98,41 @@ def test_an_unwritable_output_directory(tmp_path: Path, builtin_part):
     result = run("spec", "export", str(blocker / "out.csv"))
     assert result.exit_code == 2
     assert "is not a directory" in result.output and str(blocker) in result.output
+
+
+def _part_dir(tmp_path: Path, mesh: bytes, name: str = "m.stl") -> Path:
+    part = tmp_path / "part"
+    part.mkdir()
+    (part / name).write_bytes(mesh)
+    (part / "specs.csv").write_text(HEADER + "\n", encoding="utf-8")
+    return part
+
+
+def test_a_damaged_stl_is_named_as_such(tmp_path: Path):
+    part = _part_dir(tmp_path, b"\x01" * 80 + (1000).to_bytes(4, "little") + b"\x00" * 100)
+    result = run("part", "info", "--part", str(part))
+    assert result.exit_code == 2
+    assert "damaged binary STL" in result.output and str(part / "m.stl") in result.output
+    assert "charset_normalizer" not in result.output
+
+
+def test_nan_vertices_are_refused(tmp_path: Path):
+    facet = "facet normal 0 0 1\nouter loop\nvertex {}\nvertex 1 0 0\nvertex 0 1 0\nendloop\nendfacet\n"
+    text = "solid x\n" + facet.format("nan 0 0") + facet.format("0 inf 0") + "endsolid x\n"
+    part = _part_dir(tmp_path, text.encode())
+    result = run("part", "info", "--part", str(part))
+    assert result.exit_code == 2
+    assert "NaN or infinite" in result.output
+
+
+def test_a_busy_run_suggests_a_command_that_exists(tmp_path: Path):
+    from ita.archive.store import RunBusy
+
+    specs = fake_specs(5)
+    with Archive.open(tmp_path / "archive.sqlite") as archive:
+        record_synthetic_run(archive, specs, true_values(specs), status=RunStatus.RUNNING)
+        run_id = archive.runs()[0].id
+        with pytest.raises(RunBusy) as err:
+            archive.resume_run(run_id)
+    assert "--force" not in str(err.value) and "or force" not in str(err.value)
+    assert f"ita monitor {run_id} --stop" in str(err.value)
