@@ -136,3 +136,17 @@ def test_a_busy_run_suggests_a_command_that_exists(tmp_path: Path):
             archive.resume_run(run_id)
     assert "--force" not in str(err.value) and "or force" not in str(err.value)
     assert f"ita monitor {run_id} --stop" in str(err.value)
+
+
+def test_inspect_refuses_a_part_without_truth_before_preparing(builtin_part, tmp_path: Path):
+    import shutil
+    import time
+
+    copy = tmp_path / "copy"
+    assert run("part", "build", "-o", str(copy)).exit_code == 0
+    shutil.rmtree(copy / "truth", ignore_errors=True)
+    started = time.monotonic()
+    result = run("inspect", "--part", str(copy), "--limit", "1", "--runs-dir", str(tmp_path / "runs"))
+    assert result.exit_code == 2, result.output
+    assert "no as-built truth" in result.output
+    assert time.monotonic() - started < 60
