@@ -51,6 +51,9 @@ class LazyGroup(click.Group):
                      **extra) -> click.Context:
         """As click's, after refusing arguments that are not UTF-8 text (exit 2)."""
         for i, arg in enumerate(args, 1):
+            if "\x00" in arg:
+                click.echo(f"error: argument {i} contains a NUL character", err=True)
+                raise SystemExit(2)
             try:
                 arg.encode("utf-8")
             except UnicodeEncodeError as exc:
