@@ -44,7 +44,8 @@ Problems with the user's goal are results, not exceptions: `refused(Reason)`,
 %
 %   Run the goal Text against the exports of Modules and collect its solutions.
 %   Options are those of with_user_goal/5 and `limit(N)` (default 100), the largest
-%   number of solutions to collect.  Result is one of
+%   number of solutions to collect.  `listing(Name)` and `listing(Name/Arity)` print the
+%   clauses of those predicates of Modules (read-only) and answer `true`.  Result is one of
 %
 %     - answers(Names, Rows, Truncated): Names lists the goal's variables (those not
 %       starting with `_`), each row the values of one solution printed with `~q`,
@@ -55,7 +56,43 @@ run_query(Text, Modules, Options, Result) :-
     must_be(list, Options),
     option(limit(Limit), Options, 100),
     must_be(positive_integer, Limit),
-    with_user_goal(Text, Modules, Options, collect_rows(Limit), Result).
+    (   listing_request(Text, Name, Arity)
+    ->  kb_listing(Name, Arity, Modules, Result)
+    ;   with_user_goal(Text, Modules, Options, collect_rows(Limit), Result)
+    ).
+
+%   listing_request(+Text, -Name, -Arity): Text is `listing(Name)` or
+%   `listing(Name/Arity)`, which a query answers read-only by printing the clauses of
+%   the knowledge bases' predicates (library(sandbox) refuses listing/1 itself).
+listing_request(Text, Name, Arity) :-
+    catch(read_goal(Text, Goal, _, end_of_file), _, fail),
+    nonvar(Goal),
+    Goal = listing(Spec),
+    (   atom(Spec)
+    ->  Name = Spec
+    ;   nonvar(Spec), Spec = Name/Arity, atom(Name), integer(Arity)
+    ).
+
+kb_listing(Name, Arity, Modules, Result) :-
+    findall(M:Head,
+            ( member(M, Modules),
+              current_predicate(M:Name/Arity),
+              functor(Head, Name, Arity),
+              \+ predicate_property(M:Head, imported_from(_)),
+              \+ predicate_property(M:Head, foreign)
+            ),
+            Found),
+    (   Found == []
+    ->  (   var(Arity) -> Shown = Name ; Shown = Name/Arity ),
+        format(string(Reason), "refused: no knowledge-base predicate ~q to list", [Shown]),
+        Result = refused(Reason)
+    ;   forall(member(M:Head, Found),
+               ( functor(Head, _, HeadArity),
+                 format("% ~q~n", [M:Name/HeadArity]),
+                 forall(catch(clause(M:Head, Body), _, fail), portray_clause((Head :- Body))),
+                 nl )),
+        Result = answers([], [[]], false)
+    ).
 
 %!  with_user_goal(+Text:text, +Modules:list(atom), +Options:list, :Action, -Result) is det.
 %

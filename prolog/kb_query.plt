@@ -65,4 +65,11 @@ test(flag_change_refused, true(sub_string(Reason, _, _, _, "set_prolog_flag"))) 
 test(ordinary_format_allowed, true(R == answers(['S'], [["\"a1\""]], false))) :-
     run_query("format(string(S), \"a~d\", [1])", [world], [], R).
 
+test(listing_prints_clauses, true(R == answers([], [[]], false))) :-
+    with_output_to(string(Out), run_query("listing(available)", [world], [], R)),
+    once(sub_string(Out, _, _, _, "tool_condition")).
+
+test(listing_unknown_refused, true(sub_string(Reason, _, _, _, "no knowledge-base predicate"))) :-
+    run_query("listing(nothere/3)", [world], [], refused(Reason)).
+
 :- end_tests(kb_query).

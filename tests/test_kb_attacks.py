@@ -261,3 +261,58 @@ def test_every_attack_is_refused_cleanly(arena, capsys):
     assert not failures, "\n".join(failures)
     assert query(FACTS, files, SandboxLimits()).rows == baseline
     assert_untouched(arena)
+
+
+def test_shell_lists_clauses_read_only(ita, arena):
+    result = ita("kb", "shell", stdin="listing(available)\nlisting(shell)\n")
+    assert result.exit_code == 0, result.output
+    assert "available(A) :-" in result.output and "tool_condition(A, ok)" in result.output
+    assert "error: refused: no knowledge-base predicate shell" in result.output
+    assert_untouched(arena)
+
+
+def test_ctrl_c_stops_the_goal_not_the_shell(arena):
+    """On a terminal, Ctrl-C kills the running goal's process and the shell goes on."""
+    import pty
+    import select
+    import signal
+    import subprocess
+    import sys
+
+    repo = Path(__file__).resolve().parent.parent
+    env = dict(os.environ, PYTHONPATH=str(repo), ITA_HOME=str(arena.parent / f"{arena.name}-home"))
+    primary, secondary = pty.openpty()
+    proc = subprocess.Popen([sys.executable, str(repo / "cli.py"), "kb", "shell"], stdin=secondary,
+                            stdout=secondary, stderr=secondary, env=env, start_new_session=True)
+    os.close(secondary)
+    seen = b""
+
+    def read_until(marker: bytes, timeout: float) -> bytes:
+        nonlocal seen
+        deadline = time.monotonic() + timeout
+        while marker not in seen and time.monotonic() < deadline:
+            ready, _, _ = select.select([primary], [], [], 0.2)
+            if ready:
+                try:
+                    seen += os.read(primary, 4096)
+                except OSError:
+                    break
+        return seen
+
+    try:
+        assert b"?- " in read_until(b"?- ", 60)
+        os.write(primary, b"sleep(100)\n")
+        time.sleep(2.0)                         # the goal's process is running
+        os.killpg(proc.pid, signal.SIGINT)      # what Ctrl-C on the terminal sends
+        assert b"interrupted" in read_until(b"interrupted", 30)
+        os.write(primary, b"type(X, arm)\n")
+        assert b"t3" in read_until(b"t3", 30)
+        os.write(primary, b"quit\n")
+        assert proc.wait(timeout=30) == 0
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+        os.close(primary)
+    assert not _swipl_children()
+    assert_untouched(arena)

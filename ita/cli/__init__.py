@@ -7,6 +7,7 @@ needs it.  The registry below is explicit: add a line to add a command group.
 
 from __future__ import annotations
 
+import contextlib
 import difflib
 import importlib
 
@@ -71,6 +72,13 @@ class LazyGroup(click.Group):
 
         try:
             return super().invoke(ctx)
+        except BrokenPipeError:  # the reader went away (`ita ... | head`): stop quietly
+            import os
+            import sys
+
+            with contextlib.suppress(OSError):
+                os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+            raise SystemExit(1) from None
         except OSError as exc:
             where = f"{exc.filename}: " if exc.filename else ""
             click.echo(f"error: {where}{exc.strerror or exc}", err=True)
