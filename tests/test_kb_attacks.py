@@ -123,7 +123,7 @@ REPRESENTATIVES = [
     ("memory", "numlist(1, 100000000, L)", "stopped"),
     ("deep terms", "X = " + "f(" * 20_000 + "a" + ")" * 20_000, "clean"),
     ("deep terms", "length(L, 20000), foldl([_, A0, f(A0)]>>true, L, a, X)", "stopped"),
-    ("encodings", "\udcff(X)", "refused"),
+    ("encodings", "\udcff(X)", "clean"),  # refused by the ita group: not valid UTF-8
     ("encodings", "type(X, us_tool). shell('touch {t}/pwned')", "refused"),
 ]
 
@@ -138,6 +138,8 @@ def test_query_attack_is_refused_without_effect(ita, arena, facts, group, goal, 
         assert line.startswith("error: refused:"), line
     elif expect == "stopped":
         assert line.startswith("error: stopped:"), line
+    if "\udcff" in goal:
+        assert "not valid UTF-8" in line
     assert "Traceback" not in result.output
     if group in ("kb changes", "threads"):
         assert _facts_now() == facts
