@@ -150,3 +150,15 @@ def test_inspect_refuses_a_part_without_truth_before_preparing(builtin_part, tmp
     assert result.exit_code == 2, result.output
     assert "no as-built truth" in result.output
     assert time.monotonic() - started < 60
+
+
+@pytest.mark.parametrize("command", [["part", "info"], ["spec", "remove", "X"],
+                                     ["sequence", "tool", "broken", "us_probe_1"]])
+def test_an_unusable_home_is_a_clear_error(tmp_path: Path, monkeypatch, command):
+    """An ITA_HOME that cannot be made (here under a file; read-only behaves alike for a
+    user who is not root): one error line naming the directory, exit 2."""
+    (tmp_path / "file").write_text("x")
+    monkeypatch.setenv("ITA_HOME", str(tmp_path / "file" / "home"))
+    result = run(*command)
+    assert result.exit_code == 2, result.output
+    assert f"{tmp_path / 'file' / 'home'}: Not a directory" in result.output
