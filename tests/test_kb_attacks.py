@@ -318,3 +318,29 @@ def test_ctrl_c_stops_the_goal_not_the_shell(arena):
         os.close(primary)
     assert not _swipl_children()
     assert_untouched(arena)
+
+
+@pytest.mark.skipif(os.geteuid() != 0, reason="the nobody wall is raised only when ITA runs as root")
+def test_process_walls_hold_without_the_prolog_checks(arena):
+    """A goal that got past goal_hazard/2 and library(sandbox) meets the process's walls:
+    run straight in a child with the sandbox's limits, it cannot start a command or a
+    thread, nor write a byte of a file."""
+    import subprocess
+
+    from ita.logic.sandbox import _preexec, _unprivileged
+
+    files = SandboxFiles.of()
+    user = _unprivileged(files)
+    assert user is not None
+    goal = (f"catch(shell('touch {arena}/pwned', S), E1, true), print(S-E1), nl, "
+            f"catch(open('{arena}/victim', write, O), E2, true), print(O-E2), nl, "
+            "catch(thread_create(true, T, []), E3, true), print(T-E3), nl")
+    proc = subprocess.run(["swipl", "-q", "-f", "none", "--no-packs", "-g", goal, "-t", "halt"],
+                          capture_output=True, text=True, timeout=60, cwd="/",
+                          preexec_fn=_preexec(SandboxLimits(), user))
+    lines = proc.stdout.splitlines()
+    assert len(lines) == 3, (proc.stdout, proc.stderr)
+    assert "Resource temporarily unavailable" in proc.stderr  # no fork: RLIMIT_NPROC 0 as nobody
+    assert "permission_error" in lines[1]
+    assert "error" in lines[2]
+    assert_untouched(arena)
