@@ -171,3 +171,12 @@ def test_four_concurrent_spec_adds_give_four_specs(copy: Path):
         assert proc.returncode == 0, err.decode()
     ids = {s["id"] for s in json.loads(run("spec", "list", "--json", "--part", str(copy)).stdout)}
     assert {f"WT-PAR-{i}" for i in range(4)} <= ids
+
+
+def test_report_refuses_a_fifo_before_any_work(tmp_path: Path):
+    fifo = tmp_path / "r.html"
+    os.mkfifo(fifo)
+    result = run("report", "last", "-o", str(fifo), "--runs-dir", str(tmp_path / "runs"))
+    assert result.exit_code == 2
+    assert "FIFO, not a regular file" in result.output and str(fifo) in result.output
+    assert stat.S_ISFIFO(fifo.stat().st_mode)
