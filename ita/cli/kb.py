@@ -301,7 +301,7 @@ def _predicate_names() -> list[str]:
             text = path.read_text(encoding="utf-8")
         except (OSError, UnicodeDecodeError):
             continue
-        names.update(re.findall(r"^([a-z][A-Za-z0-9_]*)[(:. ]", text, re.MULTILINE))
+        names.update(re.findall(r"^([a-z][A-Za-z0-9_]*)(?:\(|\s*:-|\.)", text, re.MULTILINE))
     return sorted(names | {"why", "help", "quit", "exit"})
 
 
