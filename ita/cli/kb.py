@@ -41,7 +41,9 @@ Ctrl-C stops the current goal, not the shell.
 
 def _limit_options(func: Callable) -> Callable:
     func = click.option("--time-limit", type=click.FloatRange(min=0.001), default=10.0,
-                        show_default=True, help="Stop the goal after this many seconds.")(func)
+                        show_default=True,
+                        help="Stop the goal after this many seconds of wall clock (its process is "
+                             "killed; it also has 1 GiB of memory and no file writes).")(func)
     func = click.option("--inference-limit", type=click.IntRange(min=1), default=10_000_000,
                         show_default=True, help="Stop the goal after this many inferences.")(func)
     return func
