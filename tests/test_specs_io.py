@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 
 from ita.errors import InputError
-from ita.specs.io import COLUMNS, format_specs, read_specs, read_spec_table, write_specs
+from ita.specs.io import COLUMNS, format_specs, read_spec_table, read_specs, write_specs
 from ita.specs.model import MeasurementKind, MeasurementSpec
 
 HEADER = ",".join(COLUMNS)
