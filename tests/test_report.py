@@ -74,7 +74,7 @@ def test_report_is_one_self_contained_page_with_a_verdict(run, tmp_path: Path) -
     assert ids[:2] == ["summary", "results"] and {"part3d", "gantt", "breakdown", "events"} <= set(ids)
     assert "scoring" not in ids and "Scoring" not in page
     assert "window.Plotly" in page or "Plotly" in page  # plotly.js inlined
-    out = write_report(tmp_path / "sub" / "r.html", page)
+    out = write_report(tmp_path / "sub" / "r.html", page, make_dirs=True)
     assert out.read_text(encoding="utf-8") == page
 
 
