@@ -94,6 +94,7 @@ cause(sensor_cable_fault(device),   'the sensor or its cable is faulty').
 cause(arm_drift,                    'the arm has drifted from its calibration').
 cause(part_displaced,               'the part has moved on the fixture').
 cause(obstacle,                     'an obstacle is in the cell').
+cause(obstacle_at_arm,              'an obstacle against the arm where it stands: every move from there bumps').
 cause(dirty_window(slra),           'the window of the SLRA in hand is dirty').
 cause(occlusion,                    'something hides the feature from this view').
 cause(view_cannot_measure,          'the planned views cannot measure the feature (the part clips or hides it; no fault)').
@@ -126,6 +127,7 @@ raises(part_displaced,             no_contact,              0.6).
 raises(sensor_cable_fault(device), corrupt_reply,           0.9).
 raises(transient_glitch,           corrupt_reply,           0.3).
 raises(obstacle,                   bump,                    0.9).
+raises(obstacle_at_arm,            bump,                    0.9).
 raises(arm_drift,                  bump,                    0.2).
 raises(part_displaced,             bump,                    0.3).
 raises(obstacle,                   no_path,                 0.5).
@@ -163,6 +165,7 @@ prior(sensor_cable_fault(device),   1).
 prior(arm_drift,                    1).
 prior(part_displaced,               1).
 prior(obstacle,                     1).
+prior(obstacle_at_arm,              1).
 prior(dirty_window(slra),           3).
 prior(occlusion,                    2).
 prior(view_cannot_measure,          2).
@@ -270,6 +273,15 @@ predicts(measure_reference_feature, part_displaced,   displaced).
 predicts(measure_reference_feature, arm_drift,        displaced).
 predicts(measure_reference_feature, controller_not_answering, silent).
 
+% An obstacle against the stopped arm: a test's own first move bumps too.
+predicts(read_cal_block,            obstacle_at_arm, bump).
+predicts(check_couplant_station,    obstacle_at_arm, bump).
+predicts(retry_reading,             obstacle_at_arm, bump).
+predicts(query_controller,          obstacle_at_arm, bump).
+predicts(scan_cal_block,            obstacle_at_arm, bump).
+predicts(scan_tool_in_rack,         obstacle_at_arm, bump).
+predicts(measure_reference_feature, obstacle_at_arm, bump).
+
 predicts(compare_neighbours, broken_probe(probe),        outlier).
 predicts(compare_neighbours, worn_probe(probe),          outlier).
 predicts(compare_neighbours, sensor_cable_fault(device), outlier).
@@ -308,6 +320,7 @@ recovery(sensor_cable_fault(D),     [operator(reseat_cable(D))]).
 recovery(arm_drift,                 [operator(recalibrate_arm)]).
 recovery(part_displaced,            [call_person(reclamp_part)]).
 recovery(obstacle,                  [call_person(remove_obstacle)]).
+recovery(obstacle_at_arm,           [call_person(remove_obstacle)]).
 recovery(dirty_window(S),           [operator(clean_window(S))]).
 recovery(occlusion,                 [accept_second_view]).
 recovery(view_cannot_measure,       []).

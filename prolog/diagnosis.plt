@@ -134,6 +134,12 @@ test(a_second_view_that_sees_it_is_an_occlusion, true(Choice == isolated(occlusi
     step(out_of_view, C, [], [rescan_second_standoff-ok, measure_reference_feature-ok],
          [rescan_second_standoff-4.0, measure_reference_feature-8.0], auto, [Choice|_]).
 
+test(a_test_that_bumps_too_finds_the_obstacle_at_the_arm, true(Choice == isolated(obstacle_at_arm))) :-
+    step(bump, [], [], [measure_reference_feature-bump], [measure_reference_feature-8.0], auto, [Choice|_]).
+
+test(a_reference_feature_in_place_leaves_an_obstacle_on_the_way, true(Choice == isolated(obstacle))) :-
+    step(bump, [], [], [measure_reference_feature-ok], [measure_reference_feature-8.0], auto, [Choice|_]).
+
 test(nothing_left_to_separate, true(Choice = unresolved([_, _, _, _]))) :-
     probe_ctx(C),
     step(no_echo, C, [], [], [], auto, [Choice|_]).

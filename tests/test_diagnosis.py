@@ -287,3 +287,27 @@ def test_an_injected_obstacle_is_ahead_of_the_arm_never_against_it(session, tmp_
     assert not place(near)      # a hair from it: not placed either
     assert place(0.8)           # well ahead of the arm: placed
     assert "obstacle_t" not in world.obstacles
+
+
+def test_an_obstacle_against_the_stopped_arm_is_found_by_a_test_that_bumps_too(session, handler, arm):
+    """A box put against the arm where it stands: the next measurement's first move bumps,
+    and so does the first diagnosis test's; the cause is the obstacle at the arm (not
+    'unresolved', which left every later move bumping until the run's alarm), a person
+    removes it, and the measurement is made."""
+    world = session.world
+    first, second = (_first(session, "us_probe_1", "web_thickness", skip=k) for k in (30, 31))
+    session.kb.once("world", "reset_world")
+    world.faults = FaultSet()
+    out = measure_one(session, first, arm["state"], "us_probe_1")
+    assert out.status is MeasureStatus.MEASURED, out.reason
+    arm["state"] = out.state
+    world.add_obstacle("box_at_arm", world.tcp_pose(np.asarray(world.q, dtype=float))[:3, 3], (0.12, 0.12, 0.12))
+    out = measure_one(session, second, arm["state"], "us_probe_1")
+    assert out.status is MeasureStatus.NOT_DONE and "BUMP" in (out.reason or ""), out.reason
+    handled = handler.handle(out)
+    arm["state"] = handled.outcome.state
+    assert handled.diagnosis.exception == "bump"
+    assert handled.diagnosis.cause == "obstacle_at_arm", handled.diagnosis.summary
+    assert [t.outcome for t in handled.diagnosis.tests][-1] == "bump"
+    assert not world.obstacles
+    assert handled.outcome.status is MeasureStatus.MEASURED, handled.outcome.reason

@@ -35,3 +35,15 @@ def test_error_statistics() -> None:
     assert st["within_u"] == 0.5  # |0.01| <= 0.02, |-0.03| > 0.02
     assert sc.normalized_errors == pytest.approx([0.5, -1.5])
     assert math.isnan(compare([], {}).error_stats()["mean"])
+
+
+def test_an_obstacle_found_against_the_arm_names_the_injected_obstacle() -> None:
+    from ita.scoring import diagnosis_score
+
+    injected = [{"sim_time": 10.0, "cause": "obstacle", "target": "obstacle_1", "cleared_time": None},
+                {"sim_time": 5.0, "cause": "dirty_window", "target": "slra_1", "cleared_time": 8.0}]
+    diagnoses = [{"t0": 12.0, "since": 11.0, "cause": "obstacle_at_arm", "exception": "bump"},
+                 {"t0": 12.5, "since": 11.0, "cause": "dirty_window(slra_1)", "exception": "too_few_pixels"}]
+    score = diagnosis_score(injected, diagnoses)
+    assert [r["named"] for r in score["diagnoses"]] == [True, False]   # the window was clean again by then
+    assert score["with_fault"] == 2 and score["named"] == 1

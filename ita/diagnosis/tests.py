@@ -18,6 +18,9 @@ Executive on the devices; its outcome is read from the replies:
     measure_reference_feature a tooling hole's diameter, its centre against nominal: ok | displaced | unclear
     compare_neighbours        no motion: the reading against its neighbours' readings: ok | outlier
 
+Any test whose own move runs into something has the outcome ``bump`` (an obstacle
+against the stopped arm: kb/faults.pl's obstacle_at_arm).
+
 A test that cannot be made (no plan, a path that fails, a precondition the cell cannot
 meet) has the outcome ``not_run`` and rules nothing out.  The cost of a test is its own
 seconds (kb/faults.pl) plus the set-up its preconditions need from the arm's state: a
@@ -94,6 +97,14 @@ class TestRun:
         return {"test": self.test, "outcome": self.outcome, "estimated_s": round(self.estimated_s, 2),
                 "seconds": round(self.seconds, 2), "note": self.note,
                 "plan": [s.text for s in self.plan.steps] if self.plan is not None else []}
+
+
+def _bumped(report: Any) -> bool:
+    """Whether a test's plan stopped on a BUMP of its own motion."""
+    if report is None or report.failure is None:
+        return False
+    payload = report.failure.reply.payload
+    return isinstance(payload, Term) and payload.name == "BUMP"
 
 
 def _timed_out(failure: Any) -> bool:
@@ -268,6 +279,8 @@ class TestBench:
             name = payload.name if isinstance(payload, Term) else str(payload)
             if _timed_out(failure):
                 return "silent"
+            if name == "BUMP":                   # the test's own move ran into something
+                return "bump"
             if test == "read_cal_block" and name == "GAUGE" and failure.command.name == "CALIBRATE":
                 return _gauge_outcome(payload)
             if test == "scan_cal_block" and name == "VISION" and failure.command.name == "CALIBRATE":
@@ -302,6 +315,8 @@ class TestBench:
         silent = out.report is not None and out.report.failure is not None and _timed_out(out.report.failure)
         if silent:
             return TestRun(test, "silent", estimated_s, t0, out.t1, out.state, out.plan, out.report, out.reason or "")
+        if _bumped(out.report):
+            return TestRun(test, "bump", estimated_s, t0, out.t1, out.state, out.plan, out.report, out.reason or "")
         if test == "retry_reading":
             if out.status is MeasureStatus.MEASURED:
                 outcome = "ok"

@@ -55,6 +55,10 @@ def injected_faults(runs_dir: Path | str, run_id: str) -> list[dict]:
     return out
 
 
+#: causes of the fault knowledge base that are a form of an injected fault's cause
+FORMS_OF = {"obstacle_at_arm": "obstacle"}
+
+
 def diagnosis_score(injected: list[dict], diagnoses: list[dict]) -> dict:
     """Whether the diagnoses named the injected causes: what only the simulation can check.
 
@@ -77,6 +81,7 @@ def diagnosis_score(injected: list[dict], diagnoses: list[dict]) -> dict:
         cause = d.get("cause") or ""
         name, _, target = cause.partition("(")
         target = target.rstrip(")")
+        name = FORMS_OF.get(name, name)
         hit = next((i for i in candidates if injected[i]["cause"] == name
                     and (not target or target in (injected[i]["target"], "gauge", "controller"))), None)
         if hit is not None:
