@@ -258,7 +258,8 @@ class ExceptionHandler:
             situation = replace(situation, state=run.state)
             if run.outcome != "not_run":
                 results.append((name, run.outcome))
-            if run.measured is not None:
+            if run.measured is not None:   # the retry measured it: what the results say, no more tests
+                last = self.knowledge.step(exc.exception, context, counts, results, [], self.method)
                 break
         return runs, first, last
 
