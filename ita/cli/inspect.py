@@ -153,9 +153,13 @@ def _run(session: Any, archive: Any, run_id: str, as_json: bool, view: LiveView)
               help="Script one fault, e.g. broken_probe@us_probe_1:after=120 (simulated seconds); repeatable.")
 @click.option("--run-id", default=None, help="The id to give the new run (the System Monitor names the runs "
               "it starts); default a fresh one.")
+@click.option("--network/--no-network", default=False, show_default=True,
+              help="Decide the fastener holes' positions by a network adjustment of the SLRA frames of each "
+                   "face (pending until the face's last position frame), instead of each on its own frame.")
 @reports_errors
 def inspect(part_dir: Path | None, limit: int | None, seed: int, runs_dir: Path | None, as_json: bool,
-            fault_rate: float, fault_kinds: str | None, scripts: tuple[str, ...], run_id: str | None) -> None:
+            fault_rate: float, fault_kinds: str | None, scripts: tuple[str, ...], run_id: str | None,
+            network: bool) -> None:
     """Inspect the part (in the simulated workcell): every measurement of the sequence
     plan, planned, executed, measured and recorded in the runs archive as it is made.
 
@@ -182,8 +186,10 @@ def inspect(part_dir: Path | None, limit: int | None, seed: int, runs_dir: Path 
     session = open_session(part_dir, seed=seed, progress=lambda m: view.note(f"{m} ..."))
     try:
         with Archive.open(archive_path(runs_dir)) as archive:
-            run_id = start_run(session, archive, limit=limit, run_id=run_id,
-                               settings={"faults": injection.to_dict()} if injection.active else None)
+            settings: dict[str, Any] = {"network": network}
+            if injection.active:
+                settings["faults"] = injection.to_dict()
+            run_id = start_run(session, archive, limit=limit, run_id=run_id, settings=settings)
             view.note(f"run {run_id}: {archive.run(run_id).total} measurements of {session.ctx.part_name} "
                       f"(set up in {session.setup_seconds:.1f} s)")
             _run(session, archive, run_id, as_json, view)

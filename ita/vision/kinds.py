@@ -18,7 +18,7 @@ from ita.vision.fit import (
     fit_parallel_planes,
 )
 from ita.vision.patches import View, nominal_points
-from ita.vision.register import register_on_neighbours, rib_beneath
+from ita.vision.register import neighbour_rims, register_on_rims, rib_beneath
 from ita.vision.rims import edge_sigma, fit_edge, fit_face, fit_rim, frame_uv, free_edge, rect_patch
 
 FloatArray = NDArray[np.float64]
@@ -38,10 +38,14 @@ def _hole_position(view: View, spec: MeasurementSpec, hole: Hole, ctx: VisionCon
     px = diag["pixel_mm"]
     u_fit = math.hypot(EDGE_CORRELATION * max(fit.center_sigma), edge_sigma(px, fit.n))
     shift, u_reg, used, left = np.zeros(2), math.nan, [], []
+    sightings = [{"hole": hole.id, "xy": (float(fit.center[0]), float(fit.center[1])), "sigma": u_fit,
+                  "systematic": float(diag["u_model_centre"])}]
     if hole.role is HoleRole.FASTENER:
         # a rim with a rib beneath is fitted less well than its neighbours' are: no radius for them
         radius = None if rib_beneath(view, hole, ctx) else fit.radius
-        shift, u_reg, used, left = register_on_neighbours(view, hole, radius, ctx)
+        rims, left = neighbour_rims(view, hole, radius, ctx)
+        sightings += [{"hole": r.hole, "xy": r.centre, "sigma": r.u_random, "systematic": r.u_model} for r in rims]
+        shift, u_reg, used, left = register_on_rims(rims, left, ctx)
     pose_u = ctx.pose_sigma_m / ctx.placement.scale
     d = np.asarray(fit.center) + shift - np.asarray(hole.center[:2])
     # random from frame to frame: the rim fit and, with the pose as datum, the arm's pose
@@ -50,8 +54,12 @@ def _hole_position(view: View, spec: MeasurementSpec, hole: Hole, ctx: VisionCon
     u_random = math.hypot(u_fit, pose_u) if not used else u_fit
     u_system = math.hypot(diag["u_model_centre"], u_reg) if used else diag["u_model_centre"]
     u_axis = math.hypot(u_random, u_system)
+    # the rims of this frame for a network adjustment (ita.vision.network) of the frames
     diag.update(center=fit.center, registered_on=used, left_out=left, shift=tuple(shift), deviation=tuple(d),
-                datum="neighbours" if used else "pose", u_random=u_random, u_systematic=u_system)
+                datum="neighbours" if used else "pose", u_random=u_random, u_systematic=u_system,
+                sightings=sightings, budget={"rim fit": u_fit, "edge model": float(diag["u_model_centre"]),
+                                             **({"neighbours' positions": u_reg} if used else
+                                                {"arm pose": pose_u})})
     return VisionResult(spec.id, spec.kind, 2 * float(np.hypot(*d)), 2 * u_axis, diag)
 
 
