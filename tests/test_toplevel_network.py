@@ -20,7 +20,7 @@ REPO = Path(__file__).resolve().parent.parent
 
 def test_a_pending_frame_survives_the_archive() -> None:
     p = Pending("HP-OF-001", "slra_1", 1.0, 2.5, (Sighting("HP-OF-001", "OF-001", (28.9, -732.0), 0.01, 0.002),
-                                                   Sighting("HP-OF-001", "OF-002", (86.7, -732.1), 0.03, 0.0)),
+                                                   Sighting("HP-OF-001", "OF-002", (86.7, -732.1), 0.03, 0.0, "half rim")),
                 0.21, 0.05)
     again = Pending.from_event(Event(EVENT_KIND, "top", 2.5, p.to_event().payload))
     assert again == p

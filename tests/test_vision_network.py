@@ -13,12 +13,13 @@ POSE = 0.083        # mm, a frame's shift (1 sigma per axis)
 FIT = 0.01          # mm, a rim fit's scatter per axis
 
 
-def _row(n: int, rng: np.random.Generator, *, pitch: float = 58.0, turn: float = 1e-4):
+def _row(n: int, rng: np.random.Generator, *, pitch: float = 58.0, turn: float = 1e-4, pose: float = POSE,
+         fit: float = FIT, stated: float = FIT):
     """n holes on a line, frame i centred on hole i seeing holes i-1, i, i+1; returns
     (nominal, true deviations, true frame errors (tx, ty, turn), sightings)."""
     nominal = {f"H{i:02d}": (pitch * i, 0.0) for i in range(n)}
     dev = {h: tuple(rng.normal(0.0, 0.08, 2)) for h in nominal}
-    frames = {f"F{i:02d}": (*rng.normal(0.0, POSE, 2), rng.normal(0.0, turn)) for i in range(n)}
+    frames = {f"F{i:02d}": (*rng.normal(0.0, pose, 2), rng.normal(0.0, turn)) for i in range(n)}
     sightings = []
     for i in range(n):
         f = f"F{i:02d}"
@@ -30,8 +31,8 @@ def _row(n: int, rng: np.random.Generator, *, pitch: float = 58.0, turn: float =
                 nom = np.asarray(nominal[h])
                 rel = nom - c
                 true = nom + dev[h]
-                m = true + (tx, ty) + th * np.array([-rel[1], rel[0]]) + rng.normal(0.0, FIT, 2)
-                sightings.append(Sighting(f, h, (float(m[0]), float(m[1])), FIT))
+                m = true + (tx, ty) + th * np.array([-rel[1], rel[0]]) + rng.normal(0.0, fit, 2)
+                sightings.append(Sighting(f, h, (float(m[0]), float(m[1])), stated))
     return nominal, dev, frames, sightings
 
 
@@ -109,3 +110,20 @@ def test_datum_holes_anchor_the_network():
     anchored = solve_network(redo, nominal, pose_sigma=POSE, fixed={"H00"})
     assert "H00" not in anchored.holes
     assert anchored.holes["H01"].sigma_axis < free.holes["H01"].sigma_axis
+
+
+def test_variance_components_make_the_uncertainty_honest_when_the_sigmas_are_not():
+    """Rim fits stated three times too large and a pose prior a fifth too small: the
+    adjustment's variance components put both right, so U = 2 sigma covers about 95 %."""
+    within, n, factors = 0, 0, []
+    for seed in range(6):
+        rng = np.random.default_rng(100 + seed)
+        nominal, dev, frames, sightings = _row(60, rng, pose=1.2 * POSE, fit=FIT, stated=3 * FIT)
+        sol = solve_network(sightings, nominal, pose_sigma=POSE)
+        factors.append(sol.factors[""])
+        for h, d in dev.items():
+            e = np.subtract(sol.holes[h].deviation, d)
+            within += int(np.sum(np.abs(e) <= 2 * np.sqrt(np.diag(sol.holes[h].cov))))
+            n += 2
+    assert 0.25 < np.mean(factors) < 0.45          # the sightings' sigmas were 3 times too large
+    assert 0.92 <= within / n <= 0.98

@@ -68,21 +68,23 @@ class Pending:
         if not raw or value.value is None:
             return None
         sightings = tuple(Sighting(spec_id, str(s["hole"]), (float(s["xy"][0]), float(s["xy"][1])),
-                                   float(s["sigma"]), float(s.get("systematic", 0.0))) for s in raw)
+                                   float(s["sigma"]), float(s.get("systematic", 0.0)), str(s.get("group", "")))
+                          for s in raw)
         return cls(spec_id, tool, t0, t1, sightings, float(value.value), float(value.u))
 
     def to_event(self) -> Event:
         return Event(EVENT_KIND, "top", self.t1, {
             "spec": self.spec_id, "tool": self.tool, "t0": self.t0, "t1": self.t1,
             "frame_value": self.frame_value, "frame_u": self.frame_u,
-            "sightings": [{"hole": s.hole, "xy": list(s.xy), "sigma": s.sigma, "systematic": s.systematic}
-                          for s in self.sightings]}, spec_id=self.spec_id)
+            "sightings": [{"hole": s.hole, "xy": list(s.xy), "sigma": s.sigma, "systematic": s.systematic,
+                           "group": s.group} for s in self.sightings]}, spec_id=self.spec_id)
 
     @classmethod
     def from_event(cls, event: Event) -> Pending:
         p = event.payload
         sightings = tuple(Sighting(str(p["spec"]), str(s["hole"]), (float(s["xy"][0]), float(s["xy"][1])),
-                                   float(s["sigma"]), float(s["systematic"])) for s in p["sightings"])
+                                   float(s["sigma"]), float(s["systematic"]), str(s.get("group", "")))
+                          for s in p["sightings"])
         return cls(str(p["spec"]), p.get("tool"), p.get("t0"), p.get("t1"), sightings, float(p["frame_value"]),
                    float(p["frame_u"]))
 
@@ -112,7 +114,7 @@ def decide(pendings: Sequence[Pending], specs: Mapping[str, Any], features: Mapp
                                          sim_time_end=p.t1))
             continue
         d = np.asarray(est.deviation)
-        u = 2 * est.sigma_axis                       # the value is 2 |d|
+        u = 2 * _radial_sigma(d, np.asarray(est.cov))  # the value is 2 |d|
         term, size = max(est.budget.items(), key=lambda kv: kv[1])
         zone = spec.upper - spec.lower
         note = (f"network of {n_frames} frames (seen in {len(est.frames)}); U/tolerance {2 * u / zone:.2f}; "
@@ -122,3 +124,15 @@ def decide(pendings: Sequence[Pending], specs: Mapping[str, Any], features: Mapp
         out.append(Result.measured(spec, 2 * float(math.hypot(*d)), u, tool=p.tool, sim_time_start=p.t0,
                                    sim_time_end=p.t1, reason=note))
     return out, sol
+
+
+def _radial_sigma(d: np.ndarray, cov: np.ndarray) -> float:
+    """Standard uncertainty of |d| for a deviation d (2,) with covariance cov (2, 2): along
+    d where |d| is well beyond its scatter (at least twice the worst axis's sigma), else
+    the worst axis's (near the centre the direction of d is not known)."""
+    worst = math.sqrt(max(float(np.linalg.eigvalsh(cov).max()), 0.0))
+    r = float(np.hypot(*d))
+    if r < 2 * worst:
+        return worst
+    u = d / r
+    return math.sqrt(max(float(u @ cov @ u), 0.0))

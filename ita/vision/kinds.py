@@ -39,12 +39,13 @@ def _hole_position(view: View, spec: MeasurementSpec, hole: Hole, ctx: VisionCon
     u_fit = math.hypot(EDGE_CORRELATION * max(fit.center_sigma), edge_sigma(px, fit.n))
     shift, u_reg, used, left = np.zeros(2), math.nan, [], []
     sightings = [{"hole": hole.id, "xy": (float(fit.center[0]), float(fit.center[1])), "sigma": u_fit,
-                  "systematic": float(diag["u_model_centre"])}]
+                  "systematic": float(diag["u_model_centre"]), "group": "whole rim"}]
     if hole.role is HoleRole.FASTENER:
         # a rim with a rib beneath is fitted less well than its neighbours' are: no radius for them
         radius = None if rib_beneath(view, hole, ctx) else fit.radius
         rims, left = neighbour_rims(view, hole, radius, ctx)
-        sightings += [{"hole": r.hole, "xy": r.centre, "sigma": r.u_random, "systematic": r.u_model} for r in rims]
+        sightings += [{"hole": r.hole, "xy": r.centre, "sigma": r.u_random, "systematic": r.u_model,
+                       "group": "half rim"} for r in rims]
         shift, u_reg, used, left = register_on_rims(rims, left, ctx)
     pose_u = ctx.pose_sigma_m / ctx.placement.scale
     d = np.asarray(fit.center) + shift - np.asarray(hole.center[:2])

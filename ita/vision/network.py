@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Iterable, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import scipy.sparse as sp
@@ -46,6 +46,12 @@ OUTLIER_P = 1e-4
 TURN_SIGMA_RAD = 5e-4
 #: at most this many frames are left out of one network
 MAX_LEFT_OUT = 20
+#: variance components: a group's factor is estimated where its share of the redundancy is
+#: at least this, in at most COMPONENT_ITERATIONS rounds, within [MIN_FACTOR, MAX_FACTOR]
+MIN_COMPONENT_REDUNDANCY = 10.0
+COMPONENT_ITERATIONS = 12
+MIN_FACTOR, MAX_FACTOR = 0.2, 1.0
+POSE_GROUP, TURN_GROUP = "frame pose", "frame turn"
 
 
 @dataclass(frozen=True)
@@ -53,13 +59,15 @@ class Sighting:
     """Hole `hole` seen in frame `frame`: its fitted centre (x, y) in the part frame as the
     frame's REPORTED pose places it (mm), the standard uncertainty per axis of the fit
     that is new in every frame (`sigma`, mm) and of what is the same in every frame that
-    sees the hole (`systematic`, mm: the edge model)."""
+    sees the hole (`systematic`, mm: the edge model); `group`: sightings alike (a whole
+    rim, half a rim) share a variance component (see :func:`solve_network`)."""
 
     frame: str
     hole: str
     xy: tuple[float, float]
     sigma: float
     systematic: float = 0.0
+    group: str = ""
 
 
 @dataclass(frozen=True)
@@ -83,13 +91,15 @@ class HoleEstimate:
 @dataclass(frozen=True)
 class NetworkSolution:
     """The adjusted network: hole estimates, frame pose errors (tx, ty mm, turn rad), frames
-    left out with why, the a-posteriori variance factor (sigma0^2) and the redundancy."""
+    left out with why, the a-posteriori variance factor (sigma0^2), the redundancy, and the
+    variance components' factors on the sigmas (group -> factor)."""
 
     holes: Mapping[str, HoleEstimate]
     frames: Mapping[str, tuple[float, float, float]]
     left_out: Mapping[str, str]
     variance_factor: float
     redundancy: int
+    factors: Mapping[str, float] = field(default_factory=dict)
 
 
 def solve_network(sightings: Iterable[Sighting], nominal: Mapping[str, Sequence[float]], *, pose_sigma: float,
@@ -102,14 +112,39 @@ def solve_network(sightings: Iterable[Sighting], nominal: Mapping[str, Sequence[
     fixed = {h for h in fixed if h in nominal}
     left: dict[str, str] = {}
     while True:
-        sol, chi_by_frame = _adjust(obs, nominal, pose_sigma, turn_sigma, fixed)
+        sol, chi_by_frame = _components(obs, nominal, pose_sigma, turn_sigma, fixed)
         worst = _worst_frame(chi_by_frame, outlier_p)
         if worst is None or len(left) >= max_left_out:
-            return NetworkSolution(sol.holes, sol.frames, dict(left), sol.variance_factor, sol.redundancy)
+            return replace(sol, left_out=dict(left))
         frame, c2, dof = worst
         left[frame] = (f"sightings do not fit the network: chi-square {c2:.1f} on {dof} degrees of freedom "
                        f"(p < {outlier_p:g}); a wrong hole match or a mis-fitted rim")
         obs = [s for s in obs if s.frame != frame]
+
+
+def _components(obs: Sequence[Sighting], nominal: Mapping[str, Sequence[float]], pose_sigma: float,
+                turn_sigma: float, fixed: set[str]) -> tuple[NetworkSolution, dict[str, tuple[float, int]]]:
+    """The adjustment with its variance components estimated (Foerstner's iteration): each
+    group of sightings (:attr:`Sighting.group`) and the frames' pose priors get a factor on
+    their sigmas, their weighted residuals' sum over their share of the redundancy, where
+    that share is at least :data:`MIN_COMPONENT_REDUNDANCY`.  The pose prior's factor is
+    never below 1 (the arm is no better than its repeatability); a sighting group's lies
+    in [:data:`MIN_FACTOR`, :data:`MAX_FACTOR`]: never above its own sigmas, so a gross
+    error cannot inflate them and hide from the outlier test.  Sightings that scatter
+    more than their sigmas say all the same scale the covariance by the variance factor."""
+    factors: dict[str, float] = {}
+    for _ in range(COMPONENT_ITERATIONS):
+        sol, chi, groups = _adjust(obs, nominal, pose_sigma, turn_sigma, fixed, factors)
+        new = dict(factors)
+        for g, (ssr, red) in groups.items():
+            if red < MIN_COMPONENT_REDUNDANCY:
+                continue
+            f = factors.get(g, 1.0) * math.sqrt(ssr / red)
+            new[g] = max(f, 1.0) if g == POSE_GROUP else min(max(f, MIN_FACTOR), MAX_FACTOR)
+        if all(abs(new[g] / factors.get(g, 1.0) - 1) < 0.02 for g in new):
+            break
+        factors = new
+    return replace(sol, factors=dict(factors)), chi
 
 
 def _worst_frame(chi_by_frame: Mapping[str, tuple[float, int]], p: float) -> tuple[str, float, int] | None:
@@ -126,19 +161,21 @@ def _worst_frame(chi_by_frame: Mapping[str, tuple[float, int]], p: float) -> tup
 
 
 def _adjust(obs: Sequence[Sighting], nominal: Mapping[str, Sequence[float]], pose_sigma: float, turn_sigma: float,
-            fixed: set[str]) -> tuple[NetworkSolution, dict[str, tuple[float, int]]]:
-    """One adjustment (no outlier test): the solution and per frame (chi-square of its
-    sightings' residuals, their count x 2)."""
+            fixed: set[str], factors: Mapping[str, float]
+            ) -> tuple[NetworkSolution, dict[str, tuple[float, int]], dict[str, tuple[float, float]]]:
+    """One adjustment (no outlier test) with the sigmas of each group times its factor: the
+    solution, per frame (chi-square of its sightings' residuals, their redundancy) and per
+    group (weighted residuals' sum of squares, share of the redundancy)."""
     frames = sorted({s.frame for s in obs})
     holes = sorted({s.hole for s in obs} - fixed)
     f_ix = {f: i for i, f in enumerate(frames)}
     h_ix = {h: 3 * len(frames) + 2 * i for i, h in enumerate(holes)}
     n = 3 * len(frames) + 2 * len(holes)
     centre = {f: np.mean([nominal[s.hole][:2] for s in obs if s.frame == f], axis=0) for f in frames}
-    rows, cols, vals, rhs, owner = [], [], [], [], []
+    rows, cols, vals, rhs, owner, group = [], [], [], [], [], []
     r = 0
     for s in obs:
-        w = 1.0 / max(s.sigma, 1e-9)
+        w = 1.0 / max(s.sigma * factors.get(s.group, 1.0), 1e-9)
         nom = np.asarray(nominal[s.hole][:2], dtype=float)
         rel = nom - centre[s.frame]
         perp = (-rel[1], rel[0])
@@ -153,25 +190,33 @@ def _adjust(obs: Sequence[Sighting], nominal: Mapping[str, Sequence[float]], pos
                 vals.append(w)
             rhs.append(w * (s.xy[axis] - nom[axis]))
             owner.append(s.frame)
+            group.append(s.group)
             r += 1
     n_obs = r
+    pose = pose_sigma * factors.get(POSE_GROUP, 1.0)
     for f in frames:                       # the priors: the arm's repeatability
         fx = 3 * f_ix[f]
-        for k, sig in ((0, pose_sigma), (1, pose_sigma), (2, turn_sigma)):
+        for k, sig in ((0, pose), (1, pose), (2, turn_sigma)):
             rows.append(r)
             cols.append(fx + k)
             vals.append(1.0 / sig)
             rhs.append(0.0)
+            group.append(POSE_GROUP if k < 2 else TURN_GROUP)
             r += 1
     jac = sp.csr_matrix((vals, (rows, cols)), shape=(r, n))
     b = np.asarray(rhs)
-    normal = (jac.T @ jac).tocsc()
-    lu = splu(normal)
+    lu = splu((jac.T @ jac).tocsc())
     x = lu.solve(jac.T @ b)
     res = jac @ x - b
+    # each row's leverage (diagonal of J N^-1 J^T): its share of the redundancy is 1 minus it
+    jt = jac.T.toarray()
+    leverage = np.einsum("ij,ij->j", jt, lu.solve(jt))
     redundancy = r - n
     vf = float(res @ res) / redundancy if redundancy > 0 else 1.0
-    scale = max(vf, 1.0)
+    groups: dict[str, tuple[float, float]] = {}
+    for g, e, h in zip(group, res, leverage):
+        ssr, red = groups.get(g, (0.0, 0.0))
+        groups[g] = (ssr + float(e) ** 2, red + 1.0 - float(h))
     seen: dict[str, list[str]] = {}
     for s in obs:
         seen.setdefault(s.hole, []).append(s.frame)
@@ -183,7 +228,7 @@ def _adjust(obs: Sequence[Sighting], nominal: Mapping[str, Sequence[float]], pos
         inv = lu.solve(e)                  # the hole columns of the inverse normal matrix
     for i, h in enumerate(holes):
         k = h_ix[h]
-        cov = inv[k:k + 2, 2 * i:2 * i + 2] * scale
+        cov = inv[k:k + 2, 2 * i:2 * i + 2] * max(vf, 1.0)
         sys_u = max(s.systematic for s in obs if s.hole == h)
         net_u = math.sqrt(max(float(np.linalg.eigvalsh(cov).max()), 0.0))
         total = cov + np.eye(2) * sys_u ** 2
@@ -197,4 +242,4 @@ def _adjust(obs: Sequence[Sighting], nominal: Mapping[str, Sequence[float]], pos
     # a frame's own redundancy: its sightings less its three pose unknowns
     chi = {f: (c2, dof - 3) for f, (c2, dof) in chi.items()}
     frame_est = {f: (float(x[3 * i]), float(x[3 * i + 1]), float(x[3 * i + 2])) for f, i in f_ix.items()}
-    return NetworkSolution(est, frame_est, {}, vf, redundancy), chi
+    return NetworkSolution(est, frame_est, {}, vf, redundancy), chi, groups
