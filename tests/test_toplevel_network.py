@@ -72,3 +72,21 @@ def test_killed_before_its_network_is_solved_continue_loses_and_repeats_nothing(
         assert all(r.outcome.value == "measured" and "network of 3 frames" in (r.reason or "")
                    for r in positions.values())
         assert len(archive.events(run_id, kinds=["network"])) == 1
+
+
+def test_an_uncertain_result_says_why() -> None:
+    from types import SimpleNamespace
+
+    from ita.archive import Result
+    from ita.specs.model import MeasurementKind as K
+    from ita.toplevel.loop import why_uncertain
+
+    spec = SimpleNamespace(id="HD-OF-001", kind=K.HOLE_DIAMETER, point=(0.0, 0.0, 45.0), nominal=6.35,
+                           lower=-0.076, upper=0.076)
+    source = SimpleNamespace(diagnostics={"budget": {"rim fit": 0.004, "edge model": 0.011}})
+    near_limit = why_uncertain(Result.measured(spec, 6.42, 0.011, reason="from the frame of X"),
+                               SimpleNamespace(source=source))
+    assert near_limit.decision.value == "uncertain"
+    assert near_limit.reason == "from the frame of X; U/tolerance 0.14; largest term: edge model (u 0.0110 mm)"
+    inside = Result.measured(spec, 6.35, 0.011)
+    assert why_uncertain(inside, SimpleNamespace(source=source)) is inside

@@ -44,7 +44,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ita.archive import Event, Outcome, Result, RunStatus
+from ita.archive import Decision, Event, Outcome, Result, RunStatus
 from ita.archive.timeline import breakdown, intervals, span
 from ita.devices.arm import RECOVER_SECONDS
 from ita.planning.state import WorldState
@@ -60,7 +60,22 @@ if TYPE_CHECKING:
     from ita.sequence.next_step import Step
     from ita.toplevel.session import Session
 
-__all__ = ["Progress", "RunSummary", "TopLevel", "start_run"]
+__all__ = ["Progress", "RunSummary", "TopLevel", "start_run", "why_uncertain"]
+
+
+def why_uncertain(result: Result, value: Any) -> Result:
+    """An uncertain result with why added to its reason: U over the tolerance zone and the
+    largest term of the uncertainty budget its device reported (Vision's ``budget``:
+    term -> standard uncertainty, mm).  Any other result as it is."""
+    if result.decision is not Decision.UNCERTAIN or result.U is None:
+        return result
+    zone = result.upper - result.lower
+    note = f"U/tolerance {result.U / zone:.2f}" if zone > 0 else f"U {result.U:.4f} mm"
+    budget = (getattr(getattr(value, "source", None), "diagnostics", None) or {}).get("budget") or {}
+    if budget:
+        term, size = max(budget.items(), key=lambda kv: kv[1])
+        note += f"; largest term: {term} (u {size:.4f} mm)"
+    return replace(result, reason=f"{result.reason}; {note}" if result.reason else note)
 
 
 def start_run(session: Session, archive: Archive, *, limit: int | None = None, run_id: str | None = None,
@@ -352,8 +367,9 @@ class TopLevel:
         if out.status is MeasureStatus.MEASURED:
             assert out.value is not None
             if not self._hold(step.spec_id, out.value, tool, out.t0, out.t1, events):
-                self._record(Result.measured(spec, out.value.value, out.value.u, tool=tool,
-                                             sim_time_start=out.t0, sim_time_end=out.t1), events, mine, extra.frames)
+                self._record(why_uncertain(Result.measured(spec, out.value.value, out.value.u, tool=tool,
+                                                           sim_time_start=out.t0, sim_time_end=out.t1), out.value),
+                             events, mine, extra.frames)
         else:
             self._unmeasured(step.spec_id, Outcome.NOT_DONE, out.reason or "", tool=tool, t0=out.t0,
                              t1=out.t1, events=events, details=mine, frames=extra.frames)
@@ -364,9 +380,10 @@ class TopLevel:
             if other.ok and self._hold(other.spec_id, other, tool, out.t0, out.t1, []):
                 continue
             if other.ok:
-                self._record(Result.measured(self.session.specs[other.spec_id], other.value, other.u,
-                                             tool=tool, sim_time_start=out.t0, sim_time_end=out.t1,
-                                             reason=f"from the frame of {step.spec_id}"), [], theirs)
+                self._record(why_uncertain(Result.measured(self.session.specs[other.spec_id], other.value, other.u,
+                                                           tool=tool, sim_time_start=out.t0, sim_time_end=out.t1,
+                                                           reason=f"from the frame of {step.spec_id}"), other),
+                             [], theirs)
             else:
                 self._unmeasured(other.spec_id, Outcome.NOT_DONE, other.reason or "", tool=tool, t0=out.t0,
                                  t1=out.t1, details=theirs)

@@ -27,9 +27,10 @@ FloatArray = NDArray[np.float64]
 def _hole_diameter(view: View, spec: MeasurementSpec, hole: Hole, ctx: VisionContext) -> VisionResult:
     fit, _, diag = fit_rim(view, hole, "rim")
     px = diag["pixel_mm"]
-    u = math.hypot(2 * EDGE_CORRELATION * fit.radius_sigma, 2 * edge_sigma(px, fit.n))
-    u = math.hypot(u, 2e-4 * fit.radius, 2 * diag["u_model"])  # + scanner angle-scale calibration
-    diag.update(center=fit.center)
+    budget = {"rim fit": 2 * EDGE_CORRELATION * fit.radius_sigma, "edge model": 2 * edge_sigma(px, fit.n),
+              "scanner angle scale": 2e-4 * fit.radius, "rim model (wall, surfaces beyond)": 2 * diag["u_model"]}
+    u = math.hypot(*budget.values())
+    diag.update(center=fit.center, budget=budget)
     return VisionResult(spec.id, spec.kind, 2 * fit.radius, u, diag)
 
 
@@ -81,10 +82,11 @@ def _edge_distance(view: View, spec: MeasurementSpec, hole: Hole, ctx: VisionCon
     dist = float(line.distance(np.asarray(fit.center))[0])
     sign = 1.0 if float(np.dot([-line.direction[1], line.direction[0]], u)) < 0 else -1.0
     value = sign * dist
-    u_val = math.sqrt(line.offset_sigma_at(np.asarray(fit.center)) ** 2 * EDGE_CORRELATION ** 2
-                      + (EDGE_CORRELATION * max(fit.center_sigma)) ** 2 + 2 * edge_sigma(diag["pixel_mm"], 1) ** 2
-                      + diag["u_model"] ** 2)
-    diag.update(edge_points=ldiag["points"], edge_rms=ldiag["rms"], edge_xy=ldiag["xy"])
+    budget = {"edge line fit": line.offset_sigma_at(np.asarray(fit.center)) * EDGE_CORRELATION,
+              "rim fit": EDGE_CORRELATION * max(fit.center_sigma),
+              "edge model": math.sqrt(2) * edge_sigma(diag["pixel_mm"], 1), "rim model": diag["u_model"]}
+    u_val = math.hypot(*budget.values())
+    diag.update(edge_points=ldiag["points"], edge_rms=ldiag["rms"], edge_xy=ldiag["xy"], budget=budget)
     return VisionResult(spec.id, spec.kind, value, u_val, diag)
 
 
@@ -107,7 +109,9 @@ def _height(top: FloatArray, webs: list[tuple[FloatArray, float]], ctx: VisionCo
     u_fit = math.sqrt(np.mean([fit.gap_sigma(0, 1 + i) ** 2 for i in range(len(webs))]))
     u_web = ctx.web_tolerance / math.sqrt(3) / math.sqrt(len(webs))
     return float(np.mean(h)), math.hypot(u_fit, u_web), {"rms": fit.rms, "u_fit": u_fit, "u_web": u_web,
-                                                         "pixels": [len(top)] + [len(w) for w, _ in webs]}
+                                                         "pixels": [len(top)] + [len(w) for w, _ in webs],
+                                                         "budget": {"plane fits": u_fit,
+                                                                    "web thickness (its tolerance)": u_web}}
 
 
 def _flange(view: View, spec: MeasurementSpec, seg: FlangeSegment, ctx: VisionContext) -> VisionResult:
@@ -135,12 +139,13 @@ def _flange(view: View, spec: MeasurementSpec, seg: FlangeSegment, ctx: VisionCo
 def _width(spec: MeasurementSpec, p: FloatArray, a: LineFit, b: LineFit, da: dict, db: dict) -> VisionResult:
     value = abs(float(a.distance(p)[0]) - float(b.distance(p)[0])) if np.dot(a.direction, b.direction) > 0 else \
         abs(float(a.distance(p)[0]) + float(b.distance(p)[0]))
-    u = math.sqrt((EDGE_CORRELATION * a.offset_sigma_at(p)) ** 2 + (EDGE_CORRELATION * b.offset_sigma_at(p)) ** 2
-                  + edge_sigma(da["pixel_mm"], a.n) ** 2 + edge_sigma(db["pixel_mm"], b.n) ** 2)
-    u = math.hypot(u, 2e-4 * value)
+    budget = {"edge line fits": EDGE_CORRELATION * math.hypot(a.offset_sigma_at(p), b.offset_sigma_at(p)),
+              "edge model": math.hypot(edge_sigma(da["pixel_mm"], a.n), edge_sigma(db["pixel_mm"], b.n)),
+              "scanner angle scale": 2e-4 * value}
+    u = math.hypot(*budget.values())
     return VisionResult(spec.id, spec.kind, value, u, {"edge_points": (a.n, b.n), "edge_rms": (a.rms, b.rms),
                                                        "modes": (da["mode"], db["mode"]),
-                                                       "edge_xy": np.vstack([da["xy"], db["xy"]])})
+                                                       "edge_xy": np.vstack([da["xy"], db["xy"]]), "budget": budget})
 
 
 def _inward(seg: FlangeSegment, spec: MeasurementSpec) -> FloatArray:

@@ -122,5 +122,6 @@ def _mean_position(spec: MeasurementSpec, replies: Sequence[VisionResult]) -> Vi
     mean = d.mean(axis=0)
     diag = {"frames": n, "deviation": tuple(mean), "deviations": d, "scatter": scatter, "u_random": u_random,
             "u_systematic": u_system, "datum": replies[0].diagnostics["datum"],
-            "center": replies[0].diagnostics["center"], "rim_xy": replies[0].diagnostics.get("rim_xy")}
+            "center": replies[0].diagnostics["center"], "rim_xy": replies[0].diagnostics.get("rim_xy"),
+            "budget": {f"arm pose and rim fit (mean of {n} frames)": u_random, "edge model": u_system}}
     return VisionResult(spec.id, spec.kind, 2 * float(np.hypot(*mean)), 2 * math.hypot(u_random, u_system), diag)
