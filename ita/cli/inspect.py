@@ -153,7 +153,7 @@ def _run(session: Any, archive: Any, run_id: str, as_json: bool, view: LiveView)
               help="Script one fault, e.g. broken_probe@us_probe_1:after=120 (simulated seconds); repeatable.")
 @click.option("--run-id", default=None, help="The id to give the new run (the System Monitor names the runs "
               "it starts); default a fresh one.")
-@click.option("--network/--no-network", default=False, show_default=True,
+@click.option("--network/--no-network", default=True, show_default=True,
               help="Decide the fastener holes' positions by a network adjustment of the SLRA frames of each "
                    "face (pending until the face's last position frame), instead of each on its own frame.")
 @reports_errors
