@@ -12,7 +12,16 @@ from numpy.typing import NDArray
 from ita.part.model import FlangeSegment, Hole, HoleRole, Stiffener
 from ita.specs.model import MeasurementKind as K
 from ita.specs.model import MeasurementSpec
-from ita.vision.context import BLUR_MM, EDGE_CORRELATION, VisionContext, VisionFail, VisionFailure, VisionResult
+from ita.vision.context import (
+    BLUR_MM,
+    EDGE_CORRELATION,
+    RIM_EDGE_MODEL_PX,
+    WHOLE_RIM,
+    VisionContext,
+    VisionFail,
+    VisionFailure,
+    VisionResult,
+)
 from ita.vision.fit import (
     LineFit,
     fit_parallel_planes,
@@ -27,7 +36,8 @@ FloatArray = NDArray[np.float64]
 def _hole_diameter(view: View, spec: MeasurementSpec, hole: Hole, ctx: VisionContext) -> VisionResult:
     fit, _, diag = fit_rim(view, hole, "rim")
     px = diag["pixel_mm"]
-    budget = {"rim fit": 2 * EDGE_CORRELATION * fit.radius_sigma, "edge model": 2 * edge_sigma(px, fit.n),
+    edge_model = RIM_EDGE_MODEL_PX * px if fit.coverage >= WHOLE_RIM else edge_sigma(px, fit.n)
+    budget = {"rim fit": 2 * EDGE_CORRELATION * fit.radius_sigma, "edge model": 2 * edge_model,
               "scanner angle scale": 2e-4 * fit.radius, "rim model (wall, surfaces beyond)": 2 * diag["u_model"]}
     u = math.hypot(*budget.values())
     diag.update(center=fit.center, budget=budget)
