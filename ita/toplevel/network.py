@@ -118,7 +118,7 @@ def decide(pendings: Sequence[Pending], specs: Mapping[str, Any], features: Mapp
         term, size = max(est.budget.items(), key=lambda kv: kv[1])
         zone = spec.upper - spec.lower
         note = (f"network of {n_frames} frames (seen in {len(est.frames)}); U/tolerance {2 * u / zone:.2f}; "
-                f"largest term: {term} {2 * size:.4f} mm")
+                f"largest term: {term} (u {2 * size:.4f} mm)")
         if why_out:
             note += "; its own frame left out (did not fit the network)"
         out.append(Result.measured(spec, 2 * float(math.hypot(*d)), u, tool=p.tool, sim_time_start=p.t0,
