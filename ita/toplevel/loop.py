@@ -413,7 +413,16 @@ class TopLevel:
             waiting = [self.pending[i] for i in sorted(members) if i in self.pending]
             if not waiting or (not final and any(i not in self.done and i not in self.pending for i in members)):
                 continue
-            results, sol = decide(waiting, self.session.specs, ctx.features, ctx.pose_sigma_m / ctx.placement.scale)
+            try:
+                results, sol = decide(waiting, self.session.specs, ctx.features,
+                                      ctx.pose_sigma_m / ctx.placement.scale)
+            except (ValueError, RuntimeError, np.linalg.LinAlgError) as exc:   # never lose the frames
+                for p in waiting:
+                    self.pending.pop(p.spec_id, None)
+                    self._record(Result.measured(self.session.specs[p.spec_id], p.frame_value, p.frame_u,
+                                                 tool=p.tool, sim_time_start=p.t0, sim_time_end=p.t1,
+                                                 reason=f"from its own frame: the network was not solved ({exc})"))
+                continue
             shifts = np.array([f[:2] for f in sol.frames.values()]) if sol.frames else np.zeros((0, 2))
             self.archive.record_event(self.run_id, Event("network", "top", self.session.world.clock.now, {
                 "network": key, "frames": len(sol.frames), "holes": len(sol.holes), "left_out": dict(sol.left_out),
