@@ -187,6 +187,7 @@ class TopLevel:
         self.diagnoses = 0
         self.network = bool(info.settings.get("network", False))
         self.pending: dict[str, Pending] = {}
+        self.kept: dict[str, tuple[dict | None, tuple]] = {}   # a pending result's details and frames (this process)
         self.networks: dict[str, set[str]] = {}     # network key -> the run's specs it decides
         if self.network:
             features, specs = session.slra.vctx.features, session.specs
@@ -366,7 +367,7 @@ class TopLevel:
             self.failures_in_a_row.append(f"{step.spec_id}: {out.reason or 'not done'}")
         if out.status is MeasureStatus.MEASURED:
             assert out.value is not None
-            if not self._hold(step.spec_id, out.value, tool, out.t0, out.t1, events):
+            if not self._hold(step.spec_id, out.value, tool, out.t0, out.t1, events, mine, extra.frames):
                 self._record(why_uncertain(Result.measured(spec, out.value.value, out.value.u, tool=tool,
                                                            sim_time_start=out.t0, sim_time_end=out.t1), out.value),
                              events, mine, extra.frames)
@@ -377,7 +378,7 @@ class TopLevel:
             if other.spec_id in self.done or other.spec_id in self.pending or other.spec_id not in self.todo_set:
                 continue
             theirs = extra.details.get(other.spec_id)
-            if other.ok and self._hold(other.spec_id, other, tool, out.t0, out.t1, []):
+            if other.ok and self._hold(other.spec_id, other, tool, out.t0, out.t1, [], theirs):
                 continue
             if other.ok:
                 self._record(why_uncertain(Result.measured(self.session.specs[other.spec_id], other.value, other.u,
@@ -391,9 +392,11 @@ class TopLevel:
 
     # -- hole positions by a network ------------------------------------------------------
     def _hold(self, spec_id: str, value: Any, tool: str | None, t0: float | None, t1: float | None,
-              events: list[Event]) -> bool:
+              events: list[Event], details: dict | None = None, frames: tuple = ()) -> bool:
         """Keep a measured position pending for its network (its sightings and the plan's
-        events to the archive now); False when the network does not decide it."""
+        events to the archive now; its details and range frames in memory, recorded with
+        its result, lost if the process dies first); False when the network does not
+        decide it."""
         if not any(spec_id in members for members in self.networks.values()):
             return False
         p = Pending.from_value(spec_id, value, tool, t0, t1)
@@ -403,6 +406,7 @@ class TopLevel:
                                                  p.to_event()])
         events.clear()
         self.pending[spec_id] = p
+        self.kept[spec_id] = (details, tuple(frames))
         return True
 
     def _solve_networks(self, final: bool = False) -> None:
@@ -419,9 +423,11 @@ class TopLevel:
             except (ValueError, RuntimeError, np.linalg.LinAlgError) as exc:   # never lose the frames
                 for p in waiting:
                     self.pending.pop(p.spec_id, None)
+                    details, frames = self.kept.pop(p.spec_id, (None, ()))
                     self._record(Result.measured(self.session.specs[p.spec_id], p.frame_value, p.frame_u,
                                                  tool=p.tool, sim_time_start=p.t0, sim_time_end=p.t1,
-                                                 reason=f"from its own frame: the network was not solved ({exc})"))
+                                                 reason=f"from its own frame: the network was not solved ({exc})"),
+                                 [], details, frames)
                 continue
             shifts = np.array([f[:2] for f in sol.frames.values()]) if sol.frames else np.zeros((0, 2))
             self.archive.record_event(self.run_id, Event("network", "top", self.session.world.clock.now, {
@@ -430,7 +436,8 @@ class TopLevel:
                 "frame_shift_rms_mm": float(np.sqrt(np.mean(shifts ** 2))) if len(shifts) else None}))
             for r in results:
                 self.pending.pop(r.spec_id, None)
-                self._record(r)
+                details, frames = self.kept.pop(r.spec_id, (None, ()))
+                self._record(r, [], details, frames)
 
     def _handle(self, out: MeasureOutcome) -> Any:
         """The Exception Handler on a failed measurement (fault injection paused meanwhile)."""
