@@ -191,6 +191,17 @@ def test_iso_14253_decision_at_each_boundary(value: float, expected: Decision) -
     assert decide(value, 0.25, 2.0, 3.0) is expected
 
 
+def test_a_true_position_is_decided_on_its_upper_limit_only() -> None:
+    """A position's zone [0, 0.5]: 0 is where the hole should be, not a limit to keep U from."""
+    assert decide(0.05, 0.15, 0.0, 0.5) is Decision.UNCERTAIN                     # two-sided: too near 0
+    assert decide(0.05, 0.15, 0.0, 0.5, bounded_below=True) is Decision.CONFORMS
+    assert decide(0.40, 0.15, 0.0, 0.5, bounded_below=True) is Decision.UNCERTAIN
+    assert decide(0.66, 0.15, 0.0, 0.5, bounded_below=True) is Decision.DOES_NOT_CONFORM
+    spec = type("Spec", (), {"id": "HP-OF-001", "kind": "hole_position", "point": (0.0, 0.0, 45.0),
+                             "nominal": 0.0, "lower": 0.0, "upper": 0.5})()
+    assert Result.measured(spec, 0.05, 0.075).decision is Decision.CONFORMS
+
+
 def test_decision_degenerate_and_bad_inputs() -> None:
     assert decide(2.0, 0.0, 2.0, 3.0) is Decision.CONFORMS          # no uncertainty: limits conform
     assert decide(2.5, 0.5, 2.0, 3.0) is Decision.CONFORMS          # zone shrunk to a point

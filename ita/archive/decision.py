@@ -28,11 +28,15 @@ class Decision(str, Enum):
         return self.value.replace("_", " ")
 
 
-def decide(value: float, expanded_uncertainty: float, low: float, high: float) -> Decision:
+def decide(value: float, expanded_uncertainty: float, low: float, high: float, *,
+           bounded_below: bool = False) -> Decision:
     """Decide on `value` (mm) with expanded uncertainty U (mm) against [low, high] (mm).
 
     CONFORMS when low + U <= value <= high - U; DOES_NOT_CONFORM when value < low - U or
-    value > high + U; UNCERTAIN otherwise.  Raises ValueError for a non-finite value or
+    value > high + U; UNCERTAIN otherwise.  bounded_below: the low limit is the
+    quantity's natural bound, not a specification limit (a true position is a zone's
+    diameter, 0 at best; ISO 14253-1 applies its upper limit only): only the high limit
+    is tested.  Raises ValueError for a non-finite value or
     uncertainty, a negative uncertainty, or low > high.
     """
     for name, x in (("value", value), ("expanded uncertainty", expanded_uncertainty),
@@ -44,6 +48,9 @@ def decide(value: float, expanded_uncertainty: float, low: float, high: float) -
     if low > high:
         raise ValueError(f"low limit {low} is above high limit {high}")
     u = expanded_uncertainty
+    if bounded_below:
+        return Decision.CONFORMS if value <= high - u else \
+            Decision.DOES_NOT_CONFORM if value > high + u else Decision.UNCERTAIN
     if low + u <= value <= high - u:
         return Decision.CONFORMS
     if value < low - u or value > high + u:

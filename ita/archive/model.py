@@ -17,6 +17,9 @@ from typing import Any
 
 from ita.archive.decision import Decision, decide
 
+#: kinds whose low limit is the quantity's natural bound (decided on their high limit only)
+BOUNDED_BELOW = frozenset({"hole_position"})
+
 
 class Outcome(str, Enum):
     """What became of a measurement.  The value is the spelling in the archive."""
@@ -107,7 +110,8 @@ class Result:
             if not (math.isfinite(self.value) and math.isfinite(self.u) and self.u >= 0):
                 raise ValueError(f"{self.spec_id}: value {self.value} / uncertainty {self.u} not valid")
             if self.decision is None:
-                object.__setattr__(self, "decision", decide(self.value, self.U, self.low_limit, self.high_limit))
+                object.__setattr__(self, "decision", decide(self.value, self.U, self.low_limit, self.high_limit,
+                                                           bounded_below=self.kind in BOUNDED_BELOW))
         elif self.value is not None or self.decision is not None:
             raise ValueError(f"{self.spec_id}: an unmeasured result has no value and no decision")
         if self.decision is not None:

@@ -157,10 +157,13 @@ def _run(session: Any, archive: Any, run_id: str, as_json: bool, view: LiveView)
               help="[default: 10] Stop the run with an alarm (exit 3) when N measurements in a row end not done "
               "even after the Exception Handler: something systematic is wrong; put it right and `ita "
               "continue` the run.  0: never.")
+@click.option("--network/--no-network", default=True, show_default=True,
+              help="Decide the fastener holes' positions by a network adjustment of the SLRA frames of each "
+                   "face (pending until the face's last position frame), instead of each on its own frame.")
 @reports_errors
 def inspect(part_dir: Path | None, limit: int | None, seed: int, runs_dir: Path | None, as_json: bool,
             fault_rate: float, fault_kinds: str | None, scripts: tuple[str, ...], run_id: str | None,
-            alarm_after: int | None) -> None:
+            alarm_after: int | None, network: bool) -> None:
     """Inspect the part (in the simulated workcell): every measurement of the sequence
     plan, planned, executed, measured and recorded in the runs archive as it is made.
 
@@ -187,7 +190,9 @@ def inspect(part_dir: Path | None, limit: int | None, seed: int, runs_dir: Path 
     session = open_session(part_dir, seed=seed, progress=lambda m: view.note(f"{m} ..."))
     try:
         with Archive.open(archive_path(runs_dir)) as archive:
-            settings: dict[str, Any] = {} if alarm_after is None else {"alarm_after": alarm_after}
+            settings: dict[str, Any] = {"network": network}
+            if alarm_after is not None:
+                settings["alarm_after"] = alarm_after
             if injection.active:
                 settings["faults"] = injection.to_dict()
             run_id = start_run(session, archive, limit=limit, run_id=run_id, settings=settings)

@@ -33,6 +33,7 @@ from ita.cli.common import part_option, reports_errors
 def measure(meas_id: str, part_dir: Path | None, render: Path | None, seed: int, as_json: bool) -> None:
     """Move the simulated arm with the right tool to MEAS_ID, measure, print the result."""
     from ita.archive import decide
+    from ita.archive.model import BOUNDED_BELOW
     from ita.errors import InputError, Location
     from ita.part.store import load_part
     from ita.planning import WorldState
@@ -72,7 +73,8 @@ def measure(meas_id: str, part_dir: Path | None, render: Path | None, seed: int,
             elif render is not None:
                 click.echo("note: --render draws SLRA measurements only; nothing drawn", err=True)
         if value is not None and u is not None:
-            decision = decide(value, 2.0 * u, spec.low_limit, spec.high_limit)
+            decision = decide(value, 2.0 * u, spec.low_limit, spec.high_limit,
+                              bounded_below=spec.kind.value in BOUNDED_BELOW)
             out.update(value=value, u=u, U=2.0 * u, decision=decision.value)
         else:
             out.update(reason=reason)

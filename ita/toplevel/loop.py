@@ -20,6 +20,13 @@ SLRA view groups: a frame taken for one measurement serves every member of its v
 group (the MKB); the members' results are recorded as soon as Vision has them, and the
 Sequence Planner's later hand-out of a member already recorded is skipped.
 
+Hole positions by a network (the run's setting ``network``, see
+:mod:`ita.toplevel.network`): a fastener hole's position is PENDING once its frame is
+measured (its sightings kept in the archive as an event, the plan's events recorded at
+once) and decided, with the other positions on its face, when the last of them has been
+measured or given up; a run that completes decides every network left.  `ita continue`
+reads the pending frames back and does not measure them again.
+
 Between measurements the loop obeys INTERRUPT (leave after the current plan, status
 INTERRUPTED) and STOP (raised at once as StopNow, status STOPPED), from Ctrl-C or from
 the archive's control table (`ita monitor`).  A run is continued (`ita continue`) by
@@ -35,7 +42,9 @@ from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING, Any
 
-from ita.archive import Event, Outcome, Result, RunStatus
+import numpy as np
+
+from ita.archive import Decision, Event, Outcome, Result, RunStatus
 from ita.archive.timeline import breakdown, intervals, span
 from ita.devices.arm import RECOVER_SECONDS
 from ita.planning.state import WorldState
@@ -43,6 +52,7 @@ from ita.sequence.next_step import next_step, the_arm
 from ita.toplevel.details import measurement_details
 from ita.toplevel.events import archive_events
 from ita.toplevel.measure import MeasureOutcome, MeasureStatus, measure_one
+from ita.toplevel.network import EVENT_KIND, Pending, decide, network_key
 from ita.toplevel.signals import RunSignals, StopNow
 
 if TYPE_CHECKING:
@@ -50,7 +60,22 @@ if TYPE_CHECKING:
     from ita.sequence.next_step import Step
     from ita.toplevel.session import Session
 
-__all__ = ["Progress", "RunSummary", "TopLevel", "start_run"]
+__all__ = ["Progress", "RunSummary", "TopLevel", "start_run", "why_uncertain"]
+
+
+def why_uncertain(result: Result, value: Any) -> Result:
+    """An uncertain result with why added to its reason: U over the tolerance zone and the
+    largest term of the uncertainty budget its device reported (Vision's ``budget``:
+    term -> standard uncertainty, mm).  Any other result as it is."""
+    if result.decision is not Decision.UNCERTAIN or result.U is None:
+        return result
+    zone = result.upper - result.lower
+    note = f"U/tolerance {result.U / zone:.2f}" if zone > 0 else f"U {result.U:.4f} mm"
+    budget = (getattr(getattr(value, "source", None), "diagnostics", None) or {}).get("budget") or {}
+    if budget:
+        term, size = max(budget.items(), key=lambda kv: kv[1])
+        note += f"; largest term: {term} (u {size:.4f} mm)"
+    return replace(result, reason=f"{result.reason}; {note}" if result.reason else note)
 
 
 def start_run(session: Session, archive: Archive, *, limit: int | None = None, run_id: str | None = None,
@@ -163,6 +188,20 @@ class TopLevel:
         self.recorded_now = 0
         self.frames = 0
         self.diagnoses = 0
+        self.network = bool(info.settings.get("network", False))
+        self.pending: dict[str, Pending] = {}
+        self.kept: dict[str, tuple[dict | None, tuple]] = {}   # a pending result's details and frames (this process)
+        self.networks: dict[str, set[str]] = {}     # network key -> the run's specs it decides
+        if self.network:
+            features, specs = session.slra.vctx.features, session.specs
+            for spec_id in self.todo:
+                key = network_key(specs[spec_id], features) if spec_id in specs else None
+                if key is not None:
+                    self.networks.setdefault(key, set()).add(spec_id)
+            for event in archive.events(run_id, kinds=[EVENT_KIND]):
+                p = Pending.from_event(event)
+                if p.spec_id not in self.done:
+                    self.pending[p.spec_id] = p
         self.handler = None
         if handle_exceptions:
             from ita.diagnosis import ExceptionHandler
@@ -212,7 +251,8 @@ class TopLevel:
         sim0 = s.world.clock.now
         n_done0 = len(self.done)
         plan = replace(s.plan, handed_out=tuple(i for g in s.plan.groups for i in g.order
-                                                  if i in self.done or i not in self.todo_set))
+                                                  if i in self.done or i in self.pending
+                                                  or i not in self.todo_set))
         state = WorldState(arm=self._arm_name())
         status = RunStatus.COMPLETED
         alarm = ""
@@ -235,10 +275,11 @@ class TopLevel:
                 step = result.step
                 if step is None:
                     break
-                if step.spec_id in self.done or step.spec_id not in self.todo_set:
+                if step.spec_id in self.done or step.spec_id in self.pending or step.spec_id not in self.todo_set:
                     continue
                 current = (step.group, step.tool, step.spec_id)
                 state = self._measure(step, state)
+                self._solve_networks()
                 if on_progress is not None:
                     on_progress(self._progress(current, wall0, sim0, n_done0, "measuring"))
                 if self.max_failures_in_a_row and len(self.failures_in_a_row) >= self.max_failures_in_a_row:
@@ -249,7 +290,9 @@ class TopLevel:
         except StopNow:
             status = RunStatus.STOPPED
         end_t = s.world.clock.now
-        remaining = [i for i in self.todo if i not in self.done]
+        if status is RunStatus.COMPLETED:
+            self._solve_networks(final=True)
+        remaining = [i for i in self.todo if i not in self.done and i not in self.pending]
         if status is RunStatus.COMPLETED and remaining:
             for spec_id in remaining:   # the sequence planner no longer hands them out
                 self._unmeasured(spec_id, Outcome.CANNOT_BE_DONE, "not handed out by the sequence planner")
@@ -327,23 +370,78 @@ class TopLevel:
         tool = out.tool or step.tool
         if out.status is MeasureStatus.MEASURED:
             assert out.value is not None
-            self._record(Result.measured(spec, out.value.value, out.value.u, tool=tool,
-                                         sim_time_start=out.t0, sim_time_end=out.t1), events, mine, extra.frames)
+            self.failures_in_a_row = []          # measured, even when its result waits for its network
+            if not self._hold(step.spec_id, out.value, tool, out.t0, out.t1, events, mine, extra.frames):
+                self._record(why_uncertain(Result.measured(spec, out.value.value, out.value.u, tool=tool,
+                                                           sim_time_start=out.t0, sim_time_end=out.t1), out.value),
+                             events, mine, extra.frames)
         else:
             self._unmeasured(step.spec_id, Outcome.NOT_DONE, out.reason or "", tool=tool, t0=out.t0,
                              t1=out.t1, events=events, details=mine, frames=extra.frames)
         for other in out.others:   # the rest of the frame's view group
-            if other.spec_id in self.done or other.spec_id not in self.todo_set:
+            if other.spec_id in self.done or other.spec_id in self.pending or other.spec_id not in self.todo_set:
                 continue
             theirs = extra.details.get(other.spec_id)
+            if other.ok and self._hold(other.spec_id, other, tool, out.t0, out.t1, [], theirs):
+                continue
             if other.ok:
-                self._record(Result.measured(self.session.specs[other.spec_id], other.value, other.u,
-                                             tool=tool, sim_time_start=out.t0, sim_time_end=out.t1,
-                                             reason=f"from the frame of {step.spec_id}"), [], theirs)
+                self._record(why_uncertain(Result.measured(self.session.specs[other.spec_id], other.value, other.u,
+                                                           tool=tool, sim_time_start=out.t0, sim_time_end=out.t1,
+                                                           reason=f"from the frame of {step.spec_id}"), other),
+                             [], theirs)
             else:
                 self._unmeasured(other.spec_id, Outcome.NOT_DONE, other.reason or "", tool=tool, t0=out.t0,
                                  t1=out.t1, details=theirs)
         return out.state
+
+    # -- hole positions by a network ------------------------------------------------------
+    def _hold(self, spec_id: str, value: Any, tool: str | None, t0: float | None, t1: float | None,
+              events: list[Event], details: dict | None = None, frames: tuple = ()) -> bool:
+        """Keep a measured position pending for its network (its sightings and the plan's
+        events to the archive now; its details and range frames in memory, recorded with
+        its result, lost if the process dies first); False when the network does not
+        decide it."""
+        if not any(spec_id in members for members in self.networks.values()):
+            return False
+        p = Pending.from_value(spec_id, value, tool, t0, t1)
+        if p is None:
+            return False
+        self.archive.record_events(self.run_id, [*(replace(e, spec_id=e.spec_id or spec_id) for e in events),
+                                                 p.to_event()])
+        events.clear()
+        self.pending[spec_id] = p
+        self.kept[spec_id] = (details, tuple(frames))
+        return True
+
+    def _solve_networks(self, final: bool = False) -> None:
+        """Decide every network whose members are all measured or given up (final: every
+        network with a pending member) and record its results."""
+        ctx = self.session.slra.vctx
+        for key, members in self.networks.items():
+            waiting = [self.pending[i] for i in sorted(members) if i in self.pending]
+            if not waiting or (not final and any(i not in self.done and i not in self.pending for i in members)):
+                continue
+            try:
+                results, sol = decide(waiting, self.session.specs, ctx.features,
+                                      ctx.pose_sigma_m / ctx.placement.scale)
+            except (ValueError, RuntimeError, np.linalg.LinAlgError) as exc:   # never lose the frames
+                for p in waiting:
+                    self.pending.pop(p.spec_id, None)
+                    details, frames = self.kept.pop(p.spec_id, (None, ()))
+                    self._record(Result.measured(self.session.specs[p.spec_id], p.frame_value, p.frame_u,
+                                                 tool=p.tool, sim_time_start=p.t0, sim_time_end=p.t1,
+                                                 reason=f"from its own frame: the network was not solved ({exc})"),
+                                 [], details, frames)
+                continue
+            shifts = np.array([f[:2] for f in sol.frames.values()]) if sol.frames else np.zeros((0, 2))
+            self.archive.record_event(self.run_id, Event("network", "top", self.session.world.clock.now, {
+                "network": key, "frames": len(sol.frames), "holes": len(sol.holes), "left_out": dict(sol.left_out),
+                "variance_factor": sol.variance_factor, "redundancy": sol.redundancy,
+                "frame_shift_rms_mm": float(np.sqrt(np.mean(shifts ** 2))) if len(shifts) else None}))
+            for r in results:
+                self.pending.pop(r.spec_id, None)
+                details, frames = self.kept.pop(r.spec_id, (None, ()))
+                self._record(r, [], details, frames)
 
     def _handle(self, out: MeasureOutcome) -> Any:
         """The Exception Handler on a failed measurement (fault injection paused meanwhile)."""

@@ -57,6 +57,13 @@ EDGE_CORRELATION = 1.6   # inflates edge-fit sigmas: row and column crossings sh
 EDGE_MODEL_PX = 0.05     # residual bias of a sub-pixel edge point (pixels), not averaged away
 
 
+RIM_EDGE_MODEL_PX = 0.01  # the same bias on a radius fitted over a whole rim: its points sample every sub-pixel
+                          # phase and direction, so what is left is the model's mean bias (bench/vision.py)
+
+
+WHOLE_RIM = 0.9 * 2 * math.pi  # a rim whose points span this much (rad) is whole
+
+
 MIX_RANGE_MM = 100.0     # a surface this far beyond the face mixes with it in phase (range share)
 
 

@@ -12,13 +12,22 @@ from numpy.typing import NDArray
 from ita.part.model import FlangeSegment, Hole, HoleRole, Stiffener
 from ita.specs.model import MeasurementKind as K
 from ita.specs.model import MeasurementSpec
-from ita.vision.context import BLUR_MM, EDGE_CORRELATION, VisionContext, VisionFail, VisionFailure, VisionResult
+from ita.vision.context import (
+    BLUR_MM,
+    EDGE_CORRELATION,
+    RIM_EDGE_MODEL_PX,
+    WHOLE_RIM,
+    VisionContext,
+    VisionFail,
+    VisionFailure,
+    VisionResult,
+)
 from ita.vision.fit import (
     LineFit,
     fit_parallel_planes,
 )
 from ita.vision.patches import View, nominal_points
-from ita.vision.register import register_on_neighbours, rib_beneath
+from ita.vision.register import neighbour_rims, register_on_rims, rib_beneath
 from ita.vision.rims import edge_sigma, fit_edge, fit_face, fit_rim, frame_uv, free_edge, rect_patch
 
 FloatArray = NDArray[np.float64]
@@ -27,9 +36,11 @@ FloatArray = NDArray[np.float64]
 def _hole_diameter(view: View, spec: MeasurementSpec, hole: Hole, ctx: VisionContext) -> VisionResult:
     fit, _, diag = fit_rim(view, hole, "rim")
     px = diag["pixel_mm"]
-    u = math.hypot(2 * EDGE_CORRELATION * fit.radius_sigma, 2 * edge_sigma(px, fit.n))
-    u = math.hypot(u, 2e-4 * fit.radius, 2 * diag["u_model"])  # + scanner angle-scale calibration
-    diag.update(center=fit.center)
+    edge_model = RIM_EDGE_MODEL_PX * px if fit.coverage >= WHOLE_RIM else edge_sigma(px, fit.n)
+    budget = {"rim fit": 2 * EDGE_CORRELATION * fit.radius_sigma, "edge model": 2 * edge_model,
+              "scanner angle scale": 2e-4 * fit.radius, "rim model (wall, surfaces beyond)": 2 * diag["u_model"]}
+    u = math.hypot(*budget.values())
+    diag.update(center=fit.center, budget=budget)
     return VisionResult(spec.id, spec.kind, 2 * fit.radius, u, diag)
 
 
@@ -38,10 +49,15 @@ def _hole_position(view: View, spec: MeasurementSpec, hole: Hole, ctx: VisionCon
     px = diag["pixel_mm"]
     u_fit = math.hypot(EDGE_CORRELATION * max(fit.center_sigma), edge_sigma(px, fit.n))
     shift, u_reg, used, left = np.zeros(2), math.nan, [], []
+    sightings = [{"hole": hole.id, "xy": (float(fit.center[0]), float(fit.center[1])), "sigma": u_fit,
+                  "systematic": float(diag["u_model_centre"]), "group": "whole rim"}]
     if hole.role is HoleRole.FASTENER:
         # a rim with a rib beneath is fitted less well than its neighbours' are: no radius for them
         radius = None if rib_beneath(view, hole, ctx) else fit.radius
-        shift, u_reg, used, left = register_on_neighbours(view, hole, radius, ctx)
+        rims, left = neighbour_rims(view, hole, radius, ctx)
+        sightings += [{"hole": r.hole, "xy": r.centre, "sigma": r.u_random, "systematic": r.u_model,
+                       "group": "half rim"} for r in rims]
+        shift, u_reg, used, left = register_on_rims(rims, left, ctx)
     pose_u = ctx.pose_sigma_m / ctx.placement.scale
     d = np.asarray(fit.center) + shift - np.asarray(hole.center[:2])
     # random from frame to frame: the rim fit and, with the pose as datum, the arm's pose
@@ -50,8 +66,12 @@ def _hole_position(view: View, spec: MeasurementSpec, hole: Hole, ctx: VisionCon
     u_random = math.hypot(u_fit, pose_u) if not used else u_fit
     u_system = math.hypot(diag["u_model_centre"], u_reg) if used else diag["u_model_centre"]
     u_axis = math.hypot(u_random, u_system)
+    # the rims of this frame for a network adjustment (ita.vision.network) of the frames
     diag.update(center=fit.center, registered_on=used, left_out=left, shift=tuple(shift), deviation=tuple(d),
-                datum="neighbours" if used else "pose", u_random=u_random, u_systematic=u_system)
+                datum="neighbours" if used else "pose", u_random=u_random, u_systematic=u_system,
+                sightings=sightings, budget={"rim fit": u_fit, "edge model": float(diag["u_model_centre"]),
+                                             **({"neighbours' positions": u_reg} if used else
+                                                {"arm pose": pose_u})})
     return VisionResult(spec.id, spec.kind, 2 * float(np.hypot(*d)), 2 * u_axis, diag)
 
 
@@ -72,10 +92,11 @@ def _edge_distance(view: View, spec: MeasurementSpec, hole: Hole, ctx: VisionCon
     dist = float(line.distance(np.asarray(fit.center))[0])
     sign = 1.0 if float(np.dot([-line.direction[1], line.direction[0]], u)) < 0 else -1.0
     value = sign * dist
-    u_val = math.sqrt(line.offset_sigma_at(np.asarray(fit.center)) ** 2 * EDGE_CORRELATION ** 2
-                      + (EDGE_CORRELATION * max(fit.center_sigma)) ** 2 + 2 * edge_sigma(diag["pixel_mm"], 1) ** 2
-                      + diag["u_model"] ** 2)
-    diag.update(edge_points=ldiag["points"], edge_rms=ldiag["rms"], edge_xy=ldiag["xy"])
+    budget = {"edge line fit": line.offset_sigma_at(np.asarray(fit.center)) * EDGE_CORRELATION,
+              "rim fit": EDGE_CORRELATION * max(fit.center_sigma),
+              "edge model": math.sqrt(2) * edge_sigma(diag["pixel_mm"], 1), "rim model": diag["u_model"]}
+    u_val = math.hypot(*budget.values())
+    diag.update(edge_points=ldiag["points"], edge_rms=ldiag["rms"], edge_xy=ldiag["xy"], budget=budget)
     return VisionResult(spec.id, spec.kind, value, u_val, diag)
 
 
@@ -98,7 +119,9 @@ def _height(top: FloatArray, webs: list[tuple[FloatArray, float]], ctx: VisionCo
     u_fit = math.sqrt(np.mean([fit.gap_sigma(0, 1 + i) ** 2 for i in range(len(webs))]))
     u_web = ctx.web_tolerance / math.sqrt(3) / math.sqrt(len(webs))
     return float(np.mean(h)), math.hypot(u_fit, u_web), {"rms": fit.rms, "u_fit": u_fit, "u_web": u_web,
-                                                         "pixels": [len(top)] + [len(w) for w, _ in webs]}
+                                                         "pixels": [len(top)] + [len(w) for w, _ in webs],
+                                                         "budget": {"plane fits": u_fit,
+                                                                    "web thickness (its tolerance)": u_web}}
 
 
 def _flange(view: View, spec: MeasurementSpec, seg: FlangeSegment, ctx: VisionContext) -> VisionResult:
@@ -126,12 +149,13 @@ def _flange(view: View, spec: MeasurementSpec, seg: FlangeSegment, ctx: VisionCo
 def _width(spec: MeasurementSpec, p: FloatArray, a: LineFit, b: LineFit, da: dict, db: dict) -> VisionResult:
     value = abs(float(a.distance(p)[0]) - float(b.distance(p)[0])) if np.dot(a.direction, b.direction) > 0 else \
         abs(float(a.distance(p)[0]) + float(b.distance(p)[0]))
-    u = math.sqrt((EDGE_CORRELATION * a.offset_sigma_at(p)) ** 2 + (EDGE_CORRELATION * b.offset_sigma_at(p)) ** 2
-                  + edge_sigma(da["pixel_mm"], a.n) ** 2 + edge_sigma(db["pixel_mm"], b.n) ** 2)
-    u = math.hypot(u, 2e-4 * value)
+    budget = {"edge line fits": EDGE_CORRELATION * math.hypot(a.offset_sigma_at(p), b.offset_sigma_at(p)),
+              "edge model": math.hypot(edge_sigma(da["pixel_mm"], a.n), edge_sigma(db["pixel_mm"], b.n)),
+              "scanner angle scale": 2e-4 * value}
+    u = math.hypot(*budget.values())
     return VisionResult(spec.id, spec.kind, value, u, {"edge_points": (a.n, b.n), "edge_rms": (a.rms, b.rms),
                                                        "modes": (da["mode"], db["mode"]),
-                                                       "edge_xy": np.vstack([da["xy"], db["xy"]])})
+                                                       "edge_xy": np.vstack([da["xy"], db["xy"]]), "budget": budget})
 
 
 def _inward(seg: FlangeSegment, spec: MeasurementSpec) -> FloatArray:

@@ -34,6 +34,10 @@ two things in the same image:
   own position scatter (assumed uniform over their tolerance zone: sigma = zone / 4 per
   axis, divided by the number of neighbours) enters the uncertainty: it does not repeat
   away, and it is the main term;
+  the frame also reports every rim it fitted (the hole's own, whole, and its neighbours',
+  half) as ``sightings``: the Top Level decides fastener positions by adjusting all of a
+  face's frames together (:mod:`ita.vision.network`), where the neighbours' positions are
+  unknowns of the adjustment rather than a zone's worth of uncertainty;
 * a lightening hole has no neighbour in view (pocket walls lie outside the window): its
   datum is the arm's pose (`datum = "pose"`), whose error is a new draw of the arm's
   repeatability at each approach.  `frames_for` asks for ctx.pose_datum_frames frames, each
@@ -122,5 +126,6 @@ def _mean_position(spec: MeasurementSpec, replies: Sequence[VisionResult]) -> Vi
     mean = d.mean(axis=0)
     diag = {"frames": n, "deviation": tuple(mean), "deviations": d, "scatter": scatter, "u_random": u_random,
             "u_systematic": u_system, "datum": replies[0].diagnostics["datum"],
-            "center": replies[0].diagnostics["center"], "rim_xy": replies[0].diagnostics.get("rim_xy")}
+            "center": replies[0].diagnostics["center"], "rim_xy": replies[0].diagnostics.get("rim_xy"),
+            "budget": {f"arm pose and rim fit (mean of {n} frames)": u_random, "edge model": u_system}}
     return VisionResult(spec.id, spec.kind, 2 * float(np.hypot(*mean)), 2 * math.hypot(u_random, u_system), diag)

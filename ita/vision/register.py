@@ -7,6 +7,7 @@ their nominal centres, with the neighbours' own position scatter as an uncertain
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
@@ -87,8 +88,46 @@ def _segments_cross(p: FloatArray, q: FloatArray) -> bool:
             and side(q[0], q[1], p[0]) * side(q[0], q[1], p[1]) < 0)
 
 
+@dataclass(frozen=True)
+class NeighbourRim:
+    """A datum neighbour's rim fitted in a frame: its centre (x, y mm, part frame, as the
+    frame's reported pose places it) and the standard uncertainty per axis of that centre:
+    what is new in each frame (`u_random`: the rim fit, the edge points, the radius it
+    was fitted with) and what the edge model adds (`u_model`)."""
+
+    hole: str
+    centre: tuple[float, float]
+    u_random: float
+    u_model: float
+
+    @property
+    def u(self) -> float:
+        return math.hypot(self.u_random, self.u_model)
+
+
+def neighbour_rims(view: View, hole: Hole, radius: float | None, ctx: VisionContext
+                   ) -> tuple[list[NeighbourRim], list[str]]:
+    """The datum neighbours' rims fitted in this frame, and the ids of those that cannot
+    be (see :func:`register_on_neighbours`)."""
+    rims, left = [], []
+    for nb in _datum_neighbours(view, hole, ctx):
+        try:
+            f2, _, d2 = fit_rim(view, nb, f"rim {nb.id}", DATUM_MIN_COVERAGE,
+                                None if radius is None else radius + (nb.diameter - hole.diameter) / 2)
+        except VisionFail:
+            left.append(nb.id)
+            continue
+        t_r = math.hypot(ctx.diameter_tolerances.get(nb.id, DIAMETER_TOLERANCE),
+                         ctx.diameter_tolerances.get(hole.id, DIAMETER_TOLERANCE)) / 2 / math.sqrt(3)
+        u_random = math.hypot(EDGE_CORRELATION * max(f2.center_sigma), edge_sigma(d2["pixel_mm"], f2.n),
+                              0.0 if radius is None else 1.3 * t_r)
+        rims.append(NeighbourRim(nb.id, (float(f2.center[0]), float(f2.center[1])), u_random,
+                                 float(d2["u_model_centre"])))
+    return rims, left
+
+
 def register_on_neighbours(view: View, hole: Hole, radius: float | None, ctx: VisionContext
-                            ) -> tuple[FloatArray, float, list[str], list[str]]:
+                           ) -> tuple[FloatArray, float, list[str], list[str]]:
     """The frame's shift (2,) from the datum neighbours' measured to nominal centres (their
     mean), its per-axis standard uncertainty, the neighbours used and those left out (a
     rim that cannot be measured in this frame; one whose offset is more than a zone radius
@@ -101,20 +140,17 @@ def register_on_neighbours(view: View, hole: Hole, radius: float | None, ctx: Vi
     tolerance), which moves a half-circle's centre by about 1.3 times the radius
     difference along its bisector: a type-B term in the uncertainty.  radius None: their
     radii are fitted too."""
-    offsets, u_nb, used, left = [], [], [], []
-    for nb in _datum_neighbours(view, hole, ctx):
-        try:
-            f2, _, d2 = fit_rim(view, nb, f"rim {nb.id}", DATUM_MIN_COVERAGE,
-                                None if radius is None else radius + (nb.diameter - hole.diameter) / 2)
-        except VisionFail:
-            left.append(nb.id)
-            continue
-        t_r = math.hypot(ctx.diameter_tolerances.get(nb.id, DIAMETER_TOLERANCE),
-                         ctx.diameter_tolerances.get(hole.id, DIAMETER_TOLERANCE)) / 2 / math.sqrt(3)
-        offsets.append(np.asarray(nb.center[:2]) - np.asarray(f2.center))
-        u_nb.append(math.hypot(EDGE_CORRELATION * max(f2.center_sigma), edge_sigma(d2["pixel_mm"], f2.n),
-                               d2["u_model_centre"], 0.0 if radius is None else 1.3 * t_r))
-        used.append(nb.id)
+    return register_on_rims(*neighbour_rims(view, hole, radius, ctx), ctx)
+
+
+def register_on_rims(rims: list[NeighbourRim], left: list[str], ctx: VisionContext
+                     ) -> tuple[FloatArray, float, list[str], list[str]]:
+    """:func:`register_on_neighbours` from the neighbours' rims already fitted."""
+    left = list(left)
+    nominal = {h.id: h for h in ctx.features.values() if isinstance(h, Hole)}
+    offsets = [np.asarray(nominal[r.hole].center[:2]) - np.asarray(r.centre) for r in rims]
+    u_nb = [r.u for r in rims]
+    used = [r.hole for r in rims]
     if len(offsets) >= 3:
         mid = np.median(offsets, axis=0)
         ok = [float(np.linalg.norm(o - mid)) <= ctx.position_zones.get(i, 0.5) / 2

@@ -1,0 +1,92 @@
+"""Hole positions decided by the network of a run's frames (ita.toplevel.network): pending
+until the network is solved, and a run killed before that loses and repeats nothing."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from collections import Counter
+from pathlib import Path
+
+from ita.archive import Archive, Event, archive_path
+from ita.toplevel.network import EVENT_KIND, Pending
+from ita.vision.network import Sighting
+
+REPO = Path(__file__).resolve().parent.parent
+
+
+def test_a_pending_frame_survives_the_archive() -> None:
+    p = Pending("HP-OF-001", "slra_1", 1.0, 2.5, (Sighting("HP-OF-001", "OF-001", (28.9, -732.0), 0.01, 0.002),
+                                                   Sighting("HP-OF-001", "OF-002", (86.7, -732.1), 0.03, 0.0, "half rim")),
+                0.21, 0.05)
+    again = Pending.from_event(Event(EVENT_KIND, "top", 2.5, p.to_event().payload))
+    assert again == p
+
+
+def _wait_for(proc: subprocess.Popen, runs: Path, ready, timeout: float = 240.0) -> str | None:
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline and proc.poll() is None:
+        time.sleep(0.05)
+        if not archive_path(runs).exists():
+            continue
+        with Archive.open(archive_path(runs)) as archive:
+            mine = [r for r in archive.runs() if r.pid == proc.pid]
+            if mine and ready(archive, mine[0].id):
+                return mine[0].id
+    return None
+
+
+def test_killed_before_its_network_is_solved_continue_loses_and_repeats_nothing(tmp_path, ita_home,
+                                                                                builtin_part) -> None:
+    runs = tmp_path / "runs"
+    env = dict(os.environ, PYTHONPATH=str(REPO), ITA_HOME=str(ita_home))
+    cmd = [sys.executable, str(REPO / "cli.py"), "inspect", "--limit", "12", "--seed", "4", "--network",
+           "--runs-dir", str(runs)]
+    proc = subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:   # kill it once two position frames wait for their network
+        run_id = _wait_for(proc, runs, lambda a, r: len(a.events(r, kinds=[EVENT_KIND])) >= 2)
+        os.kill(proc.pid, signal.SIGKILL)
+    finally:
+        proc.wait(timeout=30)
+    assert run_id is not None, "no position frame was kept pending"
+    with Archive.open(archive_path(runs)) as archive:
+        pending = {e.payload["spec"] for e in archive.events(run_id, kinds=[EVENT_KIND])}
+        assert archive.run(run_id).state_label == "dead"
+        assert not pending & archive.done_spec_ids(run_id)        # not decided before the network is solved
+    done = subprocess.run([sys.executable, str(REPO / "cli.py"), "continue", run_id, "--runs-dir", str(runs)],
+                          env=env, capture_output=True, text=True, timeout=400, check=False)
+    assert done.returncode == 0, done.stderr[-2000:]
+    with Archive.open(archive_path(runs)) as archive:
+        results = archive.results(run_id)
+        ids = Counter(r.spec_id for r in results)
+        assert ids.keys() == set(archive.run(run_id).settings["specs"]) and set(ids.values()) == {1}
+        positions = {r.spec_id: r for r in results if r.spec_id.startswith("HP-")}
+        assert pending <= positions.keys()
+        # each position was measured once (its frame kept across the kill), decided by the network
+        plans = Counter(e.payload.get("spec") for e in archive.events(run_id, kinds=["plan_start"]))
+        frames = Counter(e.payload["spec"] for e in archive.events(run_id, kinds=[EVENT_KIND]))
+        assert all(plans[i] == 1 and frames[i] == 1 for i in positions)
+        assert all(r.outcome.value == "measured" and "network of 3 frames" in (r.reason or "")
+                   for r in positions.values())
+        assert len(archive.events(run_id, kinds=["network"])) == 1
+
+
+def test_an_uncertain_result_says_why() -> None:
+    from types import SimpleNamespace
+
+    from ita.archive import Result
+    from ita.specs.model import MeasurementKind as K
+    from ita.toplevel.loop import why_uncertain
+
+    spec = SimpleNamespace(id="HD-OF-001", kind=K.HOLE_DIAMETER, point=(0.0, 0.0, 45.0), nominal=6.35,
+                           lower=-0.076, upper=0.076)
+    source = SimpleNamespace(diagnostics={"budget": {"rim fit": 0.004, "edge model": 0.011}})
+    near_limit = why_uncertain(Result.measured(spec, 6.42, 0.011, reason="from the frame of X"),
+                               SimpleNamespace(source=source))
+    assert near_limit.decision.value == "uncertain"
+    assert near_limit.reason == "from the frame of X; U/tolerance 0.14; largest term: edge model (u 0.0110 mm)"
+    inside = Result.measured(spec, 6.35, 0.011)
+    assert why_uncertain(inside, SimpleNamespace(source=source)) is inside
