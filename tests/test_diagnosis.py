@@ -81,6 +81,24 @@ def test_each_exception_is_diagnosed_to_the_fault_switched_on(session, handler, 
     session.world.faults = FaultSet()
 
 
+def test_a_broken_bent_probe_is_diagnosed_and_replaced_from_the_stores(session, handler, arm):
+    """The probe bent 90 degrees is a probe to the Exception Handler too: its dead element is
+    found by the tests (its own reading of the calibration block), it is marked broken and,
+    with no spare bent probe in the rack, a person replaces it; the wall is then measured."""
+    spec_id = "FT-OFL01-W1"
+    assert session.planned_tool(spec_id) == "us_probe_90"
+    _, handled = _fail_and_handle(session, handler, arm, spec_id, "us_probe_90",
+                                  FaultSet().with_fault("broken_probe", "us_probe_90"))
+    d = handled.diagnosis
+    assert d.exception == "no_echo" and d.cause == "broken_probe(us_probe_90)", d.summary
+    assert d.tests, "a cause was isolated without a test"
+    assert handled.outcome.status is MeasureStatus.MEASURED, handled.outcome.reason
+    v = handled.outcome.value
+    assert abs(v.value - _truth(session)[spec_id]) <= max(2.0 * v.u, 0.02)
+    session.kb.once("world", "reset_world")
+    session.world.faults = FaultSet()
+
+
 def _truth(session) -> dict[str, float]:
     from ita.scoring import true_values
 
