@@ -394,7 +394,9 @@ def build_mkb(
     points (default: made here).  reuse: an MKB of the same specs and workcell whose
     entries of a tool are taken as they are when that tool has exactly the same
     measurements to place (a tool's placements depend on its own measurements only), as
-    after a re-plan that moved a few measurements to another tool."""
+    after a re-plan that moved a few measurements to another tool; and what it could not
+    place stays as an alternative entry where the new MKB has no entry of that tool class
+    (so the tool rules still know it)."""
     t0 = time.perf_counter()
     if planner_for is None:
 
@@ -431,6 +433,7 @@ def build_mkb(
             by_tool.setdefault(tools[s.id], []).append(s)
             for other in (alternatives or {}).get(s.id, ()):
                 alt_by_tool.setdefault(other, []).append(s)
+    spec_ids = {s.id for s in specs}
     old_own: dict[str, list[MkbEntry]] = {}
     old_alt: dict[str, list[MkbEntry]] = {}
     if reuse is not None:
@@ -446,6 +449,12 @@ def build_mkb(
         for e in found.values():
             alt_entries.setdefault(e.spec_id, []).append(e)
         alt_groups.update(made)
+    if reuse is not None:   # what the earlier MKB could not place stays known (kb/tools.pl's placed/2)
+        old_problems = [*reuse.problems(), *(a for alts in reuse.alternatives.values() for a in alts if not a.ok)]
+        for e in old_problems:
+            known = [*alt_entries.get(e.spec_id, []), *([entries[e.spec_id]] if e.spec_id in entries else [])]
+            if e.spec_id in spec_ids and all(a.tool_class != e.tool_class for a in known):
+                alt_entries.setdefault(e.spec_id, []).append(e)
     order = {s.id: i for i, s in enumerate(specs)}
     entries = dict(sorted(entries.items(), key=lambda kv: order[kv[0]]))
     groups.update({k: g for k, g in alt_groups.items() if k not in groups})
