@@ -277,7 +277,7 @@ def _inspect(home: Path, runs: Path, seed: int, extra: list[str], limit: int | N
            *extra] + (["--limit", str(limit)] if limit else [])
     t0 = time.perf_counter()
     done = subprocess.run(cmd, env=env, capture_output=True, text=True, check=False)
-    if done.returncode != 0:
+    if done.returncode not in (0, 3):          # 3: the run stopped itself (its alarm): a finding, kept
         raise SystemExit(f"{' '.join(cmd)} failed:\n{done.stderr[-3000:]}")
     summary = json.loads(done.stdout)
     summary["wall_s_total"] = time.perf_counter() - t0
@@ -324,7 +324,9 @@ def campaign(args: argparse.Namespace) -> dict:
                "cycle_clean_s": a["cycle_s"], "cycle_faulty_s": b["cycle_s"],
                "extra_cycle_s": b["cycle_s"] - a["cycle_s"], "by_exception": dict(by_exc), "by_cause": dict(by_cause),
                "missed": [d for d in b["injected"]["diagnoses"] if d["injected"] and not d["named"]],
-               "wall_s": {"clean": clean["wall_s_total"], "faulty": faulty["wall_s_total"]}}
+               "wall_s": {"clean": clean["wall_s_total"], "faulty": faulty["wall_s_total"]},
+               "status": {"clean": clean["status"], "faulty": faulty["status"]},
+               "alarm": {"clean": clean.get("alarm"), "faulty": faulty.get("alarm")}}
         rows.append(row)
         print(f"seed {seed}: {row['faults_injected']} faults injected, {row['diagnoses']} diagnoses, "
               f"{named}/{with_fault} of those with a fault to find named the injected cause; measured "
@@ -333,6 +335,9 @@ def campaign(args: argparse.Namespace) -> dict:
               f"{row['cycle_faulty_s']:.0f} s vs {row['cycle_clean_s']:.0f} s (+{row['extra_cycle_s']:.0f} s)",
               flush=True)
         print(f"   by exception: {dict(by_exc)}\n   by cause: {dict(by_cause)}", flush=True)
+        for which in ("clean", "faulty"):
+            if row["status"][which] != "completed":
+                print(f"   the {which} run {row['status'][which]}: {row['alarm'][which]}", flush=True)
     out = {"rate": args.rate, "limit": args.limit, "rows": rows}
     RESULTS.mkdir(parents=True, exist_ok=True)
     (RESULTS / "diagnosis_campaign.json").write_text(json.dumps(out, indent=1, default=str) + "\n")

@@ -96,6 +96,7 @@ cause(part_displaced,               'the part has moved on the fixture').
 cause(obstacle,                     'an obstacle is in the cell').
 cause(dirty_window(slra),           'the window of the SLRA in hand is dirty').
 cause(occlusion,                    'something hides the feature from this view').
+cause(view_cannot_measure,          'the planned views cannot measure the feature (the part clips or hides it; no fault)').
 cause(out_of_tolerance,             'the part itself is out of tolerance there').
 cause(thin_section,                 'the section is thinner than the probe can read').
 cause(tool_missing(tool),           'the tool is not in its rack slot').
@@ -132,6 +133,10 @@ raises(controller_not_answering,   controller_timeout,      0.95).
 raises(transient_glitch,           controller_timeout,      0.1).
 raises(part_displaced,             out_of_view,             0.7).
 raises(arm_drift,                  out_of_view,             0.3).
+raises(view_cannot_measure,        out_of_view,             0.8).
+raises(occlusion,                  out_of_view,             0.3).
+raises(view_cannot_measure,        too_few_pixels,          0.5).
+raises(view_cannot_measure,        fit_residual,            0.3).
 raises(dirty_window(slra),         too_few_pixels,          0.9).
 raises(occlusion,                  too_few_pixels,          0.6).
 raises(dirty_window(slra),         fit_residual,            0.4).
@@ -160,6 +165,7 @@ prior(part_displaced,               1).
 prior(obstacle,                     1).
 prior(dirty_window(slra),           3).
 prior(occlusion,                    2).
+prior(view_cannot_measure,          2).
 prior(out_of_tolerance,             4).
 prior(thin_section,                 1).
 prior(tool_missing(tool),           1).
@@ -253,6 +259,7 @@ predicts(rescan_second_standoff, dirty_window(slra),         fails_again).
 predicts(rescan_second_standoff, sensor_cable_fault(device), fails_again).
 predicts(rescan_second_standoff, part_displaced,             fails_again).
 predicts(rescan_second_standoff, out_of_tolerance,           fails_again).
+predicts(rescan_second_standoff, view_cannot_measure,        fails_again).
 predicts(rescan_second_standoff, controller_not_answering,   silent).
 
 predicts(scan_tool_in_rack, tool_missing(tool),       empty_slot).
@@ -261,7 +268,6 @@ predicts(scan_tool_in_rack, controller_not_answering, silent).
 
 predicts(measure_reference_feature, part_displaced,   displaced).
 predicts(measure_reference_feature, arm_drift,        displaced).
-predicts(measure_reference_feature, dirty_window(slra), unclear).
 predicts(measure_reference_feature, controller_not_answering, silent).
 
 predicts(compare_neighbours, broken_probe(probe),        outlier).
@@ -304,6 +310,7 @@ recovery(part_displaced,            [call_person(reclamp_part)]).
 recovery(obstacle,                  [call_person(remove_obstacle)]).
 recovery(dirty_window(S),           [operator(clean_window(S))]).
 recovery(occlusion,                 [accept_second_view]).
+recovery(view_cannot_measure,       []).
 recovery(out_of_tolerance,          [accept_reading]).
 recovery(thin_section,              []).
 recovery(tool_missing(T),           [mark(T, missing)]).

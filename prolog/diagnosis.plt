@@ -119,6 +119,21 @@ test(dirty_window, true(Choice == isolated(dirty_window(slra_1)))) :-
     step(too_few_pixels, C, [], [scan_cal_block-too_few_pixels],
          [scan_cal_block-15.0, rescan_second_standoff-4.0], auto, [Choice|_]).
 
+test(a_view_that_cannot_see_is_no_displaced_part, true(Choice == isolated(view_cannot_measure))) :-
+    C = [slra=slra_1, device=slra_1],
+    step(out_of_view, C, [], [rescan_second_standoff-fails_again, measure_reference_feature-ok],
+         [rescan_second_standoff-4.0, measure_reference_feature-8.0], auto, [Choice|_]).
+
+test(out_of_view_asks_the_part_before_a_person_is_called, true(Choice == test(measure_reference_feature))) :-
+    C = [slra=slra_1, device=slra_1],
+    step(out_of_view, C, [], [rescan_second_standoff-fails_again],
+         [rescan_second_standoff-4.0, measure_reference_feature-8.0], auto, [Choice|_]).
+
+test(a_second_view_that_sees_it_is_an_occlusion, true(Choice == isolated(occlusion))) :-
+    C = [slra=slra_1, device=slra_1],
+    step(out_of_view, C, [], [rescan_second_standoff-ok, measure_reference_feature-ok],
+         [rescan_second_standoff-4.0, measure_reference_feature-8.0], auto, [Choice|_]).
+
 test(nothing_left_to_separate, true(Choice = unresolved([_, _, _, _]))) :-
     probe_ctx(C),
     step(no_echo, C, [], [], [], auto, [Choice|_]).

@@ -1,7 +1,8 @@
 :- module(kb_query,
           [ run_query/4,                % +Text, +Modules, +Options, -Result
             with_user_goal/5,           % +Text, +Modules, +Options, :Action, -Result
-            term_text/2                 % +Term, -Text
+            term_text/2,                % +Term, -Text
+            goal_hazard/2               % +Goal, -Reason
           ]).
 
 /** <module> Run a user's goal against the knowledge bases, safely
@@ -15,6 +16,15 @@ changes to other modules), and run
   - inside snapshot/1, so even a retract/assert that the sandbox lets through (one
     that a knowledge-base predicate itself performs) is rolled back;
   - under a time limit and an inference limit, so a goal that loops is stopped.
+
+Before library(sandbox) looks at it, goal_hazard/2 refuses what the sandbox lets
+through but should not: the message system (print_message/2 and friends translate a
+message term with format/2, whose `~@` directive calls any goal, and message hooks),
+`~@` in any text of the goal (a format string built at run time starts as text),
+format column or repeat counts so large they would fill memory, threads (a thread
+outlives snapshot/1), and global variables.  The commands of ITA run this whole
+predicate in a child process with operating-system limits (ita/logic/sandbox.py,
+kb_sandbox.pl), so a goal that gets past both checks still meets the process's walls.
 
 Problems with the user's goal are results, not exceptions: `refused(Reason)`,
 `limit_exceeded(Reason)` and `error(Reason)` carry a one-line Reason string.
@@ -34,7 +44,8 @@ Problems with the user's goal are results, not exceptions: `refused(Reason)`,
 %
 %   Run the goal Text against the exports of Modules and collect its solutions.
 %   Options are those of with_user_goal/5 and `limit(N)` (default 100), the largest
-%   number of solutions to collect.  Result is one of
+%   number of solutions to collect.  `listing(Name)` and `listing(Name/Arity)` print the
+%   clauses of those predicates of Modules (read-only) and answer `true`.  Result is one of
 %
 %     - answers(Names, Rows, Truncated): Names lists the goal's variables (those not
 %       starting with `_`), each row the values of one solution printed with `~q`,
@@ -45,7 +56,43 @@ run_query(Text, Modules, Options, Result) :-
     must_be(list, Options),
     option(limit(Limit), Options, 100),
     must_be(positive_integer, Limit),
-    with_user_goal(Text, Modules, Options, collect_rows(Limit), Result).
+    (   listing_request(Text, Name, Arity)
+    ->  kb_listing(Name, Arity, Modules, Result)
+    ;   with_user_goal(Text, Modules, Options, collect_rows(Limit), Result)
+    ).
+
+%   listing_request(+Text, -Name, -Arity): Text is `listing(Name)` or
+%   `listing(Name/Arity)`, which a query answers read-only by printing the clauses of
+%   the knowledge bases' predicates (library(sandbox) refuses listing/1 itself).
+listing_request(Text, Name, Arity) :-
+    catch(read_goal(Text, Goal, _, end_of_file), _, fail),
+    nonvar(Goal),
+    Goal = listing(Spec),
+    (   atom(Spec)
+    ->  Name = Spec
+    ;   nonvar(Spec), Spec = Name/Arity, atom(Name), integer(Arity)
+    ).
+
+kb_listing(Name, Arity, Modules, Result) :-
+    findall(M:Head,
+            ( member(M, Modules),
+              current_predicate(M:Name/Arity),
+              functor(Head, Name, Arity),
+              \+ predicate_property(M:Head, imported_from(_)),
+              \+ predicate_property(M:Head, foreign)
+            ),
+            Found),
+    (   Found == []
+    ->  (   var(Arity) -> Shown = Name ; Shown = Name/Arity ),
+        format(string(Reason), "refused: no knowledge-base predicate ~q to list", [Shown]),
+        Result = refused(Reason)
+    ;   forall(member(M:Head, Found),
+               ( functor(Head, _, HeadArity),
+                 format("% ~q~n", [M:Name/HeadArity]),
+                 forall(catch(clause(M:Head, Body), _, fail), portray_clause((Head :- Body))),
+                 nl )),
+        Result = answers([], [[]], false)
+    ).
 
 %!  with_user_goal(+Text:text, +Modules:list(atom), +Options:list, :Action, -Result) is det.
 %
@@ -54,7 +101,9 @@ run_query(Text, Modules, Options, Result) :-
 %   snapshot/1 and the limits.  Bindings is the `Name=Var` list of the goal.  Action
 %   must be deterministic.  Options:
 %
-%     - time_limit(+Seconds): CPU-independent wall time limit (default 10)
+%     - time_limit(+Seconds): CPU-independent wall time limit (default 10), or `none`
+%       when the caller enforces one from outside (the child process of
+%       ita/logic/sandbox.py, which may not start the alarm thread)
 %     - inference_limit(+Count): inference limit (default 10,000,000)
 %
 %   Result is Action's result, or `refused(Reason)` (syntax error, unsafe goal,
@@ -66,8 +115,11 @@ with_user_goal(Text, Modules, Options, Action, Result) :-
     must_be(list(atom), Modules),
     must_be(list, Options),
     option(time_limit(Time), Options, 10),
-    must_be(number, Time),
-    (   Time > 0 -> true ; domain_error(positive_number, Time) ),
+    (   Time == none
+    ->  true
+    ;   must_be(number, Time),
+        (   Time > 0 -> true ; domain_error(positive_number, Time) )
+    ),
     option(inference_limit(Inferences), Options, 10_000_000),
     must_be(positive_integer, Inferences),
     parse_goal(Text, Parsed),
@@ -80,7 +132,7 @@ with_user_goal(Text, Modules, Options, Action, Result) :-
     ).
 
 parse_goal(Text, Parsed) :-
-    catch(term_string(Goal, Text, [variable_names(Bindings)]), Error, true),
+    catch(read_goal(Text, Goal, Bindings, Rest), Error, true),
     (   nonvar(Error)
     ->  syntax_reason(Error, Reason),
         Parsed = refused(Reason)
@@ -88,8 +140,33 @@ parse_goal(Text, Parsed) :-
     ->  Parsed = refused("refused: the goal is a variable; write a goal such as type(X, arm)")
     ;   Goal == end_of_file
     ->  Parsed = refused("refused: empty goal")
+    ;   Rest \== end_of_file
+    ->  Parsed = refused("refused: one goal at a time: there is more text after the full stop \c
+                          (join goals with a comma)")
     ;   Parsed = goal(Goal, Bindings)
     ).
+
+%   read_goal(+Text, -Goal, -Bindings, -Rest): Goal is the first term of Text (its
+%   full stop may be left out), Rest is end_of_file when nothing follows it, else
+%   `more`.
+read_goal(Text, Goal, Bindings, Rest) :-
+    catch(read_first(Text, Goal, Bindings, Rest), error(syntax_error(end_of_file), _), fail),
+    !.
+read_goal(Text, Goal, Bindings, Rest) :-
+    atomics_to_string([Text, "\n."], Stopped),
+    read_first(Stopped, Goal, Bindings, Rest).
+
+read_first(Text, Goal, Bindings, Rest) :-
+    setup_call_cleanup(
+        open_string(Text, In),
+        ( read_term(In, Goal, [variable_names(Bindings), syntax_errors(error)]),
+          (   Goal == end_of_file
+          ->  Rest = end_of_file
+          ;   catch(read_term(In, Next, [syntax_errors(error)]), _, Next = more),
+              (   Next == end_of_file -> Rest = end_of_file ; Rest = more )
+          )
+        ),
+        close(In)).
 
 syntax_reason(error(syntax_error(What), Context), Reason) :- !,
     message_words(error(syntax_error(What), _), Words0),
@@ -97,10 +174,14 @@ syntax_reason(error(syntax_error(What), Context), Reason) :- !,
     ->  sub_string(Words0, _, After, 0, Words)
     ;   Words = Words0
     ),
-    (   Context = string(_, CharNo), integer(CharNo)
+    (   (   Context = string(_, CharNo) ; Context = stream(_, _, _, CharNo) ),
+        integer(CharNo)
     ->  format(string(Reason), "refused: syntax error: ~w (at character ~d)", [Words, CharNo])
     ;   format(string(Reason), "refused: syntax error: ~w", [Words])
     ).
+syntax_reason(error(resource_error(Resource), _), Reason) :- !,
+    format(string(Reason),
+           "refused: the goal is too large or nested too deep to read (out of ~w)", [Resource]).
 syntax_reason(Error, Reason) :-
     message_words(Error, Reason).
 
@@ -111,6 +192,8 @@ import_exports(Modules, Into) :-
            ),
            catch(@(import(Module:PI), Into), _, true)).
 
+guarded(_Module, Goal, _Bindings, _Limits, _Action, refused(Reason)) :-
+    goal_hazard(Goal, Reason), !.
 guarded(Module, Goal, Bindings, Time-Inferences, Action, Result) :-
     (   catch(safe_goal(Module:Goal), Error, true)
     ->  true
@@ -123,12 +206,13 @@ guarded(Module, Goal, Bindings, Time-Inferences, Action, Result) :-
     ).
 
 run_limited(Module, Goal, Bindings, Time-Inferences, Action, Result) :-
-    catch(call_with_time_limit(
-              Time,
-              call_with_inference_limit(
+    Limited = call_with_inference_limit(
                   snapshot(call(Action, Module, Goal, Bindings, Result0)),
-                  Inferences, Outcome)),
-          Error, true),
+                  Inferences, Outcome),
+    (   Time == none
+    ->  catch(Limited, Error, true)
+    ;   catch(call_with_time_limit(Time, Limited), Error, true)
+    ),
     (   nonvar(Error)
     ->  exception_result(Error, Time, Result)
     ;   Outcome == inference_limit_exceeded
@@ -142,8 +226,11 @@ run_limited(Module, Goal, Bindings, Time-Inferences, Action, Result) :-
 exception_result(time_limit_exceeded, Time, limit_exceeded(Reason)) :- !,
     format(string(Reason),
            "stopped: the goal ran longer than ~w s (time limit); it may loop", [Time]).
+exception_result(error(resource_error(c_stack), _), _, limit_exceeded(Reason)) :- !,
+    Reason = "stopped: a term is nested too deep (out of C stack, a resource limit)".
 exception_result(error(resource_error(Resource), _), _, limit_exceeded(Reason)) :- !,
-    format(string(Reason), "stopped: out of ~w; the goal may loop", [Resource]).
+    format(string(Reason), "stopped: out of ~w (a resource limit); the goal may loop \c
+                            or build a huge term", [Resource]).
 exception_result(Error, _, error(Reason)) :-
     message_words(Error, Reason).
 
@@ -179,6 +266,100 @@ refusal_reason(error(instantiation_error, _), Reason) :- !,
 refusal_reason(Error, Reason) :-
     message_words(Error, Words),
     format(string(Reason), "refused: ~w", [Words]).
+
+%!  goal_hazard(+Goal, -Reason:string) is semidet.
+%
+%   True when Goal (a parsed user goal) contains something the query sandbox refuses
+%   although library(sandbox) would accept it; Reason is a one-line refusal.  The
+%   check is on the whole term, data included, because data can become a goal (a
+%   message term, a closure, a format argument).
+
+goal_hazard(Goal, Reason) :-
+    sub_term(Sub, Goal),
+    sub_hazard(Sub, Reason), !.
+
+sub_hazard(Sub, Reason) :-
+    (   atom(Sub) -> Atom = Sub
+    ;   compound(Sub) -> compound_name_arity(Sub, Atom, _)
+    ),
+    denied_name(Atom, Why), !,
+    format(string(Reason), "refused: ~q is not allowed in a query (~w)", [Atom, Why]).
+sub_hazard(Text, Reason) :-
+    (   atom(Text) ; string(Text) ),
+    text_hazard(Text, Reason), !.
+sub_hazard(Codes, Reason) :-
+    is_list(Codes), Codes = [C|_], integer(C),
+    catch(string_codes(Text, Codes), _, fail),
+    text_hazard(Text, Reason).
+
+text_hazard(Text, Reason) :-
+    sub_string(Text, _, _, _, "~@"), !,
+    Reason = "refused: the format directive ~@ (it runs a goal) is not allowed in a query".
+text_hazard(Text, Reason) :-
+    sub_string(Text, Before, _, _, "~"),
+    sub_string(Text, Before, _, 0, Rest),
+    string_codes(Rest, [0'~|Codes]),
+    directive_count(Codes, Count),
+    Count > 1_000_000, !,
+    format(string(Reason),
+           "refused: format count or column ~D is too large (at most 1,000,000)", [Count]).
+
+%   directive_count(+CodesAfterTilde, -Count): the numeric argument of a directive,
+%   also after a `c fill character (~`xt~2000|).
+directive_count([0'`, _|Codes], Count) :- !,
+    directive_count(Codes, Count).
+directive_count(Codes, Count) :-
+    digits(Codes, Digits),
+    Digits \== [],
+    number_codes(Count, Digits).
+directive_count([0'~|Codes], Count) :-
+    directive_count(Codes, Count).
+directive_count([C|Codes], Count) :-
+    \+ code_type(C, digit),
+    C \== 0'~,
+    directive_count(Codes, Count).
+
+digits([C|Cs], [C|Ds]) :- code_type(C, digit), !, digits(Cs, Ds).
+digits(_, []).
+
+denied_name(print_message, "messages are formatted with goals that can run anything").
+denied_name(print_message_lines, "messages are formatted with goals that can run anything").
+denied_name(message_to_codes, "messages are formatted with goals that can run anything").
+denied_name(translate_message, "messages are formatted with goals that can run anything").
+denied_name(message_hook, "message hooks run outside the sandbox").
+denied_name(message_property, "message hooks run outside the sandbox").
+denied_name(prolog_message, "message hooks run outside the sandbox").
+denied_name('$messages', "message internals run outside the sandbox").
+denied_name(assertion, "a failed assertion prints a message and starts the debugger").
+denied_name(format_predicate, "it changes how format/2 works for every later goal").
+denied_name(thread_create, "a thread outlives the query's rollback").
+denied_name(thread_create_in_pool, "a thread outlives the query's rollback").
+denied_name(thread_signal, "it runs a goal in another thread").
+denied_name(thread_send_message, "threads are not allowed in a query").
+denied_name(thread_get_message, "threads are not allowed in a query").
+denied_name(thread_join, "threads are not allowed in a query").
+denied_name(thread_detach, "threads are not allowed in a query").
+denied_name(thread_exit, "threads are not allowed in a query").
+denied_name(first_solution, "it runs goals in threads").
+denied_name(concurrent, "it runs goals in threads").
+denied_name(concurrent_forall, "it runs goals in threads").
+denied_name(concurrent_maplist, "it runs goals in threads").
+denied_name(call_in_thread, "it runs goals in threads").
+denied_name(nb_setval, "global variables outlive the query").
+denied_name(b_setval, "global variables are not allowed in a query").
+denied_name(nb_linkval, "global variables outlive the query").
+denied_name(set_prolog_flag, "flags would change how later goals are read and run").
+denied_name(create_prolog_flag, "flags would change how later goals are read and run").
+denied_name(op, "operators would change how later goals are read").
+denied_name(at_halt, "it runs a goal when the process ends, outside the sandbox").
+denied_name(cancel_halt, "it changes how the process ends").
+denied_name(prolog_listen, "event hooks run outside the sandbox").
+denied_name(prolog_unlisten, "event hooks run outside the sandbox").
+denied_name(put_attr, "attribute hooks run goals outside the sandbox").
+denied_name(put_attrs, "attribute hooks run goals outside the sandbox").
+denied_name(attr_unify_hook, "attribute hooks run goals outside the sandbox").
+denied_name(portray_goal, "it calls a goal while printing").
+denied_name(portray, "it calls a hook while printing").
 
 database_change(Goal) :-
     compound(Goal),

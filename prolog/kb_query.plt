@@ -47,4 +47,29 @@ test(bad_limit, error(type_error(positive_integer, 0))) :-
 test(term_text_names_variables, true(T == "f(_1, 'A b', _1)")) :-
     term_text(f(X, 'A b', X), T).
 
+test(message_escape_refused, true(sub_string(Reason, _, _, _, "print_message"))) :-
+    run_query("print_message(error, format('~@', [shell('id')]))", [world], [], refused(Reason)).
+
+test(format_string_built_at_run_time_refused, true(sub_string(Reason, 0, _, _, "refused"))) :-
+    run_query("atom_concat('~', '@', F), format(F, [true])", [world], [], refused(Reason)).
+
+test(huge_format_column_refused, true(sub_string(Reason, _, _, _, "too large"))) :-
+    run_query("format(atom(A), '~`xt~2000000000|', [])", [world], [], refused(Reason)).
+
+test(thread_refused, true(sub_string(Reason, _, _, _, "thread_create"))) :-
+    run_query("thread_create(true, _, [])", [world], [], refused(Reason)).
+
+test(flag_change_refused, true(sub_string(Reason, _, _, _, "set_prolog_flag"))) :-
+    run_query("set_prolog_flag(double_quotes, atom)", [world], [], refused(Reason)).
+
+test(ordinary_format_allowed, true(R == answers(['S'], [["\"a1\""]], false))) :-
+    run_query("format(string(S), \"a~d\", [1])", [world], [], R).
+
+test(listing_prints_clauses, true(R == answers([], [[]], false))) :-
+    with_output_to(string(Out), run_query("listing(available)", [world], [], R)),
+    once(sub_string(Out, _, _, _, "tool_condition")).
+
+test(listing_unknown_refused, true(sub_string(Reason, _, _, _, "no knowledge-base predicate"))) :-
+    run_query("listing(nothere/3)", [world], [], refused(Reason)).
+
 :- end_tests(kb_query).

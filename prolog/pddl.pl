@@ -5,7 +5,9 @@
             solve_pddl/4,               % +DomainFile, +ProblemFile, +Options, -Result
             print_ipc_plan/1,           % +Actions
             solve_and_print/3,          % +DomainFile, +ProblemFile, +Options
-            parse_sexprs/2              % +Codes, -Expressions
+            parse_sexprs/2,             % +Codes, -Expressions
+            check_pddl/2,               % +DomainFile, +ProblemFile
+            solve_cli/0                 % `swipl ... -- Domain Problem Time Depth Effort`
           ]).
 
 /** <module> STRIPS PDDL into the planner's operators
@@ -249,6 +251,7 @@ pddl_task(DomainFile, ProblemFile, Task) :-
     once(task(DomainFile, ProblemFile, Task)).
 
 task(DomainFile, ProblemFile, task(Domain, State, Goals)) :-
+    check_pddl(DomainFile, ProblemFile),
     read_pddl_domain(DomainFile, pddl_domain(_, _, Types, Constants, Actions)),
     read_pddl_problem(ProblemFile, pddl_problem(_, _, Objects0, Init0, Goals0)),
     append(Constants, Objects0, Objects),
@@ -462,16 +465,51 @@ users(Groups, F, Users) :-
 solve_pddl(DomainFile, ProblemFile, Options, Result) :-
     must_be(list, Options),
     option(time_limit(Limit), Options, 60),
-    once(pddl_task(DomainFile, ProblemFile, task(Domain, State, Goals))),
-    merge_options([domain(Domain)], Options, PlanOptions0),
-    merge_options(PlanOptions0, [max_effort(200000), max_depth(60)], PlanOptions),
-    catch(call_with_time_limit(Limit, plan_result(Goals, State, PlanOptions, R0)),
+    catch(call_with_time_limit(Limit, task_and_plan(DomainFile, ProblemFile, Options, R0)),
           time_limit_exceeded,
           R0 = no_plan(time_limit_exceeded(Limit))),
     (   R0 = plan(Steps)
     ->  findall(A, member(step(_, A, _), Steps), Actions),
         Result = plan(Actions)
     ;   Result = R0
+    ).
+
+%   The task is built inside the time limit too: grounding a large problem takes long.
+task_and_plan(DomainFile, ProblemFile, Options, R0) :-
+    once(pddl_task(DomainFile, ProblemFile, task(Domain, State, Goals))),
+    merge_options([domain(Domain)], Options, PlanOptions0),
+    merge_options(PlanOptions0, [max_effort(200000), max_depth(60)], PlanOptions),
+    plan_result(Goals, State, PlanOptions, R0).
+
+%!  solve_cli is det.
+%
+%   The entry of `ita pddl solve`, run in a child process that the parent kills at its
+%   time limit: the last five command-line arguments are DomainFile, ProblemFile,
+%   Seconds, MaxDepth and MaxEffort.  Writes one line, the result of solve_pddl/4 or
+%   `error(Message)`, quoted and in functional notation, and halts.
+
+solve_cli :-
+    current_prolog_flag(argv, Argv),
+    append(_, [Domain, Problem, TimeText, DepthText, EffortText], Argv), !,
+    atom_number(TimeText, Time),
+    atom_number(DepthText, Depth),
+    atom_number(EffortText, Effort),
+    catch(solve_pddl(Domain, Problem, [time_limit(Time), max_depth(Depth), max_effort(Effort)], Result),
+          Error,
+          ( message_to_codes(Error, Codes), string_codes(Text, Codes), Result = error(Text) )),
+    write_term(Result, [quoted(true), ignore_ops(true), brace_terms(false), numbervars(false)]),
+    nl,
+    halt(0).
+solve_cli :-
+    format(user_error, "usage: solve_cli Domain Problem Seconds MaxDepth MaxEffort~n", []),
+    halt(2).
+
+message_to_codes(Error, Codes) :-
+    (   Error = error(Formal, _) -> Plain = error(Formal, _) ; Plain = Error ),
+    (   catch('$messages':translate_message(Plain, Lines, []), _, fail)
+    ->  with_output_to(codes(Codes0), print_message_lines(current_output, '', Lines)),
+        maplist([C0, C]>>( C0 == 0'\n -> C = 0'\s ; C = C0 ), Codes0, Codes)
+    ;   format(codes(Codes), "~q", [Error])
     ).
 
 %!  print_ipc_plan(+Actions:list) is det.
@@ -503,3 +541,140 @@ solve_and_print(DomainFile, ProblemFile, Options) :-
         format('; no plan: ~q, ~3f s~n', [Reason, Time]),
         fail
     ).
+
+
+                 /*******************************
+                 *            CHECKS            *
+                 *******************************/
+
+:- multifile prolog:error_message//1.
+
+prolog:error_message(pddl(Message)) -->
+    [ '~w'-[Message] ].
+
+%!  check_pddl(+DomainFile, +ProblemFile) is det.
+%
+%   Check a problem against its domain and the domain against its requirements, for
+%   what the reader would otherwise accept silently: the problem's `:domain` must name
+%   the domain, the problem must have a `:goal`, types (`- type`) need `:typing`,
+%   effects must be STRIPS (no `when`, `forall`, `exists`), preconditions conjunctions
+%   of literals (no `or`, `imply`, `forall`, `exists`), and when the domain declares
+%   `:predicates`, every atom of an action, `:init` or `:goal` must use one of them
+%   with its arity.  Files without a define are left to the reader's own errors.
+%
+%   @error pddl(Message) with the offending symbol as the last word of Message
+
+check_pddl(DomainFile, ProblemFile) :-
+    read_sexprs(DomainFile, DomainExprs),
+    read_sexprs(ProblemFile, ProblemExprs),
+    (   member([define, [domain, DomainName]|DS], DomainExprs),
+        member([define, [problem, _]|PS], ProblemExprs)
+    ->  check_sections(DomainName, DS, PS)
+    ;   true
+    ).
+
+check_sections(DomainName, DS, PS) :-
+    (   memberchk([':domain', Named], PS), Named \== DomainName
+    ->  pddl_error("wrong domain: the domain file defines ~w, the problem's :domain is ~w",
+                   [DomainName, Named])
+    ;   true
+    ),
+    (   memberchk([':goal'|_], PS)
+    ->  true
+    ;   pddl_error("the problem has no :goal section; problem", [])
+    ),
+    section(':requirements', DS, Reqs),
+    (   memberchk(':typing', Reqs)
+    ->  true
+    ;   typed_somewhere(DS, PS, Where)
+    ->  pddl_error("types (\"- type\") need the :typing requirement; typed: ~w", [Where])
+    ;   true
+    ),
+    forall(member([':action', Name|Body], DS), check_action(Name, Body)),
+    (   memberchk([':predicates'|Decls], DS)
+    ->  declared(Decls, Keys),
+        forall(used_atom(DS, PS, Atom), check_declared(Keys, Atom))
+    ;   true
+    ).
+
+typed_somewhere(DS, PS, Where) :-
+    (   member(Key, [':types', ':constants']), section(Key, DS, Items)
+    ;   section(':objects', PS, Items)
+    ;   member([':action'|Body], DS), keywords_of(Body, Pairs), memberchk(':parameters'-Items, Pairs)
+    ),
+    append(_, ['-', Where|_], Items), !.
+
+keywords_of([_Name|Body], Pairs) :-
+    catch(keywords(Body, Pairs), _, Pairs = []), !.
+keywords_of(_, []).
+
+check_action(Name, Body) :-
+    (   catch(keywords(Body, Pairs), _, fail) -> true ; Pairs = [] ),
+    (   memberchk(':effect'-Effect, Pairs),
+        connective(Effect, Connective),
+        memberchk(Connective, [when, forall, exists])
+    ->  pddl_error("conditional or quantified effects are not STRIPS; action ~w uses ~w",
+                   [Name, Connective])
+    ;   true
+    ),
+    (   memberchk(':precondition'-Pre, Pairs),
+        connective(Pre, Connective2),
+        memberchk(Connective2, [or, imply, forall, exists])
+    ->  pddl_error("only conjunctions of literals are STRIPS preconditions; action ~w uses ~w",
+                   [Name, Connective2])
+    ;   true
+    ).
+
+%   connective(+Expr, -Name): a connective (and, not, when...) used anywhere in Expr.
+connective([Head|Args], Name) :-
+    atom(Head),
+    memberchk(Head, [and, not, or, imply, when, forall, exists]),
+    (   Name = Head
+    ;   member(Arg, Args), is_list(Arg), connective(Arg, Name)
+    ).
+
+declared(Decls, Keys) :-
+    findall(Name/Arity,
+            ( member([Name|Params], Decls),
+              atom(Name),
+              typed_list(Params, Typed),
+              length(Typed, Arity)
+            ),
+            Keys).
+
+used_atom(DS, PS, Atom) :-
+    (   member([':action', _|Body], DS),
+        catch(keywords(Body, Pairs), _, fail),
+        member(Key-Expr, Pairs),
+        memberchk(Key, [':precondition', ':effect']),
+        expr_atom(Expr, Atom)
+    ;   section(':init', PS, Init), member(Atom, Init)
+    ;   section(':goal', PS, Goal), member(Expr, Goal), expr_atom(Expr, Atom)
+    ).
+
+expr_atom([Head|Args], Atom) :-
+    atom(Head),
+    memberchk(Head, [and, not, or, imply, when]), !,
+    member(Arg, Args),
+    expr_atom(Arg, Atom).
+expr_atom([Head, _Vars, Body], Atom) :-
+    memberchk(Head, [forall, exists]), !,
+    expr_atom(Body, Atom).
+expr_atom([], _) :- !, fail.
+expr_atom(Atom, Atom).
+
+check_declared(Keys, Atom) :-
+    (   Atom = [Name|Args] -> length(Args, Arity) ; Name = Atom, Arity = 0 ),
+    (   Name == (=)
+    ->  true
+    ;   memberchk(Name/Arity, Keys)
+    ->  true
+    ;   memberchk(Name/Declared, Keys)
+    ->  pddl_error("~w has ~d arguments here but ~d in :predicates; predicate ~w",
+                   [Name, Arity, Declared, Name])
+    ;   pddl_error("predicate not declared in :predicates: ~w", [Name])
+    ).
+
+pddl_error(Format, Args) :-
+    format(string(Message), Format, Args),
+    throw(error(pddl(Message), _)).

@@ -142,3 +142,12 @@ def test_every_kb_command_has_help(ita):
     for command in ("query", "shell", "check", "list", "why"):
         result = ita("kb", command, "--help")
         assert result.exit_code == 0 and len(result.output.splitlines()) > 3
+
+
+def test_shell_completes_predicate_names():
+    from ita.cli.kb import _completer, _predicate_names
+
+    names = _predicate_names()
+    assert {"available", "tool_condition", "type"} <= set(names)
+    complete = _completer(names)
+    assert complete("avail", 0) == "available" and complete("avail", 1) is None

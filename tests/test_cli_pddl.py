@@ -82,3 +82,59 @@ def test_unbalanced_line():
     assert unbalanced_line("(a\n (b))\n)") == (3, "unexpected ')'")
     assert unbalanced_line("(a ; )\n (b)") == (1, "'(' is never closed")
     assert unbalanced_line("(a (b))") is None
+
+
+@pytest.mark.parametrize("domain_edit,problem_edit,where,what", [
+    (None, ("(:domain hand)", "(:domain other)"), "problem", "wrong domain"),
+    (None, ("(:goal (and (holding b)))", ""), "problem", "no :goal"),
+    (None, ("(:init (at a)", "(:init (on a)"), "problem", "not declared in :predicates: on"),
+    (("(holding ?x) (not", "(holding ?x ?x) (not"), None, "domain", "holding has 2 arguments"),
+    (("(?x)\n    :precondition (and", "(?x - ball)\n    :precondition (and"), None, "domain", "need the :typing"),
+    (("(and (holding ?x) (not (at ?x)) (not (free)))", "(when (free) (holding ?x))"), None, "domain",
+     "conditional or quantified effects"),
+    (("(and (at ?x) (free))", "(or (at ?x) (free))"), None, "domain", "only conjunctions"),
+])
+def test_problem_checked_against_domain_and_requirements(tmp_path, domain_edit, problem_edit, where, what):
+    d, p = tmp_path / "domain.pddl", tmp_path / "problem.pddl"
+    d.write_text(DOMAIN.replace(*domain_edit) if domain_edit else DOMAIN)
+    p.write_text(PROBLEM.replace(*problem_edit) if problem_edit else PROBLEM)
+    out = solve(d, p)
+    assert out.exit_code == 2, out.output
+    assert what in out.stderr and str(d if where == "domain" else p) in out.stderr
+
+
+CHAIN = """(define (domain chain)
+  (:requirements :strips)
+  (:predicates (at ?x) (link ?x ?y))
+  (:action move :parameters (?x ?y)
+    :precondition (and (at ?x) (link ?x ?y))
+    :effect (and (at ?y) (not (at ?x)))))
+"""
+
+
+def _chain(tmp_path, n: int):
+    d, p = tmp_path / "chain.pddl", tmp_path / f"chain{n}.pddl"
+    d.write_text(CHAIN)
+    links = " ".join(f"(link n{i} n{i + 1})" for i in range(n))
+    objects = " ".join(f"n{i}" for i in range(n + 1))
+    p.write_text(f"(define (problem c) (:domain chain) (:objects {objects}) "
+                 f"(:init (at n0) {links}) (:goal (at n{n})))")
+    return d, p
+
+
+def test_depth_bound_is_disclosed_and_can_be_raised(tmp_path):
+    d, p = _chain(tmp_path, 100)
+    out = solve(d, p)
+    assert out.exit_code == 1 and "goal-stack depth 60" in out.stderr and "--max-depth" in out.stderr
+    out = solve(d, p, "--max-depth", "300")
+    assert out.exit_code == 0 and out.stdout.splitlines()[-1].startswith("; length 100")
+
+
+def test_time_limit_holds_on_a_large_problem(tmp_path):
+    import time
+
+    d, p = _chain(tmp_path, 3000)
+    started = time.monotonic()
+    out = solve(d, p, "--time-limit", "2", "--max-depth", "10000")
+    assert out.exit_code == 1 and "time_limit_exceeded" in out.stderr
+    assert time.monotonic() - started < 2 + 2

@@ -3,6 +3,7 @@ switched on, the world put right, the measurement recovered (or honestly not don
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
 from ita.planning import WorldState
@@ -250,12 +251,56 @@ def test_kb_why_explains_a_recorded_diagnosis(knowledge_base, tmp_path, monkeypa
     monkeypatch.setenv("ITA_HOME", str(tmp_path / "home"))
     recorded = {"exception": "too_few_pixels", "context": {"device": "slra_1", "slra": "slra_1", "tool": "slra_1"},
                 "tests": [{"test": "rescan_second_standoff", "outcome": "fails_again"},
-                          {"test": "scan_cal_block", "outcome": "not_run"}], "cause": "dirty_window(slra_1)"}
+                          {"test": "measure_reference_feature", "outcome": "not_run"},
+                          {"test": "scan_cal_block", "outcome": "too_few_pixels"}], "cause": "dirty_window(slra_1)"}
     goal = why_goal(recorded)
     assert goal == ("faults:isolated(too_few_pixels, [device=slra_1, slra=slra_1, tool=slra_1], "
-                    "[rescan_second_standoff-fails_again], Cause)")
+                    "[rescan_second_standoff-fails_again, scan_cal_block-too_few_pixels], Cause)")
     result = CliRunner().invoke(main, ["kb", "why", goal])
     assert result.exit_code == 0, result.output
     first = result.output.splitlines()[0]
     assert "dirty_window(slra_1))" in first                       # the cause it isolates
     assert "raises(" in result.output or "candidate_causes(" in result.output
+
+
+def test_an_injected_obstacle_is_ahead_of_the_arm_never_against_it(session, tmp_path):
+    """An obstacle drawn for a MOVE goes where the arm is going; not where it would touch or
+    nearly touch the arm where it stands (a box a hair from the stopped arm blocked every
+    later move and every diagnosis test: ten measurements in a row not done)."""
+    from types import SimpleNamespace
+
+    from ita.sim.inject import FaultInjector, InjectionPlan
+
+    world = session.world
+    q0 = np.array(world.q, dtype=float)
+
+    class Poses:
+        def __init__(self, q):
+            self.q = q
+
+        def resolve(self, name, held):
+            return SimpleNamespace(q=self.q)
+
+    def place(dq: float) -> bool:
+        target = q0 + np.array([dq, 0.0, 0.0, 0.0, 0.0, 0.0])
+        injector = FaultInjector(world, InjectionPlan.parse(0.0, None, [], seed=1), tmp_path / "f.jsonl",
+                                 poses=Poses(target))
+        placed = injector._place_obstacle("obstacle_t", SimpleNamespace(name="MOVE", args=("a", "b")))
+        if placed:
+            world.remove_obstacle("obstacle_t")
+        return placed
+
+    def gap(dq: float) -> float:
+        """Margin (m) at which a box for q0 + dq on joint 1 first touches the arm as it stands."""
+        world.add_obstacle("probe_box", world.tcp_pose(q0 + np.array([dq, 0, 0, 0, 0, 0]))[:3, 3], (0.12,) * 3)
+        try:
+            return next((m for m in np.arange(0.0, 0.1, 0.005)
+                         if any(c.obstacle == "probe_box" for c in world.contacts(m))), 1.0)
+        finally:
+            world.remove_obstacle("probe_box")
+
+    near = next(dq for dq in np.arange(0.01, 0.6, 0.01) if 0.0 < gap(dq) <= 0.02)    # 5-20 mm from the arm
+    assert not place(0.0)       # the box would stand around the arm: not placed
+    assert not place(near)      # a hair from it: not placed either
+    assert place(0.8)           # well ahead of the arm: placed
+    assert "obstacle_t" not in world.obstacles

@@ -74,7 +74,7 @@ def test_report_is_one_self_contained_page_with_a_verdict(run, tmp_path: Path) -
     assert ids[:2] == ["summary", "results"] and {"part3d", "gantt", "breakdown", "events"} <= set(ids)
     assert "scoring" not in ids and "Scoring" not in page
     assert "window.Plotly" in page or "Plotly" in page  # plotly.js inlined
-    out = write_report(tmp_path / "sub" / "r.html", page)
+    out = write_report(tmp_path / "sub" / "r.html", page, make_dirs=True)
     assert out.read_text(encoding="utf-8") == page
 
 
@@ -209,3 +209,21 @@ def test_plan_intervals_pair_start_and_end_per_spec() -> None:
               ev("plan_start", "top", 3.0, spec="b")]
     assert [(iv.label, iv.start, iv.end) for iv in timeline.plan_intervals(events, 10.0)] == [
         ("a", 0.0, 3.0), ("b", 3.0, 10.0)]
+
+
+def test_a_limited_run_whose_part_is_gone_is_never_a_whole_part(tmp_path: Path) -> None:
+    """`ita inspect --limit 3`, every result conforming, then the part directory removed:
+    the report cannot count the part's specs, so it must not call the part accepted nor
+    compare the run with the manual method as if it were whole."""
+    from ita.archive import Result
+
+    specs = [s for s in fake_specs(10) if s.kind == "hole_diameter"][:3]
+    with Archive.open(tmp_path / "a.sqlite") as a:
+        rid = a.create_run("gone", tmp_path / "no-such-part", total=3, settings={"limit": 3})
+        for s in specs:
+            a.record_result(rid, Result.measured(s, s.nominal, 0.001, tool="slra_1"))
+        a.set_status(rid, RunStatus.COMPLETED)
+        s = summarize(collect(a, rid))
+    assert s.counts["conforms"] == 3
+    assert s.verdict is Verdict.INCOMPLETE and "limited to the first 3" in s.verdict_reason
+    assert not s.complete and s.speedup_manual is None and s.ratio_goal is None

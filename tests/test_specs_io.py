@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 
 from ita.errors import InputError
-from ita.specs.io import COLUMNS, format_specs, read_specs, read_spec_table, write_specs
+from ita.specs.io import COLUMNS, format_specs, read_spec_table, read_specs, write_specs
 from ita.specs.model import MeasurementKind, MeasurementSpec
 
 HEADER = ",".join(COLUMNS)
@@ -129,7 +129,7 @@ def test_a_crash_during_write_leaves_the_old_file_whole(tmp_path: Path, monkeypa
     def crash(*_args, **_kwargs):
         raise KeyboardInterrupt  # as if Ctrl-C arrived between writing and renaming
 
-    monkeypatch.setattr("ita.specs.io.os.replace", crash)
+    monkeypatch.setattr("ita.files.atomic.os.replace", crash)
     with pytest.raises(KeyboardInterrupt):
         write_specs(path, [spec, spec.__class__(**{**spec.__dict__, "id": "WT-2"})])
     assert path.read_bytes() == before

@@ -157,3 +157,30 @@ def test_sigkill_then_continue_loses_and_repeats_nothing(runs, ita_home) -> None
     with Archive.open(archive_path(runs)) as archive:
         _exactly_once(archive, run_id, 30)
         assert archive.run(run_id).status.value == "completed"
+
+
+def test_a_run_whose_measurements_all_fail_stops_itself_with_an_alarm(runs, monkeypatch) -> None:
+    """Ten (here: --alarm-after 3) measurements in a row not done is something systematic:
+    the run stops (exit 3) and says why, rather than fill itself with "not done" and
+    read "completed"."""
+    import json
+
+    import ita.toplevel.loop as loop
+    from ita.toplevel.measure import MeasureOutcome, MeasureStatus
+
+    def nothing_works(session, spec_id, state, tool=None):
+        t = session.world.clock.now
+        return MeasureOutcome(spec_id, tool, MeasureStatus.NOT_DONE, None, "no path: the cell is blocked", (),
+                              None, None, state, t, t)
+
+    monkeypatch.setattr(loop, "measure_one", nothing_works)
+    result = CliRunner().invoke(main, ["inspect", "--limit", "8", "--seed", "1", "--runs-dir", str(runs),
+                                       "--alarm-after", "3", "--json"])
+    assert result.exit_code == 3, result.output
+    summary = json.loads(result.stdout)
+    assert summary["status"] == "stopped" and summary["done"] == 3
+    assert "3 measurements in a row not done" in summary["alarm"] and "the cell is blocked" in summary["alarm"]
+    with _archive(runs) as archive:
+        stop = archive.events(summary["run_id"], kinds=["stop"])
+        assert len(stop) == 1 and "in a row" in stop[0].payload["reason"]
+        assert archive.run(summary["run_id"]).settings["alarm_after"] == 3

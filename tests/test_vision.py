@@ -197,3 +197,22 @@ def test_lightening_hole_over_a_fixture_reads_true_all_round(fixture_scene):
     assert abs(reply.value - LIGHTENING.diameter) < 0.1
     assert math.hypot(*reply.diagnostics["center"]) < 0.1
     assert reply.expanded < 0.3                   # a +/-0.5 hole can be shown to conform
+
+
+def test_the_free_edge_window_follows_the_edge_where_the_hole_is_not_at_the_nearest_corner() -> None:
+    """A flange's edge is a sparse polyline (vertices hundreds of mm apart); the ±12 mm
+    nominal free edge Vision fits against must lie along the edge next to the hole, not be
+    copied from around the nearest vertex (a corner 40 mm away bent the window)."""
+    from types import SimpleNamespace
+
+    from ita.part.model import FlangeSegment
+    from ita.vision.rims import free_edge
+
+    seg = FlangeSegment("F1", "outer", (0.0, 200.0), ((0.0, 0.0), (100.0, 0.0), (100.0, 100.0)),
+                        ((0.0, 1.0), (0.0, 1.0), (-1.0, 0.0)), 40.0, 3.0, 20.0, 3.0)
+    ctx = SimpleNamespace(features={"F1": seg})
+    hole = SimpleNamespace(parent="F1", center=(60.0, 8.0, 40.0))
+    pts = free_edge(ctx, hole, 12.0, np.array([0.0, 1.0]))      # the edge is the line y = 20 there
+    assert pts is not None and pts.shape == (25, 2)
+    assert np.allclose(pts[:, 1], 20.0, atol=1e-9)                 # straight along the edge, no bend
+    assert np.allclose(pts[12], (60.0, 20.0)) and np.ptp(pts[:, 0]) == pytest.approx(24.0)

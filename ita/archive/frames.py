@@ -7,7 +7,7 @@
 Range is kept as uint16 steps of RANGE_STEP_M (0.1 mm: 6.5 m fit, finer than the sensor's
 noise), 65535 for a dropout, its high and low bytes in two planes (which compress far
 better than interleaved); intensity as 64 levels of its share of the frame's largest
-return; both zlib-compressed.  A 256 x 256 frame takes about 60 KB.  The
+return; both zlib-compressed (level 1: fast).  A 256 x 256 frame takes about 60 KB.  The
 archive does not depend on the sensor's types: anything with range_m, intensity, pose,
 geometry (shape, fov_deg), timestamp, frame_time and sensor can be stored.
 """
@@ -26,6 +26,9 @@ from numpy.typing import NDArray
 RANGE_STEP_M = 1e-4
 INTENSITY_LEVELS = 63
 DROPOUT = 65535
+#: zlib level 1: about 8 % larger than level 9, about 80 times faster (9 took 0.15 to 0.2 s a frame,
+#: a large share of a run's wall time; measured on stored frames of a run)
+ZLIB_LEVEL = 1
 
 
 @dataclass(frozen=True, eq=False)
@@ -76,7 +79,7 @@ def encode(frame: StoredFrame) -> tuple[str, bytes, bytes]:
                                "range_step_m": RANGE_STEP_M, "intensity_max": top,
                                "intensity_levels": INTENSITY_LEVELS}
     planes = steps.view(np.uint8).reshape(-1, 2).T.copy()      # low bytes, then high bytes
-    return (json.dumps(meta, sort_keys=True), zlib.compress(planes.tobytes(), 9), zlib.compress(bytes8.tobytes(), 9))
+    return (json.dumps(meta, sort_keys=True), zlib.compress(planes.tobytes(), ZLIB_LEVEL), zlib.compress(bytes8.tobytes(), ZLIB_LEVEL))
 
 
 def decode(spec_id: str, n: int, meta_json: str, range_blob: bytes, intensity_blob: bytes) -> StoredFrame:

@@ -225,7 +225,8 @@ class Archive:
         if not force:
             if info.status is RunStatus.RUNNING and info.alive is not False:
                 where = f"pid {info.pid} on {info.host}"
-                raise RunBusy(f"run {run_id} is running ({where}); stop it first, or force")
+                raise RunBusy(f"run {run_id} is running ({where}); wait for it to end, or stop it first "
+                              f"(ita monitor {run_id} --stop) and then continue it")
             if info.status is RunStatus.COMPLETED:
                 raise ArchiveError(f"run {run_id} is completed; there is nothing to continue")
         pid = os.getpid() if pid is None else pid

@@ -7,6 +7,7 @@ needs it.  The registry below is explicit: add a line to add a command group.
 
 from __future__ import annotations
 
+import contextlib
 import difflib
 import importlib
 
@@ -46,6 +47,45 @@ class LazyGroup(click.Group):
             module_name, attr = COMMANDS[cmd_name].split(":")
             return getattr(importlib.import_module(module_name), attr)
         return super().get_command(ctx, cmd_name)
+
+    def make_context(self, info_name: str | None, args: list[str], parent: click.Context | None = None,
+                     **extra) -> click.Context:
+        """As click's, after refusing arguments that are not UTF-8 text (exit 2)."""
+        for i, arg in enumerate(args, 1):
+            if "\x00" in arg:
+                click.echo(f"error: argument {i} contains a NUL character", err=True)
+                raise SystemExit(2)
+            try:
+                arg.encode("utf-8")
+            except UnicodeEncodeError as exc:
+                shown = arg.encode("utf-8", "surrogateescape")[:60]
+                click.echo(f"error: argument {i} ({shown!r}) is not valid UTF-8 text "
+                           f"(byte {arg[exc.start].encode('utf-8', 'surrogateescape')!r} at position {exc.start})",
+                           err=True)
+                raise SystemExit(2)
+        return super().make_context(info_name, args, parent, **extra)
+
+    def invoke(self, ctx: click.Context):
+        """As click's; an operating-system or database error that a command did not turn
+        into a message is reported with the file it concerns (exit 2), not a traceback."""
+        import sqlite3
+
+        try:
+            return super().invoke(ctx)
+        except BrokenPipeError:  # the reader went away (`ita ... | head`): stop quietly
+            import os
+            import sys
+
+            with contextlib.suppress(OSError):
+                os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+            raise SystemExit(1) from None
+        except OSError as exc:
+            where = f"{exc.filename}: " if exc.filename else ""
+            click.echo(f"error: {where}{exc.strerror or exc}", err=True)
+            raise SystemExit(2) from None
+        except sqlite3.DatabaseError as exc:
+            click.echo(f"error: the run archive cannot be read (damaged or not an ITA archive): {exc}", err=True)
+            raise SystemExit(2) from None
 
     def resolve_command(self, ctx: click.Context, args: list[str]) -> tuple:
         """As click's, with "did you mean ...?" for a mistyped command."""

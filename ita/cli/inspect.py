@@ -153,9 +153,14 @@ def _run(session: Any, archive: Any, run_id: str, as_json: bool, view: LiveView)
               help="Script one fault, e.g. broken_probe@us_probe_1:after=120 (simulated seconds); repeatable.")
 @click.option("--run-id", default=None, help="The id to give the new run (the System Monitor names the runs "
               "it starts); default a fresh one.")
+@click.option("--alarm-after", type=click.IntRange(min=0), default=None, metavar="N",
+              help="[default: 10] Stop the run with an alarm (exit 3) when N measurements in a row end not done "
+              "even after the Exception Handler: something systematic is wrong; put it right and `ita "
+              "continue` the run.  0: never.")
 @reports_errors
 def inspect(part_dir: Path | None, limit: int | None, seed: int, runs_dir: Path | None, as_json: bool,
-            fault_rate: float, fault_kinds: str | None, scripts: tuple[str, ...], run_id: str | None) -> None:
+            fault_rate: float, fault_kinds: str | None, scripts: tuple[str, ...], run_id: str | None,
+            alarm_after: int | None) -> None:
     """Inspect the part (in the simulated workcell): every measurement of the sequence
     plan, planned, executed, measured and recorded in the runs archive as it is made.
 
@@ -169,8 +174,8 @@ def inspect(part_dir: Path | None, limit: int | None, seed: int, runs_dir: Path 
     Exit codes:
       0  the run completed
       3  the run was stopped or interrupted (Ctrl-C, STOP or INTERRUPT from the
-         System Monitor): everything measured is saved; continue it with
-         `ita continue RUN`
+         System Monitor, or the alarm of --alarm-after): everything measured is
+         saved; continue it with `ita continue RUN`
       2  bad input (part, specs, options)
     """
     from ita.archive import Archive, archive_path
@@ -182,8 +187,10 @@ def inspect(part_dir: Path | None, limit: int | None, seed: int, runs_dir: Path 
     session = open_session(part_dir, seed=seed, progress=lambda m: view.note(f"{m} ..."))
     try:
         with Archive.open(archive_path(runs_dir)) as archive:
-            run_id = start_run(session, archive, limit=limit, run_id=run_id,
-                               settings={"faults": injection.to_dict()} if injection.active else None)
+            settings: dict[str, Any] = {} if alarm_after is None else {"alarm_after": alarm_after}
+            if injection.active:
+                settings["faults"] = injection.to_dict()
+            run_id = start_run(session, archive, limit=limit, run_id=run_id, settings=settings)
             view.note(f"run {run_id}: {archive.run(run_id).total} measurements of {session.ctx.part_name} "
                       f"(set up in {session.setup_seconds:.1f} s)")
             _run(session, archive, run_id, as_json, view)

@@ -2,14 +2,18 @@
 
 Exit codes: 0 success (a query or `why` with a solution, a clean `check`); 1 a goal
 with no solution, or `check` found problems; 2 a refused goal (syntax error, unsafe),
-a goal stopped by its time or inference limit, a goal that raised an error, or a
-knowledge base that does not load.
+a goal stopped by its time, inference, memory or CPU limit, a goal that raised an error,
+or a knowledge base that does not load.
+
+`query`, `why` and each goal of `shell` run in a child process with operating-system
+limits (ita/logic/sandbox.py); this process never runs a goal a person typed.
 """
 
 from __future__ import annotations
 
 import json
 import sys
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Callable, TextIO
 
@@ -21,12 +25,15 @@ from ita.errors import ItaError
 if TYPE_CHECKING:
     from ita.logic.bridge import KnowledgeBase
     from ita.logic.model import ProofNode, QueryResult
+    from ita.logic.sandbox import SandboxFiles, SandboxLimits
 
 NO_SOLUTION = 1
 SHELL_HELP = """\
 Type a Prolog goal, e.g.  type(X, us_tool)  or  available(T), weight(T, W)
-Goals run read-only: the sandbox refuses files, processes, halt and changes to the
-knowledge bases, and every goal runs under a time and an inference limit.
+Goals run read-only: the sandbox refuses files, processes, halt, messages, threads and
+changes to the knowledge bases; each goal runs in a process of its own under a time,
+an inference, a CPU and a memory limit (nothing it does reaches the next goal).
+Ctrl-C stops the current goal, not the shell.
   why GOAL   show the proof tree of GOAL's first solution
   help       this text
   quit       leave the shell (also exit, or end of input)"""
@@ -34,7 +41,9 @@ knowledge bases, and every goal runs under a time and an inference limit.
 
 def _limit_options(func: Callable) -> Callable:
     func = click.option("--time-limit", type=click.FloatRange(min=0.001), default=10.0,
-                        show_default=True, help="Stop the goal after this many seconds.")(func)
+                        show_default=True,
+                        help="Stop the goal after this many seconds of wall clock (its process is "
+                             "killed; it also has 1 GiB of memory and no file writes).")(func)
     func = click.option("--inference-limit", type=click.IntRange(min=1), default=10_000_000,
                         show_default=True, help="Stop the goal after this many inferences.")(func)
     return func
@@ -44,6 +53,35 @@ def _knowledge_base() -> "KnowledgeBase":
     from ita.logic.bridge import KnowledgeBase  # starts SWI-Prolog: only when needed
 
     return KnowledgeBase()
+
+
+@dataclass(frozen=True)
+class UserGoals:
+    """Runs user goals in the sandbox's child processes (ita.logic.sandbox)."""
+
+    files: "SandboxFiles"
+    limits: "SandboxLimits"
+
+    @staticmethod
+    def make(time_limit: float, inference_limit: int) -> "UserGoals":
+        from ita.logic.sandbox import SandboxFiles, SandboxLimits
+
+        return UserGoals(SandboxFiles.of(), SandboxLimits(float(time_limit), int(inference_limit)))
+
+    def query(self, goal: str, limit: int) -> "QueryResult":
+        from ita.logic import sandbox
+
+        return sandbox.query(goal, self.files, self.limits, limit, echo=_echo_output)
+
+    def why(self, goal: str, max_depth: int) -> "ProofNode | None":
+        from ita.logic import sandbox
+
+        return sandbox.explain(goal, self.files, self.limits, max_depth, echo=_echo_output)
+
+
+def _echo_output(text: str) -> None:
+    """What a goal printed, shown before its answer."""
+    click.echo(text, nl=not text.endswith("\n"))
 
 
 @click.group()
@@ -115,7 +153,7 @@ def query(goal: str, as_json: bool, limit: int, time_limit: float, inference_lim
 
     GOAL is Prolog text, e.g. 'type(X, us_tool)'.  Exit code 1 when it has no solution.
     """
-    result = _knowledge_base().run_user_query(goal, limit, time_limit, inference_limit)
+    result = UserGoals.make(time_limit, inference_limit).query(goal, limit)
     click.echo(result_json(result) if as_json else format_result(result))
     if not result.succeeded:
         sys.exit(NO_SOLUTION)
@@ -133,7 +171,7 @@ def why(goal: str, max_depth: int, time_limit: float, inference_limit: int) -> N
     Each line is a goal with how it was proved: a rule or fact of kb/ (with file:line),
     a builtin, a negation, or depth_limit.  Exit code 1 when GOAL has no proof.
     """
-    tree = _knowledge_base().explain(goal, max_depth, time_limit, inference_limit)
+    tree = UserGoals.make(time_limit, inference_limit).why(goal, max_depth)
     if tree is None:
         click.echo(f"no proof: {goal} has no solution.")
         sys.exit(NO_SOLUTION)
@@ -187,7 +225,8 @@ def shell(limit: int, time_limit: float, inference_limit: int) -> None:
 
     Reads goals from standard input (one per line); type `help` for help.
     """
-    knowledge = _knowledge_base()
+    goals = UserGoals.make(time_limit, inference_limit)
+    _tolerate_bad_bytes(sys.stdin)
     interactive = sys.stdin.isatty()
     history = _start_history() if interactive else None
     if interactive:
@@ -196,22 +235,24 @@ def shell(limit: int, time_limit: float, inference_limit: int) -> None:
         for line in _read_lines(sys.stdin, interactive):
             if line in ("quit", "exit", "halt."):
                 break
-            click.echo(_shell_answer(knowledge, line, limit, time_limit, inference_limit))
+            try:
+                click.echo(_shell_answer(goals, line, limit))
+            except KeyboardInterrupt:  # the goal's process is killed; the shell goes on
+                click.echo("interrupted: the goal was stopped (Ctrl-C).")
     finally:
         if history is not None:
             _save_history(history)
 
 
-def _shell_answer(knowledge: "KnowledgeBase", line: str, limit: int,
-                  time_limit: float, inference_limit: int) -> str:
+def _shell_answer(goals: UserGoals, line: str, limit: int) -> str:
     """The text answer of the shell to one input line."""
     if line == "help":
         return SHELL_HELP
     try:
         if line.startswith("why "):
-            tree = knowledge.explain(line[4:], 30, time_limit, inference_limit)
+            tree = goals.why(line[4:], 30)
             return format_tree(tree) if tree else "no proof."
-        return format_result(knowledge.run_user_query(line, limit, time_limit, inference_limit))
+        return format_result(goals.query(line, limit))
     except ItaError as exc:
         return f"error: {exc}"
 
@@ -225,6 +266,9 @@ def _read_lines(stream: TextIO, interactive: bool):
             except EOFError:
                 click.echo()
                 return
+            except KeyboardInterrupt:  # Ctrl-C at the prompt drops the line, like a shell
+                click.echo()
+                continue
         else:
             line = stream.readline()
             if not line:
@@ -236,6 +280,46 @@ def _read_lines(stream: TextIO, interactive: bool):
             yield line
 
 
+def _tolerate_bad_bytes(stream: TextIO) -> None:
+    """Read bytes that are not UTF-8 as they are (surrogate escapes), so such a line is
+    refused with a message by the sandbox instead of ending the shell."""
+    reconfigure = getattr(stream, "reconfigure", None)
+    if reconfigure is not None:
+        try:
+            reconfigure(errors="surrogateescape")
+        except (ValueError, OSError):
+            pass
+
+
+def _predicate_names() -> list[str]:
+    """Names of the predicates defined in the knowledge bases (for tab completion)."""
+    import re
+
+    from ita.paths import resource_dir
+
+    names: set[str] = set()
+    for path in sorted(resource_dir("kb").glob("*.pl")):
+        try:
+            text = path.read_text(encoding="utf-8")
+        except (OSError, UnicodeDecodeError):
+            continue
+        names.update(re.findall(r"^([a-z][A-Za-z0-9_]*)(?:\(|\s*:-|\.)", text, re.MULTILINE))
+    return sorted(names | {"why", "help", "quit", "exit"})
+
+
+def _completer(names: list[str]):
+    """A readline completer over `names` for the word under the cursor."""
+    matches: list[str] = []
+
+    def complete(text: str, state: int) -> str | None:
+        nonlocal matches
+        if state == 0:
+            matches = [n for n in names if n.startswith(text)]
+        return matches[state] if state < len(matches) else None
+
+    return complete
+
+
 def _start_history() -> Path | None:
     """Enable readline history from the ITA home directory; its path, or None."""
     try:
@@ -244,9 +328,15 @@ def _start_history() -> Path | None:
         return None
     from ita.paths import ita_home
 
+    readline.set_completer(_completer(_predicate_names()))
+    readline.set_completer_delims(" \t\n()[],;")
+    readline.parse_and_bind("tab: complete")
     path = ita_home() / "kb_shell_history"
-    if path.exists():
-        readline.read_history_file(path)
+    try:
+        if path.is_file():
+            readline.read_history_file(path)
+    except OSError:
+        pass
     readline.set_history_length(1000)
     return path
 
@@ -254,4 +344,7 @@ def _start_history() -> Path | None:
 def _save_history(path: Path) -> None:
     import readline
 
-    readline.write_history_file(path)
+    try:
+        readline.write_history_file(path)
+    except OSError as exc:  # a read-only ITA_HOME loses the history, not the session
+        click.echo(f"warning: cannot save the shell history to {path}: {exc.strerror}", err=True)

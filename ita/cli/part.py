@@ -23,10 +23,10 @@ def info(part_dir: Path | None, as_json: bool) -> None:
     """Print the part's size, its features and specs counted by kind."""
     from ita.logic.bridge import KnowledgeBase
     from ita.offline.spec_reach import spec_reach
-    from ita.workcell import workcell_for
     from ita.part.store import load_part
     from ita.part.summary import summarize
     from ita.specs.io import read_specs
+    from ita.workcell import workcell_for
 
     loaded = load_part(part_dir)
     specs = read_specs(loaded.specs_path)
@@ -55,17 +55,20 @@ def info(part_dir: Path | None, as_json: bool) -> None:
 @part.command()
 @part_option
 @click.option("-o", "--output", type=click.Path(path_type=Path, dir_okay=False), required=True,
-              help="PNG file to write.")
+              help="PNG file to write, exactly this name (no extension is added).")
+@click.option("--mkdir", "make_dirs", is_flag=True, help="Create the output's directory if it is missing.")
 @reports_errors
-def render(part_dir: Path | None, output: Path) -> None:
-    """Draw the part seen from +Z with its spec points coloured by kind (PNG)."""
+def render(part_dir: Path | None, output: Path, make_dirs: bool) -> None:
+    """Draw the part seen from +Z with its spec points coloured by kind (PNG).
+
+    Refuses to write over anything that is not a regular file (a device, a FIFO...)."""
     from ita.part.render import render_part
     from ita.part.store import load_part
     from ita.specs.io import read_specs
 
     loaded = load_part(part_dir)
-    render_part(loaded, read_specs(loaded.specs_path), output)
-    click.echo(f"wrote {output}")
+    written = render_part(loaded, read_specs(loaded.specs_path), output, make_dirs=make_dirs)
+    click.echo(f"wrote {written}")
 
 
 @part.command()

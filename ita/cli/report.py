@@ -35,10 +35,12 @@ def run_scene(part_dir: Path | str | None, explicit: Path | None = None):
               help="File to write: .html (one self-contained interactive page, works offline) or .pdf "
                    "(printable, the part's verdict on page 1). Other extensions are refused.")
 @click.option("--no-score", is_flag=True, help="Leave out the scoring against the as-built part.")
+@click.option("--mkdir", "make_dirs", is_flag=True, help="Create the output's directory if it is missing.")
 @part_option
 @runs_dir_option
 @reports_errors
-def report(run: str, output: Path, no_score: bool, part_dir: Path | None, runs_dir: Path | None) -> None:
+def report(run: str, output: Path, no_score: bool, make_dirs: bool, part_dir: Path | None,
+           runs_dir: Path | None) -> None:
     """Write the report of RUN (an id, a unique prefix, or "last") to FILE (-o).
 
     The part's verdict (accept only when every spec conforms, reject when any does not,
@@ -52,8 +54,10 @@ def report(run: str, output: Path, no_score: bool, part_dir: Path | None, runs_d
     scores the results against the as-built part, unless --no-score.  With --part, RUN
     must be a run of that part ("last": its last run).
     """
+    from ita.files.atomic import output_path
     from ita.report import build_pdf, build_report, report_format, write_report
 
+    output_path(output, what="-o", make_dirs=make_dirs)  # refuse before the work, not after
     fmt = report_format(output)
     with open_archive(runs_dir) as archive:
         run_id = resolve_run(archive, run, part_dir)
@@ -73,6 +77,6 @@ def report(run: str, output: Path, no_score: bool, part_dir: Path | None, runs_d
             content: str | bytes = build_pdf(archive, run_id, true_values=values, scene=scene, injected=injected)
         else:
             content = build_report(archive, run_id, true_values=values, scene=scene, injected=injected)
-    write_report(output, content)
+    output = write_report(output, content, make_dirs=make_dirs)
     click.echo(f"{output}: {fmt.upper()} report of run {run_id} ({info.done} results"
                + (", scored" if values is not None else "") + ")")

@@ -196,17 +196,20 @@ def import_cmd(file: Path, replace_all: bool, part_dir: Path | None) -> None:
 @spec.command("export")
 @click.argument("file", type=click.Path(path_type=Path, dir_okay=False))
 @click.option("--kind", type=KIND_CHOICE, help="Only specs of this kind.")
+@click.option("--mkdir", "make_dirs", is_flag=True, help="Create FILE's directory if it is missing.")
 @part_option
 @reports_errors
-def export_cmd(file: Path, kind: str | None, part_dir: Path | None) -> None:
-    """Write the part's specs to FILE (CSV)."""
+def export_cmd(file: Path, kind: str | None, make_dirs: bool, part_dir: Path | None) -> None:
+    """Write the part's specs to FILE (CSV), atomically.
+
+    Refuses to write over anything that is not a regular file (a device, a FIFO...)."""
     from ita.specs import service
 
     part = _load_part(part_dir)
     specs = service.load(part)
     if kind:
         specs = [s for s in specs if s.kind.value == kind]
-    n = service.export_file(part, file, specs)
+    n = service.export_file(part, file, specs, make_dirs=make_dirs)
     click.echo(f"exported {n} specs to {file}")
 
 
@@ -217,7 +220,10 @@ def export_cmd(file: Path, kind: str | None, part_dir: Path | None) -> None:
 @part_option
 @reports_errors
 def validate_cmd(file: Path | None, max_distance: float, part_dir: Path | None) -> None:
-    """Check FILE (default: the part's specs.csv) against the schema and the part."""
+    """Check FILE (default: the part's specs.csv) against the schema and the part.
+
+    The points are checked against the mesh in chunks, so memory stays bounded however
+    long the file (a million rows in under 2 GB); at most 1000 problems are listed."""
     from ita.specs import service
 
     n = service.validate_file(_load_part(part_dir), file, max_distance)

@@ -30,18 +30,21 @@ import math
 import threading
 from collections.abc import Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from ita.errors import KBLoadError, Location, PrologError, QueryLimitExceeded, QueryRefused
+from ita.errors import KBLoadError, Location, PrologError
 from ita.logic.model import Diagnostic, PredicateDoc, ProofNode, QueryResult, Severity
 from ita.logic.pldoc import doc_comments
 from ita.logic.terms import Str, Term, Var, read_term
 from ita.paths import resource_dir
 
+if TYPE_CHECKING:
+    from ita.logic.sandbox import SandboxFiles
+
 __all__ = ["KnowledgeBase", "KBLoadFailed", "check_sources"]
 
 # The engine modules the bridge itself needs, loaded from the package's prolog/ dir.
-_BRIDGE_FILES = ("py_bridge.pl", "kb_query.pl", "kb_explain.pl", "kb_check.pl")
+_BRIDGE_FILES = ("py_bridge.pl", "kb_query.pl", "kb_explain.pl", "kb_check.pl", "kb_sandbox.pl")
 _BRIDGE_MODULES = frozenset(Path(f).stem for f in _BRIDGE_FILES)
 
 # SWI-Prolog.h constants used with PL_get_nchars / PL_put_chars.
@@ -329,20 +332,6 @@ def _diagnostic(term: Term) -> Diagnostic:
     return Diagnostic(Severity(kind), Location(str(file), int(line), int(column)), str(message))
 
 
-def _location(file: str, line: int) -> Location | None:
-    return Location(file, line) if file else None
-
-
-def _proof_node(term: Term) -> ProofNode:
-    kind, goal, file, line, children = term.args
-    return ProofNode(
-        goal=str(goal),
-        kind=str(kind),
-        location=_location(str(file), int(line)),
-        children=tuple(_proof_node(c) for c in children),
-    )
-
-
 class KnowledgeBase:
     """The loaded engines (``prolog/``) and knowledge bases (``kb/``), and calls into them.
 
@@ -406,21 +395,17 @@ class KnowledgeBase:
         time_limit: float = 10.0,
         inference_limit: int = 10_000_000,
     ) -> QueryResult:
-        """Run a goal typed by a person, safely (sandbox, scratch module, limits).
+        """Run a goal typed by a person, safely: in a child process with OS limits
+        (see ita.logic.sandbox), the sandbox checks, a scratch module and the limits.
 
         Raises :class:`~ita.errors.QueryRefused` for a syntax error or an unsafe goal,
         :class:`~ita.errors.QueryLimitExceeded` when a limit stops it, and
         :class:`~ita.errors.PrologError` when the goal raises an error.
         """
-        options = self._limits(time_limit, inference_limit) + [Term("limit", (int(limit),))]
-        result = self._user_goal("kb_query", "run_query", text, options)
-        names, rows, truncated = result.args
-        return QueryResult(
-            goal=text,
-            variables=tuple(str(n) for n in names),
-            rows=tuple(tuple(str(v) for v in row) for row in rows),
-            truncated=truncated == "true",
-        )
+        from ita.logic import sandbox
+
+        return sandbox.query(text, self._sandbox_files(),
+                             sandbox.SandboxLimits(float(time_limit), int(inference_limit)), int(limit))
 
     def explain(
         self,
@@ -433,13 +418,17 @@ class KnowledgeBase:
 
         The root is the goal as solved (kind ``query``); predicates of ``kb/`` are
         expanded clause by clause, everything else is a leaf.  Same safety and errors
-        as :meth:`run_user_query`.
+        as :meth:`run_user_query` (the goal runs in a child process).
         """
-        options = self._limits(time_limit, inference_limit) + [Term("max_depth", (int(max_depth),))]
-        result = self._user_goal("kb_explain", "explain_query", text, options)
-        if result == "no_proof":
-            return None
-        return _proof_node(result.args[0])
+        from ita.logic import sandbox
+
+        return sandbox.explain(text, self._sandbox_files(),
+                               sandbox.SandboxLimits(float(time_limit), int(inference_limit)), int(max_depth))
+
+    def _sandbox_files(self) -> "SandboxFiles":
+        from ita.logic.sandbox import SandboxFiles
+
+        return SandboxFiles(tuple(self.engine_files), tuple(self.kb_files))
 
     def check(self) -> list[Diagnostic]:
         """Warnings of the load, and calls to predicates that are defined nowhere."""
@@ -495,37 +484,6 @@ class KnowledgeBase:
             if found:
                 modules.append(found["M"])
         return tuple(modules)
-
-    @staticmethod
-    def _limits(time_limit: float, inference_limit: int) -> list[Term]:
-        if time_limit <= 0 or inference_limit <= 0:
-            raise QueryRefused("limits must be positive")
-        return [
-            Term("time_limit", (float(time_limit),)),
-            Term("inference_limit", (int(inference_limit),)),
-        ]
-
-    def _user_goal(self, module: str, name: str, text: str, options: list[Term]) -> Any:
-        """Run a user-goal predicate and turn its refusals and limits into exceptions."""
-        if name == "explain_query":
-            modules = list(self.kb_modules)  # the modules whose clauses a proof expands
-        else:
-            modules = list(self.kb_modules) + [
-                m for m in self.engine_modules if m not in _BRIDGE_MODULES
-            ]
-        solution = self.once(module, name, Str(text), modules, options, Var("R"))
-        if solution is None:
-            raise PrologError(text, f"{module}:{name}/4 failed")
-        result = solution["R"]
-        if isinstance(result, Term) and len(result.args) == 1:
-            reason = str(result.args[0])
-            if result.name == "refused":
-                raise QueryRefused(reason)
-            if result.name == "limit_exceeded":
-                raise QueryLimitExceeded(reason)
-            if result.name == "error":
-                raise PrologError(text, reason)
-        return result
 
 
 def _indicator(term: Any) -> str:

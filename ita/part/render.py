@@ -35,8 +35,12 @@ _ORDER = (MeasurementKind.HOLE_POSITION, MeasurementKind.HOLE_DIAMETER,
 
 
 def render_part(part: Part, specs: Sequence[MeasurementSpec], path: Path,
-                dpi: int = 150, title: str | None = None) -> Path:
-    """Draw `part` from +Z with `specs` on it into the PNG `path`; returns the path."""
+                dpi: int = 150, title: str | None = None, make_dirs: bool = False) -> Path:
+    """Draw `part` from +Z with `specs` on it into the PNG `path` (exactly that name, written
+    atomically; see ita.files.atomic for what is refused); returns the path written."""
+    from ita.files.atomic import output_path, write_with
+
+    output_path(path, what="-o", make_dirs=make_dirs)  # refuse before the drawing work
     import matplotlib
 
     matplotlib.use("Agg", force=True)
@@ -74,7 +78,8 @@ def render_part(part: Part, specs: Sequence[MeasurementSpec], path: Path,
     ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.07), ncol=5, fontsize=8,
               markerscale=2.5, frameon=False)
     fig.tight_layout()
-    path = Path(path)
-    fig.savefig(path, dpi=dpi)
-    plt.close(fig)
-    return path
+    try:
+        return write_with(path, lambda tmp: fig.savefig(tmp, dpi=dpi, format="png"), what="-o",
+                          make_dirs=make_dirs, suffix=".png")
+    finally:
+        plt.close(fig)

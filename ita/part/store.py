@@ -27,6 +27,7 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any, Iterator
 
+import numpy as np
 import trimesh
 
 from ita.errors import InputError, Location
@@ -190,12 +191,51 @@ def _find_files(path: Path) -> tuple[Path, Path]:
     return meshes[0], path / SPECS_FILE
 
 
+def _nonfinite_vertices(mesh) -> int:
+    """How many vertices of `mesh` have a NaN or infinite coordinate."""
+    vertices = np.asarray(getattr(mesh, "vertices", np.zeros((0, 3))), dtype=float).reshape(-1, 3)
+    return int((~np.isfinite(vertices)).any(axis=1).sum())
+
+
+def _stl_problem(path: Path) -> str:
+    """Why `path`, an STL file, is neither a whole binary STL nor ASCII; "" when it may be."""
+    if path.suffix.lower() != ".stl":
+        return ""
+    try:
+        size = path.stat().st_size
+        with open(path, "rb") as handle:
+            head = handle.read(84)
+    except OSError as exc:
+        return exc.strerror or str(exc)
+    if head.lstrip().lower().startswith(b"solid"):
+        return ""  # ASCII STL (or a binary one whose header says solid: trimesh decides)
+    if size < 84:
+        return f"not an STL file: {size} bytes, shorter than a binary STL header"
+    count = int.from_bytes(head[80:84], "little")
+    if size != 84 + 50 * count:
+        return (f"damaged binary STL: the header announces {count} triangles ({84 + 50 * count} bytes) "
+                f"but the file has {size} bytes")
+    return ""
+
+
 def _read_part(path: Path) -> Part:
     mesh_path, specs_path = _find_files(path)
+    stl_problem = _stl_problem(mesh_path)
+    if stl_problem:
+        raise InputError([(Location(str(mesh_path)), f"cannot read mesh: {stl_problem}")])
     try:
         mesh = trimesh.load(mesh_path, force="mesh")
+    except ImportError:  # trimesh guessing a text encoding of a damaged file
+        raise InputError([(Location(str(mesh_path)), "cannot read mesh: the file is damaged or not a mesh "
+                                                      "of its type")]) from None
     except Exception as exc:  # trimesh raises many kinds on bad files
         raise InputError([(Location(str(mesh_path)), f"cannot read mesh: {exc}")]) from None
+    bad = _nonfinite_vertices(mesh)
+    if bad == 0 and len(getattr(mesh, "faces", ())) == 0:
+        with contextlib.suppress(Exception):  # processing drops faces with NaN corners: count them raw
+            bad = _nonfinite_vertices(trimesh.load(mesh_path, force="mesh", process=False))
+    if bad:
+        raise InputError([(Location(str(mesh_path)), f"mesh has {bad} vertices with NaN or infinite coordinates")])
     if len(getattr(mesh, "faces", ())) == 0:
         raise InputError([(Location(str(mesh_path)), "mesh has no triangles")])
     features: tuple = ()

@@ -25,8 +25,7 @@ import trimesh
 from ita.errors import InputError, Location
 from ita.part.bulkhead import GeneratedPart
 from ita.part.mesh import build_mesh
-from ita.part.model import Feature, FlangeSegment, Hole, HoleRole, Pocket, Stiffener
-from ita.part.model import feature_from_dict, feature_to_dict
+from ita.part.model import Feature, FlangeSegment, Hole, HoleRole, Pocket, Stiffener, feature_from_dict, feature_to_dict
 from ita.part.params import Tolerance
 from ita.specs.model import MeasurementKind as K
 from ita.specs.model import MeasurementSpec
@@ -175,13 +174,20 @@ def write_truth(part_dir: Path, truth: Truth) -> None:
         "values": truth.values, "deviations": truth.deviations}, indent=1, sort_keys=True))
 
 
-def load_truth(part_dir: Path) -> Truth:
-    """The as-built truth of the part in `part_dir`; InputError when it has none."""
+def require_truth(part_dir: Path) -> None:
+    """InputError (before any long work) when the part in `part_dir` has no as-built truth,
+    which the simulated workcell needs."""
     d = Path(part_dir) / TRUTH_DIR
     missing = [n for n in (MESH_FILE, FEATURES_FILE, VALUES_FILE) if not (d / n).is_file()]
     if missing:
         raise InputError([(Location(str(d)), f"no as-built truth here (missing {', '.join(missing)}); "
-                           "only generated parts carry one")])
+                           "only generated parts carry one, and the simulated workcell needs it")])
+
+
+def load_truth(part_dir: Path) -> Truth:
+    """The as-built truth of the part in `part_dir`; InputError when it has none."""
+    d = Path(part_dir) / TRUTH_DIR
+    require_truth(part_dir)
     try:
         data = json.loads((d / VALUES_FILE).read_text())
         features = tuple(feature_from_dict(x) for x in json.loads((d / FEATURES_FILE).read_text()))

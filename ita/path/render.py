@@ -90,7 +90,10 @@ def render_path(planner: Any, result: Any, tool: Any, path: Path, title: str = "
         axs[0].legend(loc="lower left", fontsize=8)
     fig.suptitle(title or result.message)
     fig.tight_layout()
-    out = Path(path)
-    fig.savefig(out, dpi=110)
-    plt.close(fig)
-    return out
+    from ita.files.atomic import write_with
+
+    try:  # exactly the name given, atomically, never over a device (ita.files.atomic)
+        return write_with(path, lambda tmp: fig.savefig(tmp, dpi=110, format="png"), what="-o",
+                          suffix=".png")
+    finally:
+        plt.close(fig)

@@ -16,7 +16,6 @@ itself: the caller passes them (`ita.scoring`), for simulated runs only.
 
 from __future__ import annotations
 
-import os
 from collections.abc import Iterable, Mapping
 from pathlib import Path
 from typing import Any
@@ -76,21 +75,10 @@ def build_pdf(archive: Archive, run_id: str, *, specs: Iterable[Any] | None = No
     return pdf_report(data, payload, mesh=None if scene is None else scene.mesh)
 
 
-def write_report(path: Path | str, content: str | bytes) -> Path:
+def write_report(path: Path | str, content: str | bytes, make_dirs: bool = False) -> Path:
     """Write a report atomically (a temporary file renamed into place); returns the path.
-    Refuses (InputError) a path that exists and is not a regular file."""
-    path = Path(path)
-    if path.exists() and not path.is_file():
-        raise InputError([(Location(str(path), field="-o"), "exists and is not a regular file")])
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
-        if isinstance(content, bytes):
-            tmp.write_bytes(content)
-        else:
-            tmp.write_text(content, encoding="utf-8")
-        os.replace(tmp, path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
-    return path
+    Refuses (InputError) an empty name, a path that exists and is not a regular file, and
+    a missing directory unless `make_dirs` (ita.files.atomic)."""
+    from ita.files.atomic import write_atomic
+
+    return write_atomic(path, content, what="-o", make_dirs=make_dirs)

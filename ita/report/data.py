@@ -65,11 +65,18 @@ class ReportData:
     results: tuple[StoredResult, ...]
     events: tuple[Event, ...]
     specs: tuple[SpecPoint, ...]
+    part_known: bool = True          # the part's own specs were given (not only the results' points)
 
     @property
     def part_specs(self) -> int:
         """How many specs the part has (the run's total when the part's specs are unknown)."""
         return max(len(self.specs), self.run.total or 0, len(self.results))
+
+    @property
+    def part_unknown(self) -> bool:
+        """Whether the part's specs are not at hand (its directory gone) while the run was
+        limited to the first N: then nobody can say it covered the part."""
+        return not self.part_known and self.run.settings.get("limit") is not None
 
 
 @dataclass(frozen=True)
@@ -123,11 +130,12 @@ def collect(archive: Archive, run_id: str, specs: Iterable[Any] | None = None) -
         normal = getattr(s, "normal", None)
         points[s.id] = SpecPoint(s.id, kind, tuple(float(c) for c in s.point),
                                  None if normal is None else tuple(float(c) for c in normal))
+    known = bool(points)
     results = tuple(archive.results(run_id))
     for r in results:
         if r.point is not None and r.spec_id not in points:
             points[r.spec_id] = SpecPoint(r.spec_id, r.kind, r.point)
-    return ReportData(archive.run(run_id), results, tuple(archive.events(run_id)), tuple(points.values()))
+    return ReportData(archive.run(run_id), results, tuple(archive.events(run_id)), tuple(points.values()), known)
 
 
 def status_of(r: StoredResult) -> str:
@@ -209,8 +217,13 @@ def summarize(data: ReportData) -> Summary:
     part_total = data.part_specs
     run_total = data.run.total if data.run.total is not None else done
     verdict, why, _ = verdict_of(counts, part_total)
+    if data.part_unknown and verdict is not Verdict.REJECT:
+        verdict = Verdict.INCOMPLETE
+        why = "; ".join(w for w in (f"the run was limited to the first {data.run.settings['limit']} measurements "
+                                    "and the part's specs are not at hand", why if verdict_of(
+                                        counts, part_total)[0] is Verdict.INCOMPLETE else "") if w)
     ended = data.run.status is RunStatus.COMPLETED
-    complete = ended and done >= part_total and done > 0
+    complete = ended and done >= part_total and done > 0 and not data.part_unknown
     rate = cycle_s / done if done else None
     projected_h = cycle_s / 3600.0 if complete else (rate * part_total / 3600.0 if rate else None)
     have = {r.spec_id for r in data.results}
@@ -284,5 +297,30 @@ def settings_rows(run: RunInfo) -> list[tuple[str, str]]:
             value = "-" if key != "limit" else "none (every measurement)"
         if isinstance(value, float):
             value = f"{value:.1f}"
+        if key == "faults" and isinstance(value, dict):
+            value = _faults_text(value)
+        elif isinstance(value, dict):
+            value = "; ".join(f"{k.replace('_', ' ')} {_plain(v)}" for k, v in sorted(value.items()))
+        elif isinstance(value, list):
+            value = ", ".join(map(str, value))
         out.append((names.get(key, key.replace("_", " ")), str(value)))
     return out
+
+
+def _plain(value: Any) -> str:
+    return ", ".join(map(str, value)) if isinstance(value, (list, tuple)) else str(value)
+
+
+def _faults_text(faults: dict) -> str:
+    """The fault injection of a run, as `ita inspect --faults/--fault-kinds/--inject` said it."""
+    parts = []
+    rate = faults.get("rate") or 0.0
+    if rate:
+        kinds = faults.get("kinds") or []
+        parts.append(f"each command {100 * float(rate):g} % from " + (", ".join(kinds) if kinds else "every kind"))
+    scripted = faults.get("scripted") or []
+    if scripted:
+        parts.append("scripted: " + ", ".join(map(str, scripted)))
+    if "seed" in faults:
+        parts.append(f"seed {faults['seed']}")
+    return "; ".join(parts) or "none"

@@ -120,7 +120,8 @@ def pdf_report(data: ReportData, payload: Mapping[str, Any], *, mesh: Any = None
     summary = sections.get("summary", {})
     if summary.get("settings"):
         story += [Spacer(1, 3 * mm), Paragraph("Run settings", styles["Heading3"]),
-                  grid([list(r) for r in summary["settings"]], header=False, widths=[75 * mm, 150 * mm])]
+                  grid([[k, Paragraph(esc(v), small)] for k, v in summary["settings"]], header=False,
+                       widths=[75 * mm, 150 * mm])]
 
     # ---- the results not proven to conform, the charts, the events
     rows = sections.get("results", {}).get("rows", [])

@@ -77,7 +77,10 @@ def render_plan(part: Part, specs_by_id: Mapping[str, MeasurementSpec], plan: Se
                  f"total {plan.total_s:.1f} {unit}  (circle: first point of a tour)")
     ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.07), ncol=2, fontsize=8, frameon=False)
     fig.tight_layout()
-    path = Path(path)
-    fig.savefig(path, dpi=dpi)
-    plt.close(fig)
-    return path
+    from ita.files.atomic import write_with
+
+    try:  # exactly the name given, atomically, never over a device (ita.files.atomic)
+        return write_with(path, lambda tmp: fig.savefig(tmp, dpi=dpi, format="png"), what="--render",
+                          suffix=".png")
+    finally:
+        plt.close(fig)

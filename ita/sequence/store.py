@@ -15,8 +15,6 @@ from __future__ import annotations
 
 import contextlib
 import json
-import os
-import tempfile
 from collections.abc import Iterator, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -67,22 +65,10 @@ def tool_marks_path() -> Path:
 
 
 def write_json_atomic(path: Path, data: Any) -> Path:
-    """Write `data` as JSON to `path` atomically; returns the path."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8") as handle:
-            json.dump(data, handle, indent=1)
-            handle.write("\n")
-            handle.flush()
-            os.fsync(handle.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        with contextlib.suppress(OSError):
-            os.unlink(tmp)
-        raise
-    return path
+    """Write `data` as JSON to `path` atomically (ita.files.atomic); returns the path."""
+    from ita.files.atomic import write_atomic
+
+    return write_atomic(path, json.dumps(data, indent=1) + "\n", make_dirs=True)
 
 
 def _read_json(path: Path) -> Any:

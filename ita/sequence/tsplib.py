@@ -6,7 +6,10 @@ optima: a ``TYPE: TSP`` file with ``EDGE_WEIGHT_TYPE: EUC_2D`` and a
 ``d(i, j) = nint(sqrt(dx**2 + dy**2))`` with ``nint(x) = floor(x + 0.5)``.
 
 Anything else (another edge weight type, a missing dimension, a malformed coordinate
-line) raises :class:`ita.errors.InputError` naming the file and line.
+line) raises :class:`ita.errors.InputError` naming the file and line, and so does a
+problem larger than :data:`MAX_NODES` (the dense distance matrix grows with the square
+of the nodes: 100,000 nodes would need 149 GiB) or a coordinate beyond
+:data:`MAX_COORD` in size (its squared distances would overflow).
 """
 
 from __future__ import annotations
@@ -21,6 +24,10 @@ from ita.errors import InputError, Location
 SUPPORTED_WEIGHT_TYPES = ("EUC_2D",)
 # Header keywords that may appear and are ignored.
 IGNORED_KEYWORDS = ("NAME", "COMMENT", "CAPACITY", "NODE_COORD_TYPE", "DISPLAY_DATA_TYPE")
+#: the most nodes solved: the (n, n) distance matrix and its working copies stay under 1 GB
+MAX_NODES = 5_000
+#: the largest coordinate size accepted, so that squared distances stay finite and exact
+MAX_COORD = 1e9
 
 
 @dataclass(frozen=True)
@@ -52,8 +59,9 @@ def euc_2d_matrix(coords: np.ndarray) -> np.ndarray:
     ``coords``: ``(n, 2) float``.  Returns ``(n, n) float64`` with integer values.
     """
     xy = np.asarray(coords, dtype=np.float64)
-    diff = xy[:, None, :] - xy[None, :, :]
-    return np.floor(np.sqrt(np.einsum("ijk,ijk->ij", diff, diff)) + 0.5)
+    dx = xy[:, None, 0] - xy[None, :, 0]
+    dy = xy[:, None, 1] - xy[None, :, 1]
+    return np.floor(np.hypot(dx, dy) + 0.5)
 
 
 def read_tsplib(path: str | Path) -> TsplibProblem:
@@ -101,6 +109,9 @@ def parse_tsplib(text: str, source: str = "<string>") -> TsplibProblem:
         key, value = (part.strip() for part in line.split(":", 1))
         key = key.upper()
         header[key] = (value, lineno)
+        if key == "DIMENSION" and value.isdigit() and int(value) > MAX_NODES:
+            raise fail(lineno, f"DIMENSION {int(value):,} is more than the {MAX_NODES:,} nodes `ita sequence "
+                               f"tsp` solves (its distance matrix grows with the square of the nodes)")
         if key == "TYPE" and value.upper() not in ("TSP",):
             raise fail(lineno, f"unsupported TYPE {value} (only TSP)")
         if key == "EDGE_WEIGHT_TYPE" and value.upper() not in SUPPORTED_WEIGHT_TYPES:
@@ -121,6 +132,8 @@ def parse_tsplib(text: str, source: str = "<string>") -> TsplibProblem:
         raise fail(dim_line, f"DIMENSION must be at least 1, got {dimension}")
     if not section_line:
         raise fail(0, "missing NODE_COORD_SECTION")
+    if len(coords) > MAX_NODES:
+        raise fail(section_line, f"{len(coords):,} nodes is more than the {MAX_NODES:,} that can be solved")
     if len(coords) != dimension:
         raise fail(section_line, f"NODE_COORD_SECTION has {len(coords)} nodes, DIMENSION says {dimension}")
     missing = sorted(set(range(1, dimension + 1)) - set(coords))
@@ -163,6 +176,8 @@ def _read_coords(lines: list[str], lineno: int, coords: dict[int, tuple[float, f
             raise InputError([(where, f"coordinates are not numbers: {line[:40]!r}")]) from None
         if not (np.isfinite(x) and np.isfinite(y)):
             raise InputError([(where, "coordinates must be finite")])
+        if abs(x) > MAX_COORD or abs(y) > MAX_COORD:
+            raise InputError([(where, f"coordinate out of range: {line[:60]!r} (at most {MAX_COORD:g} in size)")])
         if node in coords:
             raise InputError([(where, f"duplicate node id {node}")])
         if node < 1:

@@ -50,6 +50,8 @@ CAUSE_OF = {
 }
 _SCRIPT = re.compile(r"^(?P<fault>[a-z_]+)(@(?P<target>[A-Za-z0-9_.-]+))?(:after=(?P<after>[0-9.]+))?$")
 _GAUGE_COMMANDS = ("COUPLANT", "MEASURE")
+#: an injected obstacle keeps at least this gap (m) from the arm and its tool where they are
+OBSTACLE_CLEARANCE_M = 0.03
 
 
 @dataclass(frozen=True)
@@ -208,7 +210,9 @@ class FaultInjector:
 
     def _place_obstacle(self, name: str, command: Any) -> bool:
         """A box where a MOVE is going (the arm bumps it on the way in); none where the arm
-        already is (a batch of moves flown at its first command is there already)."""
+        already is or nearly is (a batch of moves flown at its first command is there
+        already; a box a hair from the stopped arm would block every move from there,
+        its diagnosis tests included, which is not a fault the cell could meet)."""
         if command.name != "MOVE" or self.poses is None or len(command.args) < 2:
             return False
         try:
@@ -220,7 +224,7 @@ class FaultInjector:
             return False
         pose = self.world.tcp_pose(q)
         self.world.add_obstacle(name, pose[:3, 3], (0.12, 0.12, 0.12))
-        if any(c.obstacle == name for c in self.world.contacts()):   # the arm is there already: not ahead of it
+        if any(c.obstacle == name for c in self.world.contacts(OBSTACLE_CLEARANCE_M)):   # not ahead of the arm
             self.world.remove_obstacle(name)
             return False
         return True

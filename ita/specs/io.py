@@ -20,9 +20,7 @@ from __future__ import annotations
 import csv
 import io
 import math
-import os
 import re
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Iterable, Sequence
@@ -137,12 +135,19 @@ def parse_row(
 def parse_specs_text(text: str, file: str) -> SpecTable:
     """Parse the text of a specs CSV file; raises InputError listing every bad row."""
     problems: list[tuple[Location, str]] = []
+    text = text.removeprefix("\ufeff")  # a UTF-8 byte-order mark is not part of the header
     lines = text.splitlines(keepends=True)
     body = [(i + 1, ln) for i, ln in enumerate(lines) if ln.strip() and not ln.lstrip().startswith("#")]
     if not body:
         raise InputError([(Location(file), "empty specs file: a header row is required")])
     header_line, header_text = body[0]
-    header = [h.strip() for h in next(csv.reader([header_text]))]
+    try:
+        header = [h.strip() for h in _cells(header_text)]
+    except csv.Error as exc:
+        raise InputError([(Location(file, header_line), f"header is not valid CSV: {exc}")]) from None
+    repeated = sorted({h for h in header if header.count(h) > 1})
+    if repeated:
+        raise InputError([(Location(file, header_line), f"header repeats column(s): {', '.join(repeated)}")])
     missing = [c for c in REQUIRED if c not in header]
     unknown = [h for h in header if h not in COLUMNS]
     if missing or unknown:
@@ -155,7 +160,11 @@ def parse_specs_text(text: str, file: str) -> SpecTable:
     spec_lines: list[int] = []
     first_line_of: dict[str, int] = {}
     for line_no, raw in body[1:]:
-        cells = next(csv.reader([raw]), [])
+        try:
+            cells = _cells(raw)
+        except csv.Error as exc:
+            problems.append((Location(file, line_no), f"not valid CSV: {exc}"))
+            continue
         if len(cells) > len(header):
             problems.append((Location(file, line_no), f"{len(cells)} cells but the header has {len(header)}"))
             continue
@@ -175,6 +184,12 @@ def parse_specs_text(text: str, file: str) -> SpecTable:
     if problems:
         raise InputError(problems)
     return SpecTable(Path(file), tuple(specs), tuple(spec_lines))
+
+
+def _cells(line: str) -> list[str]:
+    """The cells of one CSV line; csv.Error for an unterminated quote, a stray quote or a
+    cell over the csv module's field limit (128 KiB)."""
+    return next(csv.reader([line], strict=True), [])
 
 
 def read_spec_table(path: Path) -> SpecTable:
@@ -221,35 +236,21 @@ def format_specs(specs: Iterable[MeasurementSpec]) -> str:
     return buf.getvalue()
 
 
-def atomic_write_text(path: Path, text: str) -> None:
-    """Write `text` to `path` atomically: temp file in the same directory, fsync, rename."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        with os.fdopen(fd, "w", encoding="utf-8", newline="") as fh:
-            fh.write(text)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except FileNotFoundError:
-            pass
-        raise
-    dir_fd = os.open(path.parent, os.O_RDONLY)
-    try:
-        os.fsync(dir_fd)
-    finally:
-        os.close(dir_fd)
+def atomic_write_text(path: Path, text: str, *, make_dirs: bool = True, what: str = "") -> None:
+    """Write `text` to `path` atomically (ita.files.atomic): never over a device or other
+    non-regular file; parent directories made only with `make_dirs`."""
+    from ita.files.atomic import write_atomic
+
+    write_atomic(path, text, what=what, make_dirs=make_dirs)
 
 
-def write_specs(path: Path, specs: Sequence[MeasurementSpec]) -> None:
-    """Write specs as CSV atomically.  Raises InputError on duplicate ids (nothing written)."""
+def write_specs(path: Path, specs: Sequence[MeasurementSpec], *, make_dirs: bool = True,
+                what: str = "") -> None:
+    """Write specs as CSV atomically.  Raises InputError on duplicate ids or a target that
+    cannot be written (nothing written)."""
     seen: set[str] = set()
     for spec in specs:
         if spec.id in seen:
             raise InputError([(Location(str(path), field="id"), f"duplicate id {spec.id!r}")])
         seen.add(spec.id)
-    atomic_write_text(Path(path), format_specs(specs))
+    atomic_write_text(Path(path), format_specs(specs), make_dirs=make_dirs, what=what)

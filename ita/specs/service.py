@@ -7,6 +7,7 @@ from pathlib import Path
 from typing import Mapping, Protocol, Sequence
 
 from ita.errors import InputError
+from ita.files.atomic import locked
 from ita.specs import edit
 from ita.specs.io import read_spec_table, write_specs
 from ita.specs.model import MeasurementSpec
@@ -50,25 +51,28 @@ def add(part: PartLike, fields: Mapping[str, str],
         max_distance: float = DEFAULT_MAX_DISTANCE_MM) -> MeasurementSpec:
     """Add one spec given as CSV fields; returns it."""
     new = edit.spec_from_fields(fields)
-    specs = edit.add_spec(load(part), new)
-    _save(part, specs, [new], edit.CLI, None, max_distance)
+    with locked(part.specs_path):
+        specs = edit.add_spec(load(part), new)
+        _save(part, specs, [new], edit.CLI, None, max_distance)
     return new
 
 
 def change(part: PartLike, spec_id: str, changes: Mapping[str, str],
            max_distance: float = DEFAULT_MAX_DISTANCE_MM) -> MeasurementSpec:
     """Edit fields of one spec; returns the edited spec."""
-    specs = edit.edit_spec(load(part), spec_id, changes)
-    new_id = changes.get("id", spec_id).strip()
-    edited = next(s for s in specs if s.id == new_id)
-    _save(part, specs, [edited], edit.CLI, None, max_distance)
+    with locked(part.specs_path):
+        specs = edit.edit_spec(load(part), spec_id, changes)
+        new_id = changes.get("id", spec_id).strip()
+        edited = next(s for s in specs if s.id == new_id)
+        _save(part, specs, [edited], edit.CLI, None, max_distance)
     return edited
 
 
 def remove(part: PartLike, ids: Sequence[str]) -> int:
     """Remove specs by id; returns how many remain."""
-    specs = edit.remove_specs(load(part), ids)
-    write_specs(part.specs_path, specs)
+    with locked(part.specs_path):
+        specs = edit.remove_specs(load(part), ids)
+        write_specs(part.specs_path, specs)
     return len(specs)
 
 
@@ -76,14 +80,18 @@ def import_file(part: PartLike, path: Path, replace_all: bool = False,
                 max_distance: float = DEFAULT_MAX_DISTANCE_MM) -> int:
     """Import every spec of `path` (all or nothing); returns how many were imported."""
     table = read_spec_table(Path(path))
-    base: list[MeasurementSpec] = [] if replace_all else load(part)
-    specs = edit.merge_specs(base, table.specs, str(table.path), table.lines)
-    _save(part, specs, table.specs, str(table.path), table.lines, max_distance)
+    with locked(part.specs_path):
+        base: list[MeasurementSpec] = [] if replace_all else load(part)
+        specs = edit.merge_specs(base, table.specs, str(table.path), table.lines)
+        _save(part, specs, table.specs, str(table.path), table.lines, max_distance)
     return len(table.specs)
 
 
-def export_file(part: PartLike, path: Path, specs: Sequence[MeasurementSpec] | None = None) -> int:
-    """Write the part's specs (or the given subset) to `path` as CSV; returns the count."""
+def export_file(part: PartLike, path: Path, specs: Sequence[MeasurementSpec] | None = None,
+                make_dirs: bool = False) -> int:
+    """Write the part's specs (or the given subset) to `path` as CSV; returns the count.
+    Refuses a device or other non-regular file, and a missing directory unless
+    `make_dirs`."""
     chosen = load(part) if specs is None else list(specs)
-    write_specs(Path(path), chosen)
+    write_specs(Path(path), chosen, make_dirs=make_dirs, what="FILE")
     return len(chosen)

@@ -20,6 +20,10 @@ HOLE_KINDS = frozenset({
     MeasurementKind.HOLE_DIAMETER, MeasurementKind.HOLE_POSITION, MeasurementKind.EDGE_DISTANCE,
 })
 DEFAULT_MAX_DISTANCE_MM = 0.5
+#: points sent to one nearest-point query: bounds the memory of validating a big file
+CHUNK_POINTS = 4096
+#: problems listed one by one; the rest are counted in one closing line
+MAX_PROBLEMS = 1000
 
 
 def allowed_distances(specs: Sequence[MeasurementSpec], max_distance: float) -> np.ndarray:
@@ -35,12 +39,17 @@ def allowed_distances(specs: Sequence[MeasurementSpec], max_distance: float) -> 
     return out
 
 
-def surface_distances(mesh, points: np.ndarray) -> np.ndarray:
-    """(n,) float: distance of each (n,3) point (mm, part frame) to the mesh surface."""
-    if len(points) == 0:
-        return np.zeros(0)
-    _, distance, _ = mesh.nearest.on_surface(np.asarray(points, dtype=float))
-    return np.asarray(distance, dtype=float)
+def surface_distances(mesh, points: np.ndarray, chunk: int = CHUNK_POINTS) -> np.ndarray:
+    """(n,) float: distance of each (n,3) point (mm, part frame) to the mesh surface.
+
+    The points go to the nearest-point query `chunk` at a time, so memory stays bounded
+    however many there are (one query over a million points needs tens of GB)."""
+    points = np.asarray(points, dtype=float).reshape(-1, 3)
+    out = np.zeros(len(points))
+    for start in range(0, len(points), chunk):
+        _, distance, _ = mesh.nearest.on_surface(points[start:start + chunk])
+        out[start:start + chunk] = np.asarray(distance, dtype=float)
+    return out
 
 
 def check_on_surface(
@@ -61,7 +70,8 @@ def check_on_surface(
     dist = surface_distances(mesh, points)
     allowed = allowed_distances(list(specs) + list(context), max_distance)[: len(specs)]
     problems = []
-    for i in np.flatnonzero(dist > allowed):
+    far = np.flatnonzero(dist > allowed)
+    for i in far[:MAX_PROBLEMS]:
         line = lines[i] if lines is not None else 0
         s = specs[i]
         problems.append((
@@ -69,4 +79,6 @@ def check_on_surface(
             f"point of {s.id} is {dist[i]:.3f} mm from the part's surface "
             f"(at most {allowed[i]:.3f} mm allowed)",
         ))
+    if len(far) > MAX_PROBLEMS:
+        problems.append((Location(file), f"... and {len(far) - MAX_PROBLEMS} more points off the surface"))
     return problems

@@ -139,12 +139,15 @@ class TopLevel:
 
     max_failures_in_a_row: stop the run (status stopped, with an alarm; `ita continue`
     goes on once the cause is put right) after this many measurements in a row end not
-    done; 0: never."""
+    done; 0: never; None: the run's setting "alarm_after" (`ita inspect --alarm-after`),
+    else MAX_FAILURES_IN_A_ROW."""
 
     def __init__(self, session: Session, archive: Any, run_id: str, signals: RunSignals | None = None, *,
-                 handle_exceptions: bool = True, max_failures_in_a_row: int = MAX_FAILURES_IN_A_ROW) -> None:
+                 handle_exceptions: bool = True, max_failures_in_a_row: int | None = None) -> None:
         self.session = session
-        self.max_failures_in_a_row = max_failures_in_a_row
+        if max_failures_in_a_row is None:
+            max_failures_in_a_row = archive.run(run_id).settings.get("alarm_after", MAX_FAILURES_IN_A_ROW)
+        self.max_failures_in_a_row = int(max_failures_in_a_row)
         self.failures_in_a_row: list[str] = []      # reasons of the last measurements not done, in a row
         self.archive = archive
         self.run_id = run_id
@@ -186,6 +189,10 @@ class TopLevel:
             label = result.decision.value if result.decision is not None else result.outcome.value
             self.counts[label] += 1
             self.recorded_now += 1
+            if result.outcome is Outcome.MEASURED:
+                self.failures_in_a_row = []
+            elif result.outcome is Outcome.NOT_DONE:
+                self.failures_in_a_row.append(f"{result.spec_id}: {result.reason or 'not done'}")
 
     def _unmeasured(self, spec_id: str, outcome: Outcome, reason: str, *, tool: str | None = None,
                     t0: float | None = None, t1: float | None = None, events: list[Event] = (),
@@ -318,10 +325,6 @@ class TopLevel:
         mine = extra.details.get(step.spec_id)
         spec = self.session.specs[step.spec_id]
         tool = out.tool or step.tool
-        if out.status is MeasureStatus.MEASURED:
-            self.failures_in_a_row = []
-        else:
-            self.failures_in_a_row.append(f"{step.spec_id}: {out.reason or 'not done'}")
         if out.status is MeasureStatus.MEASURED:
             assert out.value is not None
             self._record(Result.measured(spec, out.value.value, out.value.u, tool=tool,

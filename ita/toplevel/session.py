@@ -98,6 +98,9 @@ def open_session(part_dir: Path | None = None, *, seed: int = 0,
     kb = KnowledgeBase()
     apply_tool_marks(kb, load_tool_marks())
     part = load_part(part_dir)
+    from ita.part.truth import require_truth
+
+    require_truth(part.directory)  # the simulated workcell needs it: say so before preparing
     ctx = planning_context(part_dir, kb=kb, part=part)
     plan, mkb, _ = prepare_inspection(ctx, part, progress=progress, warm=False)
     ctx = with_mkb(ctx, mkb)              # a resequencing keeps what the MKB could not place

@@ -46,8 +46,10 @@ def render_measurement(frame: RangeFrame, spec: MeasurementSpec, ctx, reply, pat
     else:
         title = f"{spec.id}: {reply.reason.value} - {reply.detail}"
     fig.suptitle(title, fontsize=9)
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
-    return path
+    from ita.files.atomic import write_with
+
+    try:  # exactly the name given, atomically, never over a device (ita.files.atomic)
+        return write_with(path, lambda tmp: fig.savefig(tmp, dpi=90, format="png"), what="--render",
+                          make_dirs=True, suffix=".png")
+    finally:
+        plt.close(fig)

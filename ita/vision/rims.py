@@ -323,6 +323,19 @@ def _straighten(xy: FloatArray, curve: FloatArray) -> FloatArray:
     return xy - bend[:, None] * n
 
 
+def _arc_length_of_nearest(path: FloatArray, s: FloatArray, point: FloatArray) -> float:
+    """Arc length along the polyline `path` (k, 2) (cumulative lengths `s`) of its point
+    nearest `point`: on a segment, not only at a vertex (a sparse path's nearest vertex
+    can be far along the edge from the point)."""
+    a, b = path[:-1], path[1:]
+    d = b - a
+    length2 = np.einsum("ij,ij->i", d, d)
+    t = np.clip(np.einsum("ij,ij->i", point - a, d) / np.where(length2 > 0, length2, 1.0), 0.0, 1.0)
+    gap = np.linalg.norm(a + t[:, None] * d - point, axis=1)
+    k = int(np.argmin(gap))
+    return float(s[k] + t[k] * np.sqrt(length2[k]))
+
+
 def free_edge(ctx: VisionContext, hole: Hole, distance: float, u: FloatArray) -> FloatArray | None:
     """Nominal free edge of the hole's flange cap near it, (k, 2), +/-12 mm, centred on the
     point `distance` along u from the hole; None when the parent is not a flange."""
@@ -333,8 +346,7 @@ def free_edge(ctx: VisionContext, hole: Hole, distance: float, u: FloatArray) ->
     foot = np.asarray(hole.center[:2]) + distance * u
     step = np.linalg.norm(np.diff(edge, axis=0), axis=1)
     s = np.concatenate([[0.0], np.cumsum(step)])
-    i = int(np.argmin(np.linalg.norm(edge - foot, axis=1)))
-    grid = s[i] + np.linspace(-12.0, 12.0, 25)
+    grid = _arc_length_of_nearest(edge, s, foot) + np.linspace(-12.0, 12.0, 25)
     pts = np.column_stack([np.interp(grid, s, edge[:, 0]), np.interp(grid, s, edge[:, 1])])
     t = pts[-1] - pts[0]
     t = t / np.linalg.norm(t)

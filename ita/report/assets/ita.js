@@ -34,7 +34,7 @@
     for (const r of rows) {
       out += "<tr>" + r.map((c, i) => `<td${nums.has(i) ? ' class="num"' : ""}>${esc(c)}</td>`).join("") + "</tr>";
     }
-    return out + "</tbody></table>";
+    return '<div class="scroll">' + out + "</tbody></table></div>";   // a wide table scrolls, the page does not
   }
   ITA.esc = esc;
   ITA.num = num;

@@ -1,0 +1,1 @@
+"""File writing helpers: atomic writes that never replace a device, and locks."""

@@ -1,0 +1,386 @@
+"""User goals (`ita kb query`, `kb why`, `kb shell`) run in a child process with walls.
+
+The main ITA process never runs a goal a person typed.  :func:`run_user_goal` starts
+``swipl`` on ``prolog/kb_sandbox.pl`` in a new session (its own process group) with
+operating-system limits set before SWI-Prolog starts:
+
+- ``RLIMIT_CPU``: the time limit plus the start-up allowance, so a goal that swallows
+  every Prolog limit still cannot burn a core;
+- ``RLIMIT_AS``: the address space (1 GiB by default), so memory of a query is capped;
+- ``RLIMIT_FSIZE`` 0: the child cannot write a byte to any file;
+- ``RLIMIT_NOFILE``: few open files; ``RLIMIT_CORE`` 0: no core dumps;
+- when ITA runs as root: the child drops to the user ``nobody`` with ``RLIMIT_NPROC``
+  0, so it can start no process and no thread and write no file of root's (used only
+  when every Prolog file it loads is readable by others);
+
+and Prolog's own stack limit, so a deeply nested term raises a resource error rather
+than crashing.  The parent enforces a wall-clock limit: once the child says it is ready
+(the knowledge bases are loaded), the goal has its time limit plus one second of grace,
+after which the whole process group is killed.  Ctrl-C kills the child and raises
+KeyboardInterrupt in the parent.  Inside the child the goal still goes through
+goal_hazard/2 and library(sandbox) (prolog/kb_query.pl) before it runs.
+
+Refusals and limits come back as :class:`~ita.errors.QueryRefused` and
+:class:`~ita.errors.QueryLimitExceeded`, a goal's own error as
+:class:`~ita.errors.PrologError`, each with a one-line reason.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import pwd
+import resource
+import selectors
+import shutil
+import signal
+import stat
+import subprocess
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from ita.errors import ItaError, KBLoadError, Location, PrologError, QueryLimitExceeded, QueryRefused
+from ita.logic.model import ProofNode, QueryResult
+
+__all__ = ["SandboxLimits", "SandboxFiles", "run_user_goal", "query", "explain"]
+
+# The engine modules the sandbox does not offer to user goals (the bridge's own).
+BRIDGE_MODULES = ("py_bridge", "kb_query", "kb_explain", "kb_check", "kb_sandbox")
+
+
+@dataclass(frozen=True)
+class SandboxLimits:
+    """The limits of one user goal.
+
+    `time_limit` (s, wall clock from the moment the knowledge bases are loaded) and
+    `inference_limit` are the user's; the others are the process's walls.
+    """
+
+    time_limit: float = 10.0
+    inference_limit: int = 10_000_000
+    memory_bytes: int = 1 << 30          # RLIMIT_AS of the child
+    stack_bytes: int = 256 << 20         # Prolog's stack_limit (all stacks together)
+    open_files: int = 64                 # RLIMIT_NOFILE
+    grace: float = 1.0                   # wall clock past time_limit before the kill
+    load_seconds: float = 60.0           # wall clock allowed for loading the KBs
+    output_bytes: int = 1 << 20          # what the goal may print, per stream
+    reply_bytes: int = 64 << 20          # the largest reply read
+
+    def __post_init__(self) -> None:
+        if not (self.time_limit > 0 and self.inference_limit > 0):
+            raise QueryRefused("limits must be positive")
+
+
+@dataclass(frozen=True)
+class SandboxFiles:
+    """The Prolog files the child loads: engines (prolog/) then knowledge bases (kb/)."""
+
+    engine_files: tuple[Path, ...]
+    kb_files: tuple[Path, ...]
+
+    @staticmethod
+    def of(prolog_dir: Path | None = None, kb_dir: Path | None = None) -> "SandboxFiles":
+        from ita.paths import resource_dir
+
+        prolog_dir = Path(prolog_dir) if prolog_dir else resource_dir("prolog")
+        kb_dir = Path(kb_dir) if kb_dir else resource_dir("kb")
+        return SandboxFiles(_pl_files(prolog_dir), _pl_files(kb_dir))
+
+    @property
+    def entry(self) -> Path:
+        """``kb_sandbox.pl`` among the engine files."""
+        for path in self.engine_files:
+            if path.name == "kb_sandbox.pl":
+                return path
+        from ita.paths import resource_dir
+
+        return (resource_dir("prolog") / "kb_sandbox.pl").resolve()
+
+
+@dataclass(frozen=True)
+class Outcome:
+    """What a child said, and what the goal printed (its standard error)."""
+
+    reply: dict[str, Any]
+    printed: str
+
+
+def _pl_files(directory: Path) -> tuple[Path, ...]:
+    return tuple(sorted(p.resolve() for p in directory.glob("*.pl") if p.is_file()))
+
+
+def query(goal: str, files: SandboxFiles, limits: SandboxLimits, limit: int = 100,
+          echo: Callable[[str], None] | None = None) -> QueryResult:
+    """All solutions (at most `limit`) of the user goal `goal`, run in a child process.
+
+    `echo` receives whatever the goal printed (default: dropped)."""
+    outcome = run_user_goal("query", goal, files, limits, {"limit": int(limit)})
+    _echo(outcome, echo)
+    reply = outcome.reply
+    if reply.get("status") != "answers":
+        raise PrologError(goal, f"unexpected reply from the query process: {reply.get('status')!r}")
+    return QueryResult(
+        goal=goal,
+        variables=tuple(str(v) for v in reply["variables"]),
+        rows=tuple(tuple(str(v) for v in row) for row in reply["rows"]),
+        truncated=bool(reply["truncated"]),
+    )
+
+
+def explain(goal: str, files: SandboxFiles, limits: SandboxLimits, max_depth: int = 30,
+            echo: Callable[[str], None] | None = None) -> ProofNode | None:
+    """The proof tree of the first solution of the user goal, or None without one."""
+    outcome = run_user_goal("why", goal, files, limits, {"max_depth": int(max_depth)})
+    _echo(outcome, echo)
+    reply = outcome.reply
+    if reply.get("status") == "no_proof":
+        return None
+    if reply.get("status") != "proof":
+        raise PrologError(goal, f"unexpected reply from the query process: {reply.get('status')!r}")
+    return _node(reply["tree"])
+
+
+def _echo(outcome: Outcome, echo: Callable[[str], None] | None) -> None:
+    if echo is not None and outcome.printed:
+        echo(outcome.printed)
+
+
+def _node(data: dict[str, Any]) -> ProofNode:
+    file, line = str(data["file"]), int(data["line"])
+    return ProofNode(
+        goal=str(data["goal"]),
+        kind=str(data["kind"]),
+        location=Location(file, line) if file else None,
+        children=tuple(_node(c) for c in data["children"]),
+    )
+
+
+def _swipl() -> str:
+    found = shutil.which("swipl")
+    if found is None:
+        raise ItaError("SWI-Prolog (swipl) is not on PATH; it runs the knowledge-base queries")
+    return found
+
+
+def _check_text(goal: str) -> bytes:
+    try:
+        return goal.encode("utf-8")
+    except UnicodeEncodeError as exc:
+        raise QueryRefused(
+            f"refused: the goal is not valid UTF-8 text (byte {exc.object[exc.start:exc.end]!r} "
+            f"at character {exc.start})"
+        ) from None
+
+
+def _unprivileged(files: SandboxFiles) -> tuple[int, int] | None:
+    """(uid, gid) of ``nobody`` when ITA runs as root and nobody can read every file the
+    child loads; else None (the child keeps the caller's user)."""
+    if os.geteuid() != 0:
+        return None
+    try:
+        entry = pwd.getpwnam("nobody")
+    except KeyError:
+        return None
+    for path in (files.entry, *files.engine_files, *files.kb_files):
+        if not _world_readable(path):
+            return None
+    return entry.pw_uid, entry.pw_gid
+
+
+def _world_readable(path: Path) -> bool:
+    try:
+        if not path.stat().st_mode & stat.S_IROTH:
+            return False
+        return all(parent.stat().st_mode & stat.S_IXOTH for parent in path.parents)
+    except OSError:
+        return False
+
+
+def _preexec(limits: SandboxLimits, user: tuple[int, int] | None) -> Callable[[], None]:
+    cpu = int(limits.load_seconds + limits.time_limit + limits.grace) + 1
+
+    def set_limits() -> None:  # runs in the child, between fork and exec
+        resource.setrlimit(resource.RLIMIT_CPU, (cpu, cpu))
+        resource.setrlimit(resource.RLIMIT_AS, (limits.memory_bytes, limits.memory_bytes))
+        resource.setrlimit(resource.RLIMIT_FSIZE, (0, 0))
+        resource.setrlimit(resource.RLIMIT_NOFILE, (limits.open_files, limits.open_files))
+        resource.setrlimit(resource.RLIMIT_CORE, (0, 0))
+        if user is not None:
+            uid, gid = user
+            os.setgroups([])
+            os.setgid(gid)
+            os.setuid(uid)
+            resource.setrlimit(resource.RLIMIT_NPROC, (0, 0))  # no process, no thread
+
+    return set_limits
+
+
+def run_user_goal(action: str, goal: str, files: SandboxFiles, limits: SandboxLimits,
+                  extra: dict[str, Any]) -> Outcome:
+    """Run `goal` (action ``query`` or ``why``) in a child ``swipl``; its reply.
+
+    Raises QueryRefused, QueryLimitExceeded, PrologError or KBLoadError for every
+    reply or end of the child that is not an answer.
+    """
+    _check_text(goal)
+    request = {
+        "action": action,
+        "goal": goal,
+        "engine_files": [str(p) for p in files.engine_files],
+        "kb_files": [str(p) for p in files.kb_files],
+        "bridge_modules": list(BRIDGE_MODULES),
+        "limit": 100,
+        "max_depth": 30,
+        "inference_limit": int(limits.inference_limit),
+        **extra,
+    }
+    stack = max(1, limits.stack_bytes >> 20)
+    command = [_swipl(), "-q", "-f", "none", "--no-packs", "--no-tty",
+               f"--stack-limit={stack}m", "-g", "kb_sandbox:sandbox_main", "-t", "halt(4)",
+               str(files.entry)]
+    env = {"PATH": os.environ.get("PATH", "/usr/bin:/bin"), "LANG": "C.UTF-8",
+           "LC_ALL": "C.UTF-8", "HOME": "/nonexistent"}
+    try:
+        child = subprocess.Popen(
+            command, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+            start_new_session=True, preexec_fn=_preexec(limits, _unprivileged(files)),
+            cwd="/", env=env,
+        )
+    except (OSError, subprocess.SubprocessError) as exc:
+        raise ItaError(f"cannot start the query process ({command[0]}): {exc}") from None
+    try:
+        return _converse(child, request, limits)
+    finally:
+        _kill_group(child)
+
+
+def _kill_group(child: subprocess.Popen) -> None:
+    """Kill the child's whole process group (whatever it started too) and reap it."""
+    try:
+        os.killpg(child.pid, signal.SIGKILL)
+    except (ProcessLookupError, PermissionError):
+        pass
+    child.wait()
+    for stream in (child.stdin, child.stdout, child.stderr):
+        if stream is not None:
+            try:
+                stream.close()
+            except OSError:
+                pass
+
+
+def _converse(child: subprocess.Popen, request: dict[str, Any], limits: SandboxLimits) -> Outcome:
+    """Send the request, collect output and reply under the wall-clock limits."""
+    assert child.stdin is not None and child.stdout is not None and child.stderr is not None
+    try:
+        child.stdin.write(json.dumps(request).encode("utf-8") + b"\n")
+        child.stdin.close()
+    except BrokenPipeError:
+        pass
+    reply_fd, err_fd = child.stdout.fileno(), child.stderr.fileno()
+    buffers: dict[int, bytearray] = {err_fd: bytearray(), reply_fd: bytearray()}
+    caps = {err_fd: limits.output_bytes, reply_fd: limits.reply_bytes}
+    selector = selectors.DefaultSelector()
+    for fd in buffers:
+        os.set_blocking(fd, False)
+        selector.register(fd, selectors.EVENT_READ)
+    started = time.monotonic()
+    deadline = started + limits.load_seconds
+    ready_at: float | None = None
+    killed_for: str | None = None
+    try:
+        while selector.get_map():
+            remaining = deadline - time.monotonic()
+            if remaining <= 0:
+                killed_for = "time" if ready_at is not None else "load"
+                break
+            for key, _ in selector.select(timeout=min(remaining, 0.5)):
+                fd = key.fd
+                try:
+                    data = os.read(fd, 65536)
+                except BlockingIOError:
+                    continue
+                if not data:
+                    selector.unregister(fd)
+                    continue
+                buffer = buffers[fd]
+                if len(buffer) < caps[fd]:
+                    buffer += data[: caps[fd] - len(buffer)]
+                elif fd == reply_fd:
+                    killed_for = "reply"
+                if ready_at is None and fd == reply_fd and b"\n" in buffer:
+                    ready_at = time.monotonic()
+                    deadline = ready_at + limits.time_limit + limits.grace
+            if killed_for:
+                break
+    except KeyboardInterrupt:
+        _kill_group(child)
+        raise
+    finally:
+        selector.close()
+    if killed_for is None:
+        try:
+            child.wait(timeout=max(0.1, deadline - time.monotonic()))
+        except subprocess.TimeoutExpired:
+            killed_for = "time"
+    _kill_group(child)
+    printed = buffers[err_fd].decode("utf-8", "replace")
+    reply_lines = buffers[reply_fd].decode("utf-8", "replace").splitlines()
+    if killed_for is None and len(reply_lines) >= 2 and reply_lines[0] == "ready":
+        try:
+            reply = json.loads(reply_lines[1])
+        except (ValueError, RecursionError):
+            raise PrologError(request["goal"], "the query process sent a reply that cannot be read") from None
+        _raise_for(reply, request["goal"])
+        return Outcome(reply, printed)
+    raise _ended(child.returncode, killed_for, limits, printed, request["goal"])
+
+
+def _raise_for(reply: dict[str, Any], goal: str) -> None:
+    status, reason = reply.get("status"), str(reply.get("reason", ""))
+    if status == "refused":
+        raise QueryRefused(reason)
+    if status == "limit_exceeded":
+        raise QueryLimitExceeded(reason)
+    if status == "error":
+        raise PrologError(goal, reason)
+    if status == "load_error":
+        raise KBLoadError([(Location(reason.split(":", 1)[0]), reason)])
+
+
+def _ended(code: int | None, killed_for: str | None, limits: SandboxLimits, stderr: str,
+           goal: str) -> ItaError:
+    """The error for a child that ended without a reply."""
+    if killed_for == "time":
+        return QueryLimitExceeded(
+            f"stopped: the goal ran longer than {limits.time_limit:g} s (time limit); "
+            "its process was killed")
+    if killed_for == "load":
+        return QueryLimitExceeded(
+            f"stopped: loading the knowledge bases took longer than {limits.load_seconds:g} s")
+    if killed_for == "reply":
+        return QueryLimitExceeded(
+            f"stopped: the answer is larger than {limits.reply_bytes >> 20} MiB; narrow the goal "
+            "or lower --limit")
+    mib = limits.memory_bytes >> 20
+    if code is not None and code < 0:
+        sig = -code
+        if sig == signal.SIGXCPU:
+            return QueryLimitExceeded("stopped: the goal used up its CPU time (time limit); "
+                                      "its process was killed")
+        if sig == signal.SIGXFSZ:
+            return QueryRefused("refused: the goal tried to write a file; its process was killed")
+        if sig in (signal.SIGSEGV, signal.SIGBUS, signal.SIGABRT):
+            return QueryLimitExceeded(
+                f"stopped: the goal crashed its process ({signal.Signals(sig).name}), "
+                f"most likely out of memory (limit {mib} MiB) or a term nested too deep")
+        return QueryLimitExceeded(f"stopped: the query process was ended by {signal.Signals(sig).name}")
+    lowered = stderr.lower()
+    if "memory" in lowered or "resource" in lowered or "stack" in lowered:
+        return QueryLimitExceeded(f"stopped: out of memory (limit {mib} MiB for a query)")
+    last = next((line for line in reversed(stderr.splitlines()) if line.strip()), "")
+    detail = f": {last.strip()[:200]}" if last else ""
+    return PrologError(goal, f"the query process ended without an answer (exit {code}){detail}")
