@@ -477,12 +477,14 @@ criticality(at(_, _), 1).
 %!  domain_fact(?Fact) is nondet.
 %
 %   Fact is a static fact of the workcell that unary and n-ary constraints are checked
-%   against: type/2, weight/2 and can_lift/2 of the world model (kb/world.pl), and
+%   against: type/2 (an object's type or one it is a kind of, world:is_a/2, so the bent
+%   probe passes an operator's `type(Tool, us_tool)`), weight/2 and can_lift/2 of the
+%   world model (kb/world.pl), and
 %   can_measure(Tool, Kind), a tool whose type some tool rule of kb/tools.pl lets
 %   measure Kind.
 
 domain_fact(type(Object, Type)) :-
-    world:type(Object, Type).
+    world:is_a(Object, Type).
 domain_fact(weight(Tool, Kg)) :-
     world:weight(Tool, Kg).
 domain_fact(can_lift(Arm, Kg)) :-

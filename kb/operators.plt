@@ -58,6 +58,17 @@ test(measurement_goal_with_the_chosen_tool,
 test(rib_width_by_either_tool_type, true(Tools == [slra_1, slra_2, us_probe_1, us_probe_2])) :-
     setof(T, domain_fact(can_measure(T, stiffener_width)), Tools).
 
+test(bent_probe_measures_flange_thickness_only,
+     true(Kinds == [flange_thickness])) :-
+    setof(K, domain_fact(can_measure(us_probe_90, K)), Kinds).
+
+test(bent_probe_passes_the_ultrasonic_operators_type_constraint, nondet) :-
+    domain_fact(type(us_probe_90, us_tool)).
+
+test(measurement_goal_with_the_bent_probe,
+     true(G =@= measured(us_probe_90, _, meas(w1)))) :-
+    measurement_goal(w1, flange_thickness, us_probe_90, G, _).
+
 test(hole_only_by_the_slra, true(Tools == [slra_1, slra_2])) :-
     setof(T, domain_fact(can_measure(T, hole_diameter)), Tools).
 

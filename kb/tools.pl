@@ -40,6 +40,10 @@ part's geometry, so that one call can decide a thousand measurements (select_too
   |                           | or the reason it is not (`too_far`, `wrist_bend`, ...)|
   | pose(ToolType, Verdict)   | the same from the inverse kinematics / path planner,  |
   |                           | when known                                            |
+  | placed(ToolType, Verdict) | the Geometric Reasoner's MKB: `placed`, or why it     |
+  |                           | could not place a tool of ToolType for the measurement|
+  |                           | (`contact_blocked`: the probe on the point collides at|
+  |                           | every roll and arm branch; `approach_blocked`, ...)   |
 
 A condition holds unless a fact refutes it: with no facts at all, select_tool/5 answers
 from the rules and the world model alone (so `ita kb why` can be asked about any kind).
@@ -48,7 +52,8 @@ A choice is `use(ToolType, Tool, Rule)` or `cannot(Reason)`; Why lists how it ca
 `chosen(Rule, How)` (How is `held`, `primary` or `spare_for(Tool)`) and
 `rejected(Rule, Reason)` for each more preferred rule that did not apply.  Reasons are
 `no_rule(Kind, FeatureKind)`, `unreachable(ToolType, Verdict)`,
-`no_pose(ToolType, Verdict)` and `no_working_tool(ToolType)`.
+`no_pose(ToolType, Verdict)`, `not_placed(ToolType, Verdict)` and
+`no_working_tool(ToolType)`.
 
 Nothing runs at load time.
 */
@@ -103,6 +108,8 @@ feature_kind(unknown).
 %     * `probe_can_touch`: the ultrasonic probe's tip can be put on the surface the
 %       measurement needs, its axis along the surface normal (for a thickness, the spec
 %       point; for a rib's width, a point on the rib's side wall);
+%     * `bent_probe_can_touch`: the same for the probe bent 90 degrees (`us_bent`): its
+%       shaft along the normal, its holder and the arm across it, beside the wall;
 %     * `slra_can_view`: the SLRA can be put on the normal at a stand-off in its working
 %       range, looking at the point.
 
@@ -110,6 +117,11 @@ feature_kind(unknown).
 % clamped to the fixture: no camera sees it).
 tool_rule(us_web_thickness,    us_tool,   web_thickness,    pocket,    [probe_can_touch]).
 tool_rule(us_flange_thickness, us_tool,   flange_thickness, flange,    [probe_can_touch]).
+% A flange wall the probe cannot touch without the arm or the probe meeting the part
+% (the MKB finds its contact pose colliding at every roll and arm branch: the default
+% bulkhead's bottom outer flange walls FT-OFL01/02/15/16-W1) is touched by the probe
+% bent 90 degrees, its holder running along the wall.
+tool_rule(us_bent_flange_thickness, us_bent, flange_thickness, flange, [bent_probe_can_touch]).
 % A rib's width is a thickness too: from its side wall with the probe, or from above
 % with the SLRA (the two edges of the rib's top face).
 tool_rule(us_rib_width,        us_tool,   stiffener_width,  stiffener, [probe_can_touch]).
@@ -156,6 +168,9 @@ preferred_tool_type(Kind, ToolType) :-
 %   couplant or a contact move; the probe on the side wall is the fallback.
 
 prefer(slra_rib_width, us_rib_width).
+% The bent probe only where the straight one cannot: one tool change more, and the
+% cell has no spare bent probe.
+prefer(us_flange_thickness, us_bent_flange_thickness).
 
 %!  prefer_tool(?BetterHow, ?WorseHow) is nondet.
 %
@@ -187,6 +202,7 @@ condition_fails(Condition, Facts, Reason) :-
     ).
 
 condition_tool(probe_can_touch, us_tool).
+condition_tool(bent_probe_can_touch, us_bent).
 condition_tool(slra_can_view, slra_tool).
 
 pose_refuted(ToolType, Facts, unreachable(ToolType, Verdict)) :-
@@ -195,7 +211,11 @@ pose_refuted(ToolType, Facts, unreachable(ToolType, Verdict)) :-
     !.
 pose_refuted(ToolType, Facts, no_pose(ToolType, Verdict)) :-
     memberchk(pose(ToolType, Verdict), Facts),
-    Verdict \== reachable.
+    Verdict \== reachable,
+    !.
+pose_refuted(ToolType, Facts, not_placed(ToolType, Verdict)) :-
+    memberchk(placed(ToolType, Verdict), Facts),
+    Verdict \== placed.
 
 %!  rule_applies(+Rule, +Facts:list, -Reason) is det.
 %

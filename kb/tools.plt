@@ -92,7 +92,7 @@ test(rib_width_falls_back_when_slra_cannot_view,
 
 test(unreachable_reports_the_reach_verdict,
      true(C == cannot(unreachable(us_tool, too_far)))) :-
-    select_tool(flange_thickness, flange, [reach(us_tool, too_far)], C, _).
+    select_tool(web_thickness, pocket, [reach(us_tool, too_far)], C, _).
 
 test(no_pose_reports_the_planner_verdict,
      true(C == cannot(no_pose(slra_tool, collision)))) :-
@@ -108,6 +108,66 @@ test(rule_applies, true(R == applies)) :-
 
 test(condition_holds_without_facts, fail) :-
     condition_fails(probe_can_touch, [], _).
+
+% --- the probe bent 90 degrees: where the straight probe cannot touch -----------------
+
+% What the MKB says of the default bulkhead's four bottom outer flange walls: the
+% straight probe's contact pose collides at every roll and arm branch, the bent one's
+% does not.
+blocked_wall([reach(us_tool, reachable), reach(us_bent, reachable), reach(slra_tool, reachable),
+              pose(us_tool, reachable), pose(us_bent, reachable),
+              placed(us_tool, contact_blocked), placed(us_bent, placed)]).
+
+test(flange_thickness_prefers_the_straight_probe,
+     true(C-W == use(us_tool, us_probe_1, us_flange_thickness)-[chosen(us_flange_thickness, primary)])) :-
+    select_tool(flange_thickness, flange, [placed(us_tool, placed), placed(us_bent, placed)], C, W).
+
+test(blocked_flange_wall_gets_the_bent_probe,
+     true(C-W == use(us_bent, us_probe_90, us_bent_flange_thickness)-
+                 [rejected(us_flange_thickness, not_placed(us_tool, contact_blocked)),
+                  chosen(us_bent_flange_thickness, primary)])) :-
+    blocked_wall(Facts),
+    select_tool(flange_thickness, flange, Facts, C, W).
+
+test(the_four_blocked_walls_of_the_bulkhead_get_the_bent_probe,
+     true(Tools == [us_probe_90, us_probe_90, us_probe_90, us_probe_90])) :-
+    blocked_wall(Facts),
+    Ids = ['FT-OFL01-W1', 'FT-OFL02-W1', 'FT-OFL15-W1', 'FT-OFL16-W1'],
+    findall(request(Id, flange_thickness, flange, Facts), member(Id, Ids), Requests),
+    select_tools(Requests, Choices),
+    findall(T, member(choice(_, use(us_bent, T, _), _), Choices), Tools).
+
+test(blocked_for_both_probes_cannot_with_the_straight_probes_reason,
+     true(C == cannot(not_placed(us_tool, contact_blocked)))) :-
+    select_tool(flange_thickness, flange,
+                [placed(us_tool, contact_blocked), placed(us_bent, approach_blocked)], C, _).
+
+test(bent_probe_too_far_cannot,
+     true(C == cannot(not_placed(us_tool, contact_blocked)))) :-
+    select_tool(flange_thickness, flange,
+                [placed(us_tool, contact_blocked), reach(us_bent, too_far)], C, _).
+
+test(no_bent_probe_for_a_web, true(C == cannot(not_placed(us_tool, contact_blocked)))) :-
+    select_tool(web_thickness, pocket, [placed(us_tool, contact_blocked)], C, _).
+
+test(broken_bent_probe_cannot,
+     [ setup(set_tool_condition(us_probe_90, broken)), cleanup(reset_world),
+       true(C == cannot(not_placed(us_tool, contact_blocked))) ]) :-
+    blocked_wall(Facts),
+    select_tool(flange_thickness, flange, Facts, C, _).
+
+test(straight_probes_broken_flange_goes_to_the_bent_probe,
+     [ setup(( set_tool_condition(us_probe_1, broken), set_tool_condition(us_probe_2, broken) )),
+       cleanup(reset_world), true(T == us_probe_90) ]) :-
+    select_tool(flange_thickness, flange, [], use(us_bent, T, _), _).
+
+test(candidate_types_of_flange_thickness, true(Ts == [us_tool, us_bent])) :-
+    candidate_tool_types(flange_thickness, flange, Ts).
+
+test(bent_probe_not_taken_for_the_straight_type, true(Ts == [us_probe_1, us_probe_2])) :-
+    findall(T, ( tool_of_type(us_tool, T, _) ; set_tool_condition(us_probe_1, broken),
+                                                tool_of_type(us_tool, T, _) ), Ts),
+    reset_world.
 
 % --- the batch call ----------------------------------------------------------------
 

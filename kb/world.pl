@@ -1,5 +1,7 @@
 :- module(world,
           [ type/2,                     % ?Object, ?Type
+            subtype/2,                  % ?Type, ?SuperType
+            is_a/2,                     % ?Object, ?Type
             tool/1,                     % ?Tool
             weight/2,                   % ?Tool, ?Kg
             can_lift/2,                 % ?Arm, ?Kg
@@ -26,8 +28,8 @@
 
 Symbolic facts about the workcell that tool selection, the task planner and fault
 diagnosis reason with: one T3 arm, two ultrasonic probes and two scanning laser range
-assemblies (SLRA), each pair a tool and its spare, in a four-slot tool rack, a
-couplant station and a calibration block.
+assemblies (SLRA), each pair a tool and its spare, and an ultrasonic probe bent 90
+degrees (no spare) in a five-slot tool rack, a couplant station and a calibration block.
 
 The static facts describe the cell as built.  The world *state* (where each tool is,
 its condition, the couplant level) is the built state changed by the updates recorded
@@ -49,12 +51,15 @@ forgets the updates.  Nothing runs at load time.
 %!  type(?Object, ?Type) is nondet.
 %
 %   Object of the workcell is of Type: `arm`, `us_tool` (ultrasonic thickness probe),
-%   `slra_tool` (scanning laser range assembly), `rack`, `slot`, `couplant_station`
-%   or `calibration_block`.
+%   `us_bent` (ultrasonic thickness probe bent 90 degrees, for walls the other cannot
+%   touch), `slra_tool` (scanning laser range assembly), `rack`, `slot`,
+%   `couplant_station` or `calibration_block`.  Each object has one type; is_a/2 adds
+%   the types it is a kind of.
 
 type(t3, arm).
 type(us_probe_1, us_tool).
 type(us_probe_2, us_tool).
+type(us_probe_90, us_bent).
 type(slra_1, slra_tool).
 type(slra_2, slra_tool).
 type(rack, rack).
@@ -62,18 +67,40 @@ type(slot_1, slot).
 type(slot_2, slot).
 type(slot_3, slot).
 type(slot_4, slot).
+type(slot_5, slot).
 type(couplant_station, couplant_station).
 type(cal_block, calibration_block).
 
+%!  subtype(?Type, ?SuperType) is nondet.
+%
+%   Every object of Type is also one of SuperType: the bent probe is an ultrasonic
+%   probe (it works the same gauge, couplant and calibration block), though tool
+%   selection keeps the two apart (the rules of kb/tools.pl name the exact type).
+
+subtype(us_bent, us_tool).
+
+%!  is_a(?Object, ?Type) is nondet.
+%
+%   Object is of Type or of a subtype of it (subtype/2): what an operator's
+%   `type(Tool, us_tool)` constraint asks of a tool.
+
+is_a(Object, Type) :-
+    type(Object, Own),
+    (   Type = Own
+    ;   subtype(Own, Type)
+    ).
+
 %!  tool(?Tool) is nondet.
 %
-%   Tool is a measuring tool the arm can pick up (of type `us_tool` or `slra_tool`).
+%   Tool is a measuring tool the arm can pick up (of type `us_tool`, `us_bent` or
+%   `slra_tool`).
 
 tool(Tool) :-
     type(Tool, Type),
     tool_type(Type).
 
 tool_type(us_tool).
+tool_type(us_bent).
 tool_type(slra_tool).
 
 %!  weight(?Tool, ?Kg) is nondet.
@@ -82,6 +109,7 @@ tool_type(slra_tool).
 
 weight(us_probe_1, 1.5).
 weight(us_probe_2, 1.5).
+weight(us_probe_90, 1.6).
 weight(slra_1, 6.0).
 weight(slra_2, 6.0).
 
@@ -106,6 +134,7 @@ home_slot(us_probe_1, slot_1).
 home_slot(us_probe_2, slot_2).
 home_slot(slra_1, slot_3).
 home_slot(slra_2, slot_4).
+home_slot(us_probe_90, slot_5).
 
 %!  rack_slot(?Rack, ?Slot) is nondet.
 %
@@ -115,6 +144,7 @@ rack_slot(rack, slot_1).
 rack_slot(rack, slot_2).
 rack_slot(rack, slot_3).
 rack_slot(rack, slot_4).
+rack_slot(rack, slot_5).
 
 
                  /*******************************

@@ -14,7 +14,18 @@ test(tools_start_in_their_home_slots, true(Where == in_rack(slot_3))) :-
 test(spare, true(Spare == slra_2)) :-
     spare_of(Spare, slra_1).
 
-test(all_tools_available_initially, all(T == [us_probe_1, us_probe_2, slra_1, slra_2])) :-
+test(bent_probe_is_an_ultrasonic_probe_of_its_own_type,
+     all(T == [us_probe_1, us_probe_2, us_probe_90])) :-
+    is_a(T, us_tool).
+
+test(bent_probe_has_its_own_type_and_slot, true(Type-Slot == us_bent-slot_5)) :-
+    type(us_probe_90, Type),
+    home_slot(us_probe_90, Slot).
+
+test(bent_probe_is_no_spare_of_the_straight_one, fail) :-
+    spare_of(us_probe_90, _).
+
+test(all_tools_available_initially, all(T == [us_probe_1, us_probe_2, us_probe_90, slra_1, slra_2])) :-
     available(T).
 
 test(broken_tool_is_not_available,
@@ -36,7 +47,7 @@ test(holding_after_pickup,
        nondet, true(Tool == us_probe_1) ]) :-
     holding(t3, Tool).
 
-test(t3_lifts_every_tool, all(T == [slra_1, slra_2, us_probe_1, us_probe_2])) :-
+test(t3_lifts_every_tool, all(T == [slra_1, slra_2, us_probe_1, us_probe_2, us_probe_90])) :-
     setof(Tool, liftable(t3, Tool), Tools),
     member(T, Tools).
 

@@ -78,7 +78,7 @@ def test_next_resequences_after_a_tool_breaks(ita):
 def test_tool_marks_list_and_errors(ita):
     listed = ita("tool", "list")
     assert listed.exit_code == 0
-    assert listed.output.count("available") == 4 and "NOT" not in listed.output
+    assert listed.output.count("available") == 5 and "NOT" not in listed.output
     assert ita("tool", "missing", "us_probe_2").exit_code == 0
     assert "missing" in ita("tool", "list").output
     assert ita("tool", "ok", "us_probe_2").exit_code == 0

@@ -343,7 +343,7 @@ def test_no_missed_collision_with_the_held_tool_against_the_simulator(cell, part
     rng = np.random.default_rng(13)
     lo, hi = np.array(cell.arm.joints.lower), np.array(cell.arm.joints.upper)
     with SimWorld(cell, asbuilt_mesh=part.mesh) as world:
-        for name in ("us_probe_1", "slra_1"):
+        for name in ("us_probe_1", "us_probe_90", "slra_1"):
             tool = cell.tool(name)
             t = build_tree(cell, part)
             t.remove(name)

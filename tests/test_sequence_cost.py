@@ -36,7 +36,7 @@ def private_home(tmp_path, monkeypatch):
 @pytest.fixture(scope="module")
 def ctx(knowledge_base, builtin_part):
     """The first 6 specs of each kind (54 specs), classic method, the default cost model."""
-    full = planning_context(kb=knowledge_base, part=builtin_part, method="classic")
+    full = planning_context(kb=knowledge_base, part=builtin_part, method="classic", use_mkb=False)
     per_kind: dict = {}
     for s in full.specs:
         if len(per_kind.setdefault(s.kind, [])) < 6:
@@ -169,8 +169,8 @@ def test_pose_facts_give_the_ik_verdict(ctx):
     facts = pose_facts(ctx.workcell, [near, _far(near)])
     assert Term("pose", ("us_tool", POSE_OK)) in facts[0] and Term("pose", ("slra_tool", POSE_OK)) in facts[0]
     verdicts = {f.args[0]: f.args[1] for f in facts[1] if f.name == "pose"}
-    assert verdicts == {"us_tool": "out_of_reach", "slra_tool": "out_of_reach"}
-    assert len(facts[1]) == 4  # the reach facts stay
+    assert verdicts == {"us_tool": "out_of_reach", "us_bent": "out_of_reach", "slra_tool": "out_of_reach"}
+    assert len(facts[1]) == 6  # the reach facts stay, one per tool class
 
 
 def test_no_pose_goes_to_cannot_be_done(ctx, knowledge_base):

@@ -71,10 +71,13 @@ def _kinds(specs, ids):
 def test_bulkhead_is_reachable_for_the_tools_it_needs(facts, bulkhead_specs):
     assert len(facts) == len(bulkhead_specs)
     for f, spec in zip(facts, bulkhead_specs):
-        us, slra = (term_text(t) for t in f)
-        assert us == "reach(us_tool, reachable)", spec.id
+        verdict = {t.args[0]: term_text(t) for t in f}
+        assert set(verdict) == {"us_tool", "us_bent", "slra_tool"}
+        assert verdict["us_tool"] == "reach(us_tool, reachable)", spec.id
         if spec.kind not in THICKNESS:  # some flange walls face away from the SLRA's stand-off
-            assert slra == "reach(slra_tool, reachable)", spec.id
+            assert verdict["slra_tool"] == "reach(slra_tool, reachable)", spec.id
+        if spec.kind is MeasurementKind.FLANGE_THICKNESS and spec.normal[2] == 0.0:   # a wall
+            assert verdict["us_bent"] == "reach(us_bent, reachable)", spec.id
 
 
 def test_tool_selection_for_every_kind(partition, bulkhead_specs):
@@ -102,10 +105,14 @@ def test_broken_probe_with_spare(partition):
 
 def test_broken_probe_without_spare(partition, bulkhead_specs):
     result = partition({"us_probe_1": {"condition": "broken"}, "us_probe_2": {"missing": True}})
-    assert [g.tool for g in result.groups] == ["slra_1"]
+    # the flanges' thicknesses the probe bent 90 degrees reaches fall back to it
+    assert [g.tool for g in result.groups] == ["slra_1", "us_probe_90"]
+    bent = result.group_of("us_probe_90")
+    assert set(_kinds(bulkhead_specs, bent.spec_ids)) == {MeasurementKind.FLANGE_THICKNESS}
+    assert dict(bent.rules) == {"us_bent_flange_thickness": len(bent.spec_ids)}
     n_thick = sum(s.kind in THICKNESS for s in bulkhead_specs)
-    assert len(result.cannot) == n_thick
-    assert result.cannot_counts() == {"no_working_tool(us_tool)": n_thick}
+    assert len(result.cannot) == n_thick - len(bent.spec_ids)
+    assert result.cannot_counts() == {"no_working_tool(us_tool)": n_thick - len(bent.spec_ids)}
     assert set(_kinds(bulkhead_specs, [i for i, _ in result.cannot])) == THICKNESS
 
 

@@ -39,7 +39,8 @@ def private_home(tmp_path, monkeypatch):
 
 @pytest.fixture(scope="module")
 def full_ctx(knowledge_base, builtin_part):
-    return planning_context(kb=knowledge_base, part=builtin_part, method="classic")
+    # the geometry alone: not what a stored MKB of the session could not place
+    return planning_context(kb=knowledge_base, part=builtin_part, method="classic", use_mkb=False)
 
 
 @pytest.fixture(scope="module")
@@ -111,10 +112,15 @@ def test_plan_with_done_and_broken_tools(ctx, world):
     with world({"us_probe_1": {"condition": "broken"}, "us_probe_2": {"condition": "broken"}}):
         plan = build_plan(ctx, done=done)
     assert plan.done == tuple(done)
-    thick = {s.id for s in ctx.specs if s.kind.value.endswith("thickness")} - set(done)
-    assert {i for i, _ in plan.cannot} == thick
-    assert {r for _, r in plan.cannot} == {"no_working_tool(us_tool)"}
-    assert [g.tool for g in plan.groups] == ["slra_1"]
+    webs = {s.id for s in ctx.specs if s.kind.value == "web_thickness"} - set(done)
+    flanges = {s.id for s in ctx.specs if s.kind.value == "flange_thickness"} - set(done)
+    cannot = {i for i, _ in plan.cannot}
+    assert webs <= cannot and {r for _, r in plan.cannot} == {"no_working_tool(us_tool)"}
+    # a flange wall's thickness falls back to the probe bent 90 degrees (a cap's top it
+    # cannot reach: its holder would lie along the part's face)
+    assert sorted(g.tool for g in plan.groups) == ["slra_1", "us_probe_90"]
+    bent = set(next(g.order for g in plan.groups if g.tool == "us_probe_90"))
+    assert "FT-OFL01-W1" in bent and bent | (cannot - webs) == flanges
     assert plan.tool_state["us_probe_1"]["condition"] == "broken"
 
 
@@ -215,9 +221,14 @@ def test_broken_tool_without_spare_moves_to_cannot(ctx, world):
     with world(marks):
         result = next_step(ctx, plan)
     assert result.resequenced and result.reason == "tool us_probe_1 not available (broken)"
-    assert result.step is None  # nothing this cell can do is left
+    # the flange walls' thicknesses fall back to the probe bent 90 degrees; the rest cannot be done
+    probe_ids = plan.groups[1].order
+    assert [g.tool for g in result.plan.groups] == ["us_probe_90"]
+    bent = set(result.plan.groups[0].order)
+    assert "FT-OFL01-W1" in bent and result.step.tool == "us_probe_90" and result.step.spec_id in bent
+    assert {ctx.spec(i).kind.value for i in bent} == {"flange_thickness"}
     assert {r for _, r in result.plan.cannot} == {"no_working_tool(us_tool)"}
-    assert len(result.plan.cannot) == len(plan.groups[1].order)
+    assert {i for i, _ in result.plan.cannot} == set(probe_ids) - bent
     # the probe comes back: the cannot-be-done measurements are planned again
     with world({}):
         back = next_step(ctx, result.plan)

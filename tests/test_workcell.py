@@ -36,12 +36,13 @@ def arm_sim(cell: Workcell):
 def test_default_workcell_has_the_fixed_names(cell: Workcell) -> None:
     assert cell.arm.name == "t3"
     assert {t.name: t.tool_class for t in cell.tools} == {
-        "us_probe_1": Tool.ULTRASONIC, "us_probe_2": Tool.ULTRASONIC,
+        "us_probe_1": Tool.ULTRASONIC, "us_probe_2": Tool.ULTRASONIC, "us_probe_90": Tool.ULTRASONIC_BENT,
         "slra_1": Tool.SLRA, "slra_2": Tool.SLRA,
     }
     assert cell.rack.name == "rack"
     assert {s.name: s.tool for s in cell.rack.slots} == {
         "slot_1": "us_probe_1", "slot_2": "us_probe_2", "slot_3": "slra_1", "slot_4": "slra_2",
+        "slot_5": "us_probe_90",
     }
     assert cell.couplant_station.name == "couplant_station"
     assert cell.cal_block.name == "cal_block"

@@ -88,7 +88,7 @@ class StationCommands:
     def calibrate(self, command: Command) -> Reply | Completion:
         world = self.world
         tool = world.held_tool
-        if tool is None or tool.tool_class.value != "us_tool":
+        if tool is None or not tool.tool_class.ultrasonic:
             return exception_reply("NO_PROBE", "no ultrasonic probe on the flange", "no_probe")
         try:
             contact = self.poses.station("cal_block", tool.name, contact=True)   # type: ignore[attr-defined]

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from ita.logic.terms import Term
+from ita.specs.model import is_ultrasonic
 
 __all__ = ["Classified", "classify", "classify_reply"]
 
@@ -90,7 +91,7 @@ def classify(outcome: Any, *, held: str | None, tool: str | None, slra_class: st
     if exception is None:
         return None
     context: list[tuple[str, str]] = []
-    if tool_class == "us_tool" and tool is not None:
+    if is_ultrasonic(tool_class) and tool is not None:     # the straight or the bent probe
         context.append(("probe", tool))
     elif held is not None and tool_class is None:
         context.append(("probe", held))

@@ -41,6 +41,7 @@ from ita.devices.data import MeasuredValue
 from ita.diagnosis.classify import classify_reply
 from ita.logic.terms import Term
 from ita.planning.state import WorldState
+from ita.specs.model import Tool, is_ultrasonic
 from ita.toplevel.measure import MeasureOutcome, MeasureStatus, measure_one, state_after
 
 if TYPE_CHECKING:
@@ -159,8 +160,10 @@ class TestBench:
 
     def _tool_of(self, tool_class: str, situation: Situation) -> str | None:
         """The tool of `tool_class` a test uses: the measurement's own when it is of that
-        class, else the first usable one (world:usable/3)."""
-        if situation.tool_class == tool_class:
+        class or a kind of it (the bent probe for ``us_tool``: the same gauge), else the
+        first usable one (world:usable/3)."""
+        if situation.tool_class == tool_class or (tool_class == Tool.ULTRASONIC.value
+                                                  and is_ultrasonic(situation.tool_class)):
             return situation.tool
         from ita.logic.terms import Var
 
@@ -173,7 +176,7 @@ class TestBench:
             if need.startswith("failed_reading(") and not _failed_on(need[len("failed_reading("):-1], situation):
                 return False
         if test == "retry_reading":
-            return situation.tool_class == "us_tool"
+            return is_ultrasonic(situation.tool_class)
         if test == "rescan_second_standoff":
             return situation.tool_class == "slra_tool"
         if test == "compare_neighbours":

@@ -53,7 +53,7 @@ from ita.kinematics import (
     tcp_poses,
 )
 from ita.path import planners_for as make
-from ita.specs.model import MeasurementSpec, Tool
+from ita.specs.model import MeasurementSpec
 from ita.vision.context import VisionContext
 from ita.vision.scan import MAX_RASTER, MIN_HOLE_PIXELS, RASTER_STEP, scan_for
 
@@ -385,26 +385,38 @@ def build_mkb(
     digest: str,
     planner_for: Any = None,
     alternatives: Mapping[str, Sequence[str]] | None = None,
+    reuse: MeasurementKB | None = None,
 ) -> MeasurementKB:
     """The MKB of `specs`; tools: spec id -> tool name (the Sequence Planner's partition).
     Specs without a tool are left out.  alternatives: spec id -> other tools (of other
     types) the tool rules allow for it; each gets an alternative entry.  planner_for:
     ``held tool -> (PathPlanner, ToolSpec)`` (ita.path.planners_for) to check approach
-    points (default: made here)."""
+    points (default: made here).  reuse: an MKB of the same specs and workcell whose
+    entries of a tool are taken as they are when that tool has exactly the same
+    measurements to place (a tool's placements depend on its own measurements only), as
+    after a re-plan that moved a few measurements to another tool; and what it could not
+    place stays as an alternative entry where the new MKB has no entry of that tool class
+    (so the tool rules still know it)."""
     t0 = time.perf_counter()
     if planner_for is None:
 
         planner_for = make(cell, part)
     vctx_cache: dict[str, Any] = {}
 
-    def place(by_tool: Mapping[str, list[MeasurementSpec]]) -> tuple[dict[str, MkbEntry], dict[str, ViewGroup]]:
+    def place(by_tool: Mapping[str, list[MeasurementSpec]], old: Mapping[str, list[MkbEntry]]
+              ) -> tuple[dict[str, MkbEntry], dict[str, ViewGroup]]:
 
         entries: dict[str, MkbEntry] = {}
         groups: dict[str, ViewGroup] = {}
         for tool_name, tool_specs in sorted(by_tool.items()):
+            kept = old.get(tool_name, [])
+            if reuse is not None and sorted(e.spec_id for e in kept) == sorted(s.id for s in tool_specs):
+                entries.update({e.spec_id: e for e in kept})
+                groups.update({g: reuse.groups[g] for g in {e.group for e in kept if e.group} if g in reuse.groups})
+                continue
             tool = cell.tool(tool_name)
             planner, _ = planner_for(tool_name)
-            if tool.tool_class is Tool.ULTRASONIC:
+            if tool.tool_class.ultrasonic:
                 found = _probe_entries(cell, tool, tool_specs, planner)
             else:
                 if "vctx" not in vctx_cache:
@@ -421,13 +433,28 @@ def build_mkb(
             by_tool.setdefault(tools[s.id], []).append(s)
             for other in (alternatives or {}).get(s.id, ()):
                 alt_by_tool.setdefault(other, []).append(s)
-    entries, groups = place(by_tool)
+    spec_ids = {s.id for s in specs}
+    old_own: dict[str, list[MkbEntry]] = {}
+    old_alt: dict[str, list[MkbEntry]] = {}
+    if reuse is not None:
+        for e in reuse.entries.values():
+            old_own.setdefault(e.tool, []).append(e)
+        for alts in reuse.alternatives.values():
+            for e in alts:
+                old_alt.setdefault(e.tool, []).append(e)
+    entries, groups = place(by_tool, old_own)
     alt_entries, alt_groups = {}, {}
     for tool_name, tool_specs in alt_by_tool.items():   # one tool at a time: no id clashes
-        found, made = place({tool_name: tool_specs})
+        found, made = place({tool_name: tool_specs}, old_alt)
         for e in found.values():
             alt_entries.setdefault(e.spec_id, []).append(e)
         alt_groups.update(made)
+    if reuse is not None:   # what the earlier MKB could not place stays known (kb/tools.pl's placed/2)
+        old_problems = [*reuse.problems(), *(a for alts in reuse.alternatives.values() for a in alts if not a.ok)]
+        for e in old_problems:
+            known = [*alt_entries.get(e.spec_id, []), *([entries[e.spec_id]] if e.spec_id in entries else [])]
+            if e.spec_id in spec_ids and all(a.tool_class != e.tool_class for a in known):
+                alt_entries.setdefault(e.spec_id, []).append(e)
     order = {s.id: i for i, s in enumerate(specs)}
     entries = dict(sorted(entries.items(), key=lambda kv: order[kv[0]]))
     groups.update({k: g for k, g in alt_groups.items() if k not in groups})

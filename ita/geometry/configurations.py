@@ -43,7 +43,7 @@ from ita.kinematics import (
     roll_angles,
     slot_count,
 )
-from ita.specs.model import MeasurementKind, MeasurementSpec, Tool
+from ita.specs.model import MeasurementKind, MeasurementSpec
 
 if TYPE_CHECKING:
     from ita.workcell.model import ToolSpec, Workcell
@@ -124,7 +124,7 @@ def candidate_poses(workcell: Workcell, tool: ToolSpec,
     """
     n = len(specs)
     rolls = roll_angles(ROLLS)
-    if tool.tool_class is Tool.ULTRASONIC:
+    if tool.tool_class.ultrasonic:
         pa, na, pb, nb = contact_poses(specs)
         side_a = measurement_poses(workcell.part, pa, na, tool, rolls, standoff=0.0)
         side_b = measurement_poses(workcell.part, pb, nb, tool, rolls, standoff=0.0)

@@ -40,9 +40,12 @@ from ita.paths import ita_home
 FloatArray = NDArray[np.float64]
 MKB_VERSION = 4
 OK = "ok"
+#: the verdict of ``placed/2`` (kb/tools.pl) for a tool class the MKB placed a measurement for
+PLACED = "placed"
 
 __all__ = [
     "MKB_VERSION",
+    "PLACED",
     "MeasurementKB",
     "MkbEntry",
     "ViewGroup",
@@ -175,6 +178,15 @@ class MeasurementKB:
     def problems(self) -> list[MkbEntry]:
         """The entries that could not be placed."""
         return [e for e in self.entries.values() if not e.ok]
+
+    def placement(self) -> dict[str, tuple[tuple[str, str], ...]]:
+        """Spec id -> ((tool class, verdict), ...) for every class the MKB tried to place the
+        measurement for (its own entry, then the alternatives): verdict :data:`PLACED` or the
+        entry's status (``contact_blocked``, ...).  The tool rules' ``placed/2`` facts."""
+        out: dict[str, dict[str, str]] = {}
+        for e in [*self.entries.values(), *(a for alts in self.alternatives.values() for a in alts)]:
+            out.setdefault(e.spec_id, {}).setdefault(e.tool_class, PLACED if e.ok else e.status)
+        return {k: tuple(v.items()) for k, v in out.items()}
 
     def counts(self) -> dict[str, int]:
         """Entries per status."""

@@ -20,6 +20,9 @@ from typing import Any
 
 from ita.part.summary import PartSummary
 
+#: times the plan and the MKB are made again with what the MKB could not place
+PLACEMENT_ROUNDS = 2
+
 
 @dataclass(frozen=True)
 class PrepareReport:
@@ -141,7 +144,7 @@ def prepare_inspection(ctx: Any, part: Any, *, progress: Callable[[str], None] =
 
     from ita.errors import ItaError
     from ita.geometry import build_mkb, load_mkb, mkb_digest, mkb_path, save_mkb
-    from ita.sequence.plan import build_plan
+    from ita.sequence.plan import build_plan, with_mkb
     from ita.sequence.store import load_plan, plan_path, save_plan
 
     plan = None
@@ -162,15 +165,34 @@ def prepare_inspection(ctx: Any, part: Any, *, progress: Callable[[str], None] =
     digest = mkb_digest(ctx.specs_digest, ctx.workcell)
     mkb = None if force else load_mkb(ctx.part_name, digest)
     mkb_rebuilt = mkb is None
-    if mkb is None:
-        progress("building the measurement knowledge base")
+
+    def make_mkb(plan: Any, reuse: Any = None) -> Any:
         from ita.sequence.partition import alternative_tools
 
         tools = {i: g.tool for g in plan.groups for i in g.order}
         others = alternative_tools(ctx.kb, ctx.workcell, ctx.specs, ctx.feature_kinds, tools)
-        mkb = build_mkb(ctx.workcell, part, ctx.specs, tools, part_name=ctx.part_name, digest=digest,
-                        alternatives=others)
-        save_mkb(mkb)
+        made = build_mkb(ctx.workcell, part, ctx.specs, tools, part_name=ctx.part_name, digest=digest,
+                         alternatives=others, reuse=reuse)
+        save_mkb(made)
+        return made
+
+    if mkb is None:
+        progress("building the measurement knowledge base")
+        mkb = make_mkb(plan)
+    # What the MKB could not place with the plan's tool goes back to the tool rules as
+    # placed/2 facts (kb/tools.pl): a flange wall the probe cannot touch moves to the bent
+    # probe.  The plan and the MKB are made again while that moves a measurement.
+    for _ in range(PLACEMENT_ROUNDS):
+        if not mkb.problems():
+            break
+        placed = with_mkb(ctx, mkb)
+        replanned = build_plan(placed, note="made again with the MKB's placements")
+        if _assignment(replanned) == _assignment(plan) and replanned.cannot == plan.cannot:
+            break
+        progress(f"{len(mkb.problems())} measurements the MKB could not place: planning again")
+        plan, plan_rebuilt, mkb_rebuilt = replanned, True, True
+        save_plan(plan)
+        mkb = make_mkb(plan, reuse=mkb)
     cannot = list(plan.cannot) + [(e.spec_id, e.status) for e in mkb.problems()]
     macrops = {"planned": 0, "lookups": 0, "hits": 0, "learned": 0, "no_plan": 0}
     if warm:
@@ -184,6 +206,11 @@ def prepare_inspection(ctx: Any, part: Any, *, progress: Callable[[str], None] =
         slra_specs=len(slra), frames=mkb.frames_needed(), cannot=tuple(cannot), macrops=macrops,
         plan_total_s=plan.total_s)
     return plan, mkb, report
+
+
+def _assignment(plan: Any) -> dict[str, str]:
+    """Spec id -> the tool a sequence plan takes it with."""
+    return {i: g.tool for g in plan.groups for i in g.order}
 
 
 def warm_macrops(ctx: Any, plan: Any, mkb: Any) -> tuple[dict[str, int], list[str]]:

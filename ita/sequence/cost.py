@@ -36,7 +36,7 @@ tests and comparisons, labelled as not the arm's motion time.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -161,7 +161,7 @@ def pose_facts(workcell: Workcell, specs: Sequence[MeasurementSpec]) -> list[lis
     if not specs:
         return facts
     model = arm_model(workcell.arm)
-    for tool_class in (Tool.ULTRASONIC, Tool.SLRA):
+    for tool_class in Tool:
         tools = workcell.tools_of_class(tool_class)
         if not tools:
             continue
@@ -170,6 +170,24 @@ def pose_facts(workcell: Workcell, specs: Sequence[MeasurementSpec]) -> list[lis
         for row, found, status in zip(facts, ik.found, ik.statuses()):
             row.append(Term("pose", (tool_class.value, POSE_OK if found else status.value)))
     return facts
+
+
+@dataclass(frozen=True, eq=False)
+class PlacedFacts:
+    """A facts function: `base`'s facts plus, per spec, ``placed(ToolClass, Verdict)`` for
+    each tool class the Geometric Reasoner's MKB tried to place it for (`placement`, from
+    ita.geometry.MeasurementKB.placement: ``placed`` or why not, e.g. ``contact_blocked``).
+    kb/tools.pl then leaves a tool type whose contact pose collides everywhere for the next
+    rule (the straight probe's blocked flange walls for the bent probe)."""
+
+    placement: Mapping[str, tuple[tuple[str, str], ...]]
+    base: Callable[["Workcell", Sequence[MeasurementSpec]], list[list[Term]]] = pose_facts
+
+    def __call__(self, workcell: Workcell, specs: Sequence[MeasurementSpec]) -> list[list[Term]]:
+        facts = self.base(workcell, specs)
+        for row, spec in zip(facts, specs):
+            row.extend(Term("placed", (c, v)) for c, v in self.placement.get(spec.id, ()))
+        return facts
 
 
 MOTION_TIME_COST = CostModel(
@@ -238,7 +256,7 @@ COST_MODELS: dict[str, CostModel] = {m.name: m for m in (MOTION_TIME_COST, INTER
 
 __all__ = [
     "COST_MODELS", "COUPLING_S", "INTERIM_COST", "MOTION_TIME_COST",
-    "CostModel", "euclidean_slot_seconds", "euclidean_tcp_seconds",
+    "CostModel", "PlacedFacts", "euclidean_slot_seconds", "euclidean_tcp_seconds",
     "flange_move_seconds", "motion_time_tour", "pose_facts",
     "rack_configurations", "rack_seconds", "slot_position", "tool_points_world",
 ]

@@ -109,21 +109,30 @@ def feature_kinds_of(features: Iterable[Any]) -> dict[str, str]:
 
 
 def reach_facts(workcell: Workcell, specs: Sequence[MeasurementSpec]) -> list[list[Term]]:
-    """``[reach(us_tool, V1), reach(slra_tool, V2)]`` for each spec (vectorised reach test)."""
+    """``[reach(us_tool, V1), reach(slra_tool, V2), ...]`` for each spec: one fact per tool
+    class the workcell has a tool of (vectorised reach test; a probe on either contact
+    pose)."""
     from ita.workcell.reach import Reach, reach_report
 
     n = len(specs)
     if n == 0:
         return []
     pa, na, pb, nb = contact_poses(specs)
-    us_a = reach_report(workcell, pa, na, [Tool.ULTRASONIC] * n).verdicts
-    us_b = reach_report(workcell, pb, nb, [Tool.ULTRASONIC] * n).verdicts
-    us = [a if a is Reach.REACHABLE or b is not Reach.REACHABLE else b for a, b in zip(us_a, us_b)]
     points = np.array([s.point for s in specs], dtype=float)
     normals = np.array([s.normal for s in specs], dtype=float)
-    slra = reach_report(workcell, points, normals, [Tool.SLRA] * n).verdicts
-    return [[Term("reach", (Tool.ULTRASONIC.value, u.value)), Term("reach", (Tool.SLRA.value, v.value))]
-            for u, v in zip(us, slra)]
+    out: list[list[Term]] = [[] for _ in specs]
+    for tool_class in Tool:
+        if not workcell.tools_of_class(tool_class):
+            continue
+        if tool_class.ultrasonic:
+            a = reach_report(workcell, pa, na, [tool_class] * n).verdicts
+            b = reach_report(workcell, pb, nb, [tool_class] * n).verdicts
+            verdicts = [x if x is Reach.REACHABLE or y is not Reach.REACHABLE else y for x, y in zip(a, b)]
+        else:
+            verdicts = list(reach_report(workcell, points, normals, [tool_class] * n).verdicts)
+        for row, v in zip(out, verdicts):
+            row.append(Term("reach", (tool_class.value, v.value)))
+    return out
 
 
 def select_tools(

@@ -39,6 +39,7 @@ from ita.sequence.cost import (
     INTERIM_COST,
     MOTION_TIME_COST,
     CostModel,
+    PlacedFacts,
     euclidean_slot_seconds,
     euclidean_tcp_seconds,
     pose_facts,
@@ -56,6 +57,7 @@ from ita.sequence.partition import (
 from ita.specs.model import MeasurementSpec
 
 if TYPE_CHECKING:
+    from ita.geometry.mkb import MeasurementKB
     from ita.logic.bridge import KnowledgeBase
     from ita.part.model import Part
     from ita.workcell.model import Workcell
@@ -165,6 +167,16 @@ class PlanningContext:
         return self._facts_cache[key][1][spec_id]
 
 
+def with_mkb(ctx: PlanningContext, mkb: MeasurementKB | None) -> PlanningContext:
+    """`ctx` whose facts add what the MKB `mkb` says about placing each measurement for each
+    tool class (:class:`ita.sequence.cost.PlacedFacts` over ctx's own facts function);
+    `ctx` itself when `mkb` is None."""
+    if mkb is None:
+        return ctx
+    base = ctx.facts.base if isinstance(ctx.facts, PlacedFacts) else ctx.facts
+    return replace(ctx, facts=PlacedFacts(mkb.placement(), base), _facts_cache={})
+
+
 def specs_digest(path: Path) -> str:
     """Hex SHA-256 of a specs file: a stored plan is stale when it changes."""
     return hashlib.sha256(Path(path).read_bytes()).hexdigest()
@@ -172,10 +184,12 @@ def specs_digest(path: Path) -> str:
 
 def planning_context(
     part_dir: Path | None = None, kb: KnowledgeBase | None = None, method: str = "default",
-    cost_model: CostModel = MOTION_TIME_COST, part: Part | None = None,
+    cost_model: CostModel = MOTION_TIME_COST, part: Part | None = None, use_mkb: bool = True,
 ) -> PlanningContext:
     """A context for the part in `part_dir` (default: the built-in bulkhead) and its
-    workcell (the part's own workcell.toml when it has one)."""
+    workcell (the part's own workcell.toml when it has one).  With `use_mkb`, the facts
+    add what the part's stored MKB, when current, says about placing each measurement for
+    each tool class (:func:`with_mkb`)."""
     from ita.part.store import load_part
     from ita.specs.io import read_specs
     from ita.workcell import workcell_for
@@ -186,11 +200,16 @@ def planning_context(
         kb = KnowledgeBase()
     loaded = part if part is not None else load_part(part_dir)
     specs = tuple(read_specs(loaded.specs_path))
-    return PlanningContext(
+    ctx = PlanningContext(
         kb=kb, part_name=loaded.name, specs=specs, feature_kinds=feature_kinds_of(loaded.features),
         workcell=workcell_for(loaded.directory), specs_digest=specs_digest(loaded.specs_path), method=method,
         cost_model=cost_model,
     )
+    if not use_mkb:
+        return ctx
+    from ita.geometry import load_mkb, mkb_digest
+
+    return with_mkb(ctx, load_mkb(ctx.part_name, mkb_digest(ctx.specs_digest, ctx.workcell)))
 
 
 def tool_state(kb: KnowledgeBase) -> dict[str, dict[str, str]]:
@@ -325,5 +344,5 @@ __all__ = [
     "COST_MODELS", "INTERIM_COST", "MOTION_TIME_COST", "CostModel", "PlannedGroup", "PlanningContext", "SequencePlan",
     "build_plan", "choose_tool", "euclidean_slot_seconds", "euclidean_tcp_seconds", "held_tool", "order_group",
     "order_groups", "partition_only", "planning_context", "pose_facts", "slot_position", "specs_digest",
-    "tool_points_world", "tool_state",
+    "tool_points_world", "tool_state", "with_mkb",
 ]

@@ -162,7 +162,7 @@ class FaultInjector:
         held = self.world.held
         if fault in ("broken_probe", "worn_probe", "dry_couplant"):
             tool = self.world.held_tool
-            return held if tool is not None and tool.tool_class.value == "us_tool" else None
+            return held if tool is not None and tool.tool_class.ultrasonic else None
         if fault == "dirty_window":
             tool = self.world.held_tool
             return held if tool is not None and tool.tool_class.value == "slra_tool" else None

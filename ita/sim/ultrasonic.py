@@ -52,7 +52,6 @@ from ita.sensors.ultrasonic import (
 )
 from ita.sim.faults import Fault
 from ita.sim.world import CouplantSpot, SimWorld
-from ita.specs.model import Tool
 
 FloatArray = NDArray[np.float64]
 GAUGE = "us_gauge"          # the fault target naming the gauge box
@@ -164,7 +163,7 @@ class UltrasonicSim:
         world, ph = self.world, self.physics
         world.clock.advance(ph.dwell_s)
         tool = world.held_tool
-        if tool is None or tool.tool_class is not Tool.ULTRASONIC:
+        if tool is None or not tool.tool_class.ultrasonic:
             return RawEcho(STATUS_NO_PROBE, dwell_s=ph.dwell_s)
         if world.faults.has(Fault.SENSOR_GARBAGE, GAUGE):
             return self._garbage(tool.name)
@@ -202,7 +201,7 @@ class UltrasonicSim:
         world, ph = self.world, self.physics
         world.clock.advance(ph.dispense_s)
         tool = world.held_tool
-        if tool is None or tool.tool_class is not Tool.ULTRASONIC:
+        if tool is None or not tool.tool_class.ultrasonic:
             return Dispensed(ph.dispense_s)
         if world.faults.has(Fault.DRY_COUPLANT, tool.name) or world.faults.has(Fault.EMPTY_COUPLANT, STATION):
             self.last_dispense_ok = False
@@ -224,7 +223,7 @@ class UltrasonicSim:
         world, ph = self.world, self.physics
         world.clock.advance(ph.dwell_s)
         tool = world.held_tool
-        if tool is None or tool.tool_class is not Tool.ULTRASONIC:
+        if tool is None or not tool.tool_class.ultrasonic:
             return RawEcho(STATUS_NO_PROBE, dwell_s=ph.dwell_s)
         if world.faults.has(Fault.SENSOR_GARBAGE, GAUGE):
             return self._garbage(tool.name)

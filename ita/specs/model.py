@@ -16,10 +16,36 @@ Vec3 = tuple[float, float, float]
 
 
 class Tool(str, Enum):
-    """Tool classes (the physical tools are instances in the workcell and kb/world.pl)."""
+    """Tool classes (the physical tools are instances in the workcell and kb/world.pl).
+
+    Two shapes of ultrasonic probe: ``us_tool`` (the cell's probe, its tip axis 45 degrees
+    off the flange axis) and ``us_bent`` (bent 90 degrees: its shaft across the flange axis,
+    for walls the first cannot touch without the arm meeting the part); both are contact
+    probes on the one gauge (:attr:`ultrasonic`), kb/world.pl's subtype/2 says the same.
+    """
 
     ULTRASONIC = "us_tool"
+    ULTRASONIC_BENT = "us_bent"
     SLRA = "slra_tool"
+
+    @property
+    def ultrasonic(self) -> bool:
+        """Whether tools of this class are ultrasonic contact probes (on the gauge)."""
+        return self is not Tool.SLRA
+
+    @property
+    def family(self) -> "Tool":
+        """The class this one is a kind of: ``us_tool`` for every ultrasonic probe."""
+        return Tool.ULTRASONIC if self.ultrasonic else self
+
+
+def is_ultrasonic(tool_class: "Tool | str | None") -> bool:
+    """Whether a tool class (or its spelling) is an ultrasonic contact probe's; False for
+    None or a spelling that is no class."""
+    try:
+        return tool_class is not None and Tool(tool_class).ultrasonic
+    except ValueError:
+        return False
 
 
 class MeasurementKind(str, Enum):

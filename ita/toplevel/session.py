@@ -26,7 +26,7 @@ from ita.part.store import load_part
 from ita.path import planners_for
 from ita.planning import OperationPlanner, store_path
 from ita.sensors.ultrasonic import UltrasonicGauge
-from ita.sequence.plan import planning_context
+from ita.sequence.plan import planning_context, with_mkb
 from ita.sequence.store import apply_tool_marks, load_tool_marks
 from ita.sim.slra import SlraScene
 from ita.sim.ultrasonic import UltrasonicSim
@@ -103,6 +103,7 @@ def open_session(part_dir: Path | None = None, *, seed: int = 0,
     require_truth(part.directory)  # the simulated workcell needs it: say so before preparing
     ctx = planning_context(part_dir, kb=kb, part=part)
     plan, mkb, _ = prepare_inspection(ctx, part, progress=progress, warm=False)
+    ctx = with_mkb(ctx, mkb)              # a resequencing keeps what the MKB could not place
     specs = {s.id: s for s in ctx.specs}
     cell = ctx.workcell
     reasoner = GeometricReasoner(mkb, cell, ctx.specs)
