@@ -230,6 +230,11 @@ def shell(limit: int, time_limit: float, inference_limit: int) -> None:
     interactive = sys.stdin.isatty()
     history = _start_history() if interactive else None
     if interactive:
+        import signal
+
+        # Ctrl-C on the terminal stops a goal even when the shell was started with SIGINT
+        # ignored (a background job of a non-interactive shell inherits that)
+        signal.signal(signal.SIGINT, signal.default_int_handler)
         click.echo("ITA knowledge-base shell; `help` for help, `quit` to leave.")
     try:
         for line in _read_lines(sys.stdin, interactive):
