@@ -412,7 +412,8 @@ def build_mkb(
             kept = old.get(tool_name, [])
             if reuse is not None and sorted(e.spec_id for e in kept) == sorted(s.id for s in tool_specs):
                 entries.update({e.spec_id: e for e in kept})
-                groups.update({g: reuse.groups[g] for g in {e.group for e in kept if e.group} if g in reuse.groups})
+                used = {e.group for e in kept if e.group}
+                groups.update({k: g for k, g in reuse.groups.items() if k in used})   # in the earlier MKB's order
                 continue
             tool = cell.tool(tool_name)
             planner, _ = planner_for(tool_name)

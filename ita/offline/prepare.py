@@ -251,10 +251,10 @@ def prepare(part_dir: Path | None, progress: Callable[[str], None] = lambda _msg
     """
     from ita.logic.bridge import KnowledgeBase
     from ita.offline.spec_reach import spec_reach
-    from ita.workcell import workcell_for
     from ita.part.store import load_part
     from ita.part.summary import summarize
     from ita.specs import service
+    from ita.workcell import workcell_for
 
     seconds: list[tuple[str, float]] = []
 
