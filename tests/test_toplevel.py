@@ -184,3 +184,41 @@ def test_a_run_whose_measurements_all_fail_stops_itself_with_an_alarm(runs, monk
         stop = archive.events(summary["run_id"], kinds=["stop"])
         assert len(stop) == 1 and "in a row" in stop[0].payload["reason"]
         assert archive.run(summary["run_id"]).settings["alarm_after"] == 3
+
+
+def test_a_member_another_frame_could_not_measure_gets_its_own_view(session, runs, monkeypatch) -> None:
+    """A view group's frame serves its other members; one it could not measure (say, a
+    dirty window spoilt its patch) is no attempt of its own: it is measured later on its
+    own view (it was recorded 'not done' with the frame's reason, never retried)."""
+    from dataclasses import replace
+
+    import ita.toplevel.loop as loop
+    from ita.devices.data import MeasuredValue
+    from ita.toplevel import RunSignals, TopLevel
+
+    real = loop.measure_one
+    spoilt: list[str] = []
+
+    def first_member_spoilt(session, spec_id, state, tool=None):
+        out = real(session, spec_id, state, tool)
+        if out.others and not spoilt:
+            victim = next((v for v in out.others if v.ok), None)
+            if victim is not None:
+                spoilt.append(victim.spec_id)
+                others = tuple(MeasuredValue(v.spec_id, None, None, "vision: too_few_pixels: spoilt for the test")
+                               if v is victim else v for v in out.others)
+                out = replace(out, others=others)
+        return out
+
+    monkeypatch.setattr(loop, "measure_one", first_member_spoilt)
+    group = next(g for g in session.plan.groups if g.tool.startswith("slra"))
+    ids = list(group.order[:12])
+    with _archive(runs) as archive:
+        run_id = archive.create_run("bulkhead", session.part.directory, seed=2, settings={"specs": ids},
+                                    total=len(ids))
+        summary = TopLevel(session, archive, run_id, RunSignals(message=None)).run()
+        assert summary.status == "completed"
+        _exactly_once(archive, run_id, len(ids))
+        mine = {r.spec_id: r for r in archive.results(run_id)}
+    assert spoilt and spoilt[0] in mine
+    assert mine[spoilt[0]].outcome.value == "measured", mine[spoilt[0]].reason

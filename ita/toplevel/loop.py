@@ -190,6 +190,7 @@ class TopLevel:
         self.diagnoses = 0
         self.network = bool(info.settings.get("network", False))
         self.pending: dict[str, Pending] = {}
+        self.failed_in_others: dict[str, str] = {}   # view-group members another's frame could not measure
         self.kept: dict[str, tuple[dict | None, tuple]] = {}   # a pending result's details and frames (this process)
         self.networks: dict[str, set[str]] = {}     # network key -> the run's specs it decides
         if self.network:
@@ -295,7 +296,10 @@ class TopLevel:
         remaining = [i for i in self.todo if i not in self.done and i not in self.pending]
         if status is RunStatus.COMPLETED and remaining:
             for spec_id in remaining:   # the sequence planner no longer hands them out
-                self._unmeasured(spec_id, Outcome.CANNOT_BE_DONE, "not handed out by the sequence planner")
+                if spec_id in self.failed_in_others:
+                    self._unmeasured(spec_id, Outcome.NOT_DONE, self.failed_in_others[spec_id])
+                else:
+                    self._unmeasured(spec_id, Outcome.CANNOT_BE_DONE, "not handed out by the sequence planner")
         kind = {RunStatus.COMPLETED: "run_end", RunStatus.INTERRUPTED: "interrupt",
                 RunStatus.STOPPED: "stop"}[status]
         self.archive.set_status(self.run_id, status, event=Event(kind, "top", end_t, {
@@ -389,9 +393,9 @@ class TopLevel:
                                                            tool=tool, sim_time_start=out.t0, sim_time_end=out.t1,
                                                            reason=f"from the frame of {step.spec_id}"), other),
                              [], theirs)
-            else:
-                self._unmeasured(other.spec_id, Outcome.NOT_DONE, other.reason or "", tool=tool, t0=out.t0,
-                                 t1=out.t1, details=theirs)
+            else:     # not recorded: the Sequence Planner hands it out on its own (its own view, the
+                # Exception Handler if that fails too); a frame made for another is no attempt of its own
+                self.failed_in_others[other.spec_id] = f"{other.reason or 'not done'} (in the frame of {step.spec_id})"
         return out.state
 
     # -- hole positions by a network ------------------------------------------------------
