@@ -43,8 +43,19 @@ def test_killed_before_its_network_is_solved_continue_loses_and_repeats_nothing(
                                                                                 builtin_part) -> None:
     runs = tmp_path / "runs"
     env = dict(os.environ, PYTHONPATH=str(REPO), ITA_HOME=str(ita_home))
-    cmd = [sys.executable, str(REPO / "cli.py"), "inspect", "--limit", "12", "--seed", "4", "--network",
-           "--runs-dir", str(runs)]
+    # the SLRA group's first 12 measurements (the probe's group comes first in the plan), as
+    # `ita inspect --network` would run them
+    child = f"""
+from ita.archive import Archive, archive_path
+from ita.toplevel import RunSignals, TopLevel, open_session
+session = open_session(None, seed=4)
+ids = list(next(g for g in session.plan.groups if g.tool.startswith("slra")).order[:12])
+with Archive.open(archive_path({str(runs)!r})) as archive:
+    run_id = archive.create_run("bulkhead", session.part.directory, seed=4, total=len(ids),
+                                settings={{"specs": ids, "network": True, "simulated": True}})
+    TopLevel(session, archive, run_id, RunSignals(message=None)).run()
+"""
+    cmd = [sys.executable, "-c", child]
     proc = subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     try:   # kill it once two position frames wait for their network
         run_id = _wait_for(proc, runs, lambda a, r: len(a.events(r, kinds=[EVENT_KIND])) >= 2)

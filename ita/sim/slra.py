@@ -122,6 +122,14 @@ def _box_mesh_in_part(box: Box, placement: PartPlacement) -> trimesh.Trimesh:
     return trimesh.Trimesh(placement.to_part(np.asarray(m.vertices)), m.faces, process=False)
 
 
+def require_simulation_truth(part_dir: Path) -> None:
+    """InputError, before any long work, when the part has no as-built truth for the
+    simulated workcell to be built from (ita.part.truth.require_truth)."""
+    from ita.part.truth import require_truth
+
+    require_truth(part_dir)
+
+
 class SlraScene:
     """What the beam can hit, built once: the part mesh and boxes, in the part frame (mm).
 

@@ -28,7 +28,7 @@ from ita.planning import OperationPlanner, store_path
 from ita.sensors.ultrasonic import UltrasonicGauge
 from ita.sequence.plan import planning_context, with_mkb
 from ita.sequence.store import apply_tool_marks, load_tool_marks
-from ita.sim.slra import SlraScene
+from ita.sim.slra import SlraScene, require_simulation_truth
 from ita.sim.ultrasonic import UltrasonicSim
 from ita.sim.world import SimWorld
 from ita.vision.context import VisionContext
@@ -98,9 +98,7 @@ def open_session(part_dir: Path | None = None, *, seed: int = 0,
     kb = KnowledgeBase()
     apply_tool_marks(kb, load_tool_marks())
     part = load_part(part_dir)
-    from ita.part.truth import require_truth
-
-    require_truth(part.directory)  # the simulated workcell needs it: say so before preparing
+    require_simulation_truth(part.directory)  # the simulated workcell needs it: say so before preparing
     ctx = planning_context(part_dir, kb=kb, part=part)
     plan, mkb, _ = prepare_inspection(ctx, part, progress=progress, warm=False)
     ctx = with_mkb(ctx, mkb)              # a resequencing keeps what the MKB could not place
