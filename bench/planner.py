@@ -35,9 +35,9 @@ import json
 import platform
 import resource
 import statistics
-import tempfile
 import subprocess
 import sys
+import tempfile
 import time
 from dataclasses import dataclass
 from pathlib import Path
@@ -202,9 +202,8 @@ def run_operation(args: argparse.Namespace) -> int:
     from ita.logic.bridge import KnowledgeBase
     from ita.part.store import load_part
     from ita.planning import OperationPlanner, WorldState
-    from ita.specs.io import read_specs
-
     from ita.sequence.plan import partition_only, planning_context
+    from ita.specs.io import read_specs
 
     kb = KnowledgeBase()
     chosen = partition_only(planning_context(None, kb=kb)).selections   # the Sequence Planner's tools

@@ -39,10 +39,10 @@ from ita.kinematics.tool_poses import measurement_poses
 from ita.part.model import Hole
 from ita.part.store import load_part
 from ita.part.truth import load_truth
+from ita.sensors.slra_frame import ScanGeometry
 from ita.sim.slra import SlraParams, SlraScene, pose_error, simulate_frame
 from ita.specs.io import read_specs
 from ita.specs.model import MeasurementKind as K
-from ita.sensors.slra_frame import ScanGeometry
 from ita.vision.context import SLRA_KINDS, VisionContext
 from ita.vision.measure import measure_frames
 from ita.vision.scan import frames_for, scan_for

@@ -168,9 +168,9 @@ def test_syntax_error_raises_with_file_line_column(run_python, broken_kb):
 
 
 def test_load_failure_is_a_kb_load_error():
+    from ita.errors import Location
     from ita.logic.bridge import KBLoadFailed
     from ita.logic.model import Diagnostic
-    from ita.errors import Location
 
     error = KBLoadFailed([Diagnostic(Severity.ERROR, Location("/x/kb/a.pl", 3, 11), "boom")])
     assert isinstance(error, KBLoadError)

@@ -15,12 +15,12 @@ from ita.sensors.slra_frame import ScanGeometry
 from ita.sim.slra import SlraParams, SlraScene, pose_error, simulate_frame
 from ita.specs.model import MeasurementKind as K
 from ita.specs.model import MeasurementSpec
-from ita.vision.fit import fit_circle, fit_circle_fixed_radius
 from ita.vision.context import VisionContext, VisionException
+from ita.vision.fit import fit_circle, fit_circle_fixed_radius
 from ita.vision.measure import measure_frames
+from ita.vision.patches import View
 from ita.vision.register import rib_beneath
 from ita.vision.scan import MIN_HOLE_PIXELS, RASTER_STEP, frames_for, scan_for
-from ita.vision.patches import View
 from tests.test_slra import PLACEMENT, looking_down
 from tests.test_vision import _box, _mesh
 

@@ -270,7 +270,6 @@ def monitor(run: str, send: str | None, once: bool, interval: float, runs_dir: P
     block only when something changed).  `ita serve` shows the same in a browser.
     """
     from ita.archive import Archive, archive_path
-
     from ita.report.live import live_state
 
     out = sys.stdout

@@ -41,7 +41,7 @@ from numpy.typing import ArrayLike, NDArray
 from ita.collision import kernels
 from ita.collision.tree import RegionTree
 from ita.workcell.frames import rpy_to_matrix
-from ita.workcell.model import TIP_CLEARANCE, ToolSpec
+from ita.workcell.model import TIP_CLEARANCE, ToolSpec  # noqa: F401 (re-exported for the collision tests)
 
 FREE, WORLD, SELF = 0, 1, 2
 

@@ -18,7 +18,7 @@ import numpy as np
 
 from ita.part import geometry2d as g2
 from ita.part.layout import Layout
-from ita.part.model import FlangeSegment, Hole, HoleRole, Pocket, Stiffener
+from ita.part.model import HoleRole, Stiffener
 from ita.part.params import BulkheadParams
 from ita.specs.model import MeasurementKind as K
 from ita.specs.model import MeasurementSpec

@@ -91,7 +91,6 @@ def merge_interchangeable(D: np.ndarray, symmetric: bool, start: int | None,
     and a fixed end closes its own (a class never holds both); classes are listed by
     their smallest member.
     """
-    n = D.shape[0]
     found: dict[bytes | int, list[int]] = {}
     maybe = np.count_nonzero(D == 0, axis=1) > 1  # a twin is at zero cost (besides oneself)
     if maybe.any():

@@ -21,15 +21,15 @@ from ita.paths import resource_dir
 from ita.specs.model import Tool
 from ita.workcell import frames
 from ita.workcell.model import (
+    HOME_Q,
+    PROBE_HOLDER_RADIUS,
+    PROBE_SHAFT_RADIUS,
+    RACK_APPROACH_M,
     ArmKinematics,
     ArmSpec,
     Box,
     JointLimits,
     PartPlacement,
-    HOME_Q,
-    PROBE_HOLDER_RADIUS,
-    PROBE_SHAFT_RADIUS,
-    RACK_APPROACH_M,
     Pose,
     Rack,
     RackSlot,
