@@ -18,7 +18,9 @@ Sequence Planner put in its cannot-be-done group, is recorded cannot-be-done.
 
 SLRA view groups: a frame taken for one measurement serves every member of its view
 group (the MKB); the members' results are recorded as soon as Vision has them, and the
-Sequence Planner's later hand-out of a member already recorded is skipped.
+Sequence Planner's later hand-out of a member already recorded is skipped.  A member the
+frame could not measure is not recorded: it is handed out later on its own view (with
+the Exception Handler behind it), since a frame made for another is no attempt of its own.
 
 Hole positions by a network (the run's setting ``network``, see
 :mod:`ita.toplevel.network`): a fastener hole's position is PENDING once its frame is
