@@ -328,3 +328,23 @@ def test_an_obstacle_against_the_stopped_arm_is_found_by_a_test_that_bumps_too(s
     assert [t.outcome for t in handled.diagnosis.tests][-1] == "bump"
     assert not world.obstacles
     assert handled.outcome.status is MeasureStatus.MEASURED, handled.outcome.reason
+
+
+def test_a_test_that_shows_another_fault_still_answers_for_this_one(session, handler, arm, monkeypatch):
+    """A controller time-out tested at the couplant station, which turns out empty: the
+    empty station is another fault (no cause of a time-out predicts it); for these causes
+    the station answered, so the controller does: a transient glitch, not 'no cause' (the
+    one diagnosis of three campaign seeds that missed its injected cause)."""
+    from ita.diagnosis.classify import Classified
+    from ita.diagnosis.tests import Situation, TestRun
+
+    spec_id = _first(session, "us_probe_1", "web_thickness", skip=3)
+    situation = Situation(spec_id, "us_probe_1", "us_tool", "controller_timeout", arm["state"], device="controller")
+    exc = Classified("controller_timeout", (("device", "controller"), ("probe", "us_probe_1"),
+                                            ("tool", "us_probe_1")), "TIMEOUT(timeout)")
+    monkeypatch.setattr(handler.bench, "cost", lambda name, s: 3.0 if name == "check_couplant_station" else None)
+    monkeypatch.setattr(handler.bench, "run", lambda name, s, est: TestRun(name, "empty", est, 0.0, 1.0, s.state))
+    runs, _, last = handler._diagnose(exc, situation, [], [], 0)
+    assert [r.test for r in runs] == ["check_couplant_station"]
+    assert runs[0].outcome == "ok" and "another fault" in runs[0].note
+    assert last.choice == ("isolated", "transient_glitch")

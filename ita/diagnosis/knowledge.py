@@ -93,6 +93,18 @@ class FaultKnowledge:
             parsed = ("unresolved", tuple(format_term(a) for a in arg))
         return DiagnosisStep(parsed, float(expected), _pairs(posterior), _pairs(remaining))
 
+    def predicts_any(self, test: str, outcome: str, causes: list[str], context: list[Term]) -> bool:
+        """Whether one of `causes` (text) predicts `outcome` of `test` (``faults:test_outcome/4``)."""
+        for cause in causes:
+            solution = self.kb.once("faults", "test_outcome", test, self.cause_term(cause), context, Var("O"))
+            if solution is not None and str(solution["O"]) == outcome:
+                return True
+        return False
+
+    def shows_a_fault(self, test: str, outcome: str) -> bool:
+        """Whether some cause of kb/faults.pl predicts `outcome` of `test` (it is a fault's sign)."""
+        return self.kb.once("faults", "predicts", test, Var("C"), outcome) is not None
+
     def recovery(self, cause: str) -> list[Any]:
         """The recovery actions of an isolated cause (text as :meth:`step` gives it)."""
         solution = self.kb.once("faults", "recovery", self.cause_term(cause), Var("A"))
