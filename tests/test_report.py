@@ -227,3 +227,4 @@ def test_a_limited_run_whose_part_is_gone_is_never_a_whole_part(tmp_path: Path) 
     assert s.counts["conforms"] == 3
     assert s.verdict is Verdict.INCOMPLETE and "limited to the first 3" in s.verdict_reason
     assert not s.complete and s.speedup_manual is None and s.ratio_goal is None
+    assert s.projected_h is None and not s.part_known      # no whole-part figure from an unknown part

@@ -106,6 +106,7 @@ class Summary:
     speedup_manual: float | None
     ratio_goal: float | None
     missing: tuple[str, ...] = field(default=())
+    part_known: bool = True      # False: the part's specs are not at hand (part_total is the run's)
 
     @property
     def cycle_h(self) -> float:
@@ -118,7 +119,7 @@ class Summary:
                 "cycle_h": self.cycle_h, "rate_s": self.rate_s, "projected_h": self.projected_h,
                 "speedup_manual": self.speedup_manual, "ratio_goal": self.ratio_goal,
                 "manual_h": MANUAL_HOURS, "goal_h": GOAL_HOURS, "missing": list(self.missing[:50]),
-                "missing_count": len(self.missing)}
+                "missing_count": len(self.missing), "part_known": self.part_known}
 
 
 def collect(archive: Archive, run_id: str, specs: Iterable[Any] | None = None) -> ReportData:
@@ -225,12 +226,14 @@ def summarize(data: ReportData) -> Summary:
     ended = data.run.status is RunStatus.COMPLETED
     complete = ended and done >= part_total and done > 0 and not data.part_unknown
     rate = cycle_s / done if done else None
-    projected_h = cycle_s / 3600.0 if complete else (rate * part_total / 3600.0 if rate else None)
+    projected_h = cycle_s / 3600.0 if complete else (rate * part_total / 3600.0 if rate and not data.part_unknown
+                                                       else None)
     have = {r.spec_id for r in data.results}
     missing = tuple(s.id for s in data.specs if s.id not in have)
     return Summary(verdict, why, counts, done, run_total, part_total, complete, start, end, cycle_s, rate,
                    projected_h, MANUAL_HOURS / projected_h if complete and projected_h else None,
-                   projected_h / GOAL_HOURS if complete and projected_h is not None else None, missing)
+                   projected_h / GOAL_HOURS if complete and projected_h is not None else None, missing,
+                   not data.part_unknown)
 
 
 def tours(results: Sequence[StoredResult]) -> list[tuple[str, list[StoredResult]]]:

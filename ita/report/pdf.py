@@ -95,8 +95,12 @@ def pdf_report(data: ReportData, payload: Mapping[str, Any], *, mesh: Any = None
     run = sections.get("summary", {}).get("run", {})
     figures = [("part", f"{run.get('part', '')}  ({run.get('part_dir') or 'built-in'})"),
                ("status", run.get("status", "")),
-               ("measurements", f"{s['done']} of {s['part_total']} specs of the part"
-                + ("" if s["run_total"] == s["part_total"] else f" (the run set out to do {s['run_total']})")),
+               ("measurements", (f"{s['done']} of {s['part_total']} specs of the part"
+                                 if s.get("part_known", True) else
+                                 f"{s['done']} of the {s['run_total']} the run set out to do (the part's specs "
+                                 "are not at hand)")
+                + ("" if s["run_total"] == s["part_total"] or not s.get("part_known", True)
+                   else f" (the run set out to do {s['run_total']})")),
                ("simulated cycle time", f"{s['cycle_h']:.3f} h ({s['cycle_s']:.1f} s)")]
     if s["complete"]:
         figures += [(f"manual method ({s['manual_h']:g} h)", f"{s['speedup_manual']:.1f}x faster"),

@@ -76,7 +76,7 @@
     let html = `<div class="verdict ${esc(s.verdict)}" id="verdict">PART ${esc(s.verdict.toUpperCase())}</div>`;
     html += `<p><b>${esc(s.verdict_reason)}</b></p>`;
     html += '<div class="cards">';
-    html += `<div class="card">measurements<b>${s.done} of ${s.part_total}</b>${s.run_total !== s.part_total ? `run set out to do ${s.run_total}` : "every spec of the part"}</div>`;
+    html += `<div class="card">measurements<b>${s.done} of ${s.part_total}</b>${s.part_known === false ? "the run's specs; the part's are not at hand" : s.run_total !== s.part_total ? `run set out to do ${s.run_total}` : "every spec of the part"}</div>`;
     html += `<div class="card">simulated cycle time<b>${num(s.cycle_h, 3)} h</b>${num(s.cycle_s, 1)} s</div>`;
     if (s.complete) {
       html += `<div class="card">manual method (${s.manual_h} h)<b>${num(s.speedup_manual, 1)}x faster</b></div>`;
