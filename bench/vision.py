@@ -52,7 +52,7 @@ DEFAULT_OUT = Path(__file__).resolve().parent / "results" / "vision.json"
 ROTATION_SIGMA = 0.05e-3
 
 
-DIAGNOSTICS = ("registered_on", "left_out", "deviation", "shift", "edge_points", "mode", "frames")
+DIAGNOSTICS = ("registered_on", "left_out", "deviation", "shift", "edge_points", "mode", "frames", "budget")
 
 
 def _plain(v):

@@ -75,6 +75,18 @@ def test_inspect_limit_12_end_to_end(runs) -> None:
         if any(r.tool.startswith("us_probe") for r in measured):
             contacts = [e for e in events if e.kind == "command" and e.payload.get("name") == "contact"]
             assert contacts and all(e.payload["end"] > e.sim_time for e in contacts)
+            # the probe read the calibration block before its first reading, once, and every
+            # reading of it is scaled by the velocity that set
+            cals = [e for e in events if e.kind == "calibration"]
+            probes = {r.tool for r in measured if r.tool.startswith("us_probe")}
+            assert sorted(e.payload["probe"] for e in cals) == sorted(probes)
+            assert all(e.payload["ok"] and abs(e.payload["reading_mm"] - 10.0) < 0.1 for e in cals)
+            first = min(r.sim_time_start for r in measured if r.tool in probes)
+            assert all(e.sim_time <= first for e in cals)
+            for r in measured:
+                if r.tool in probes:
+                    factor = archive.details(run_id, r.spec_id)["gauge"]["velocity_factor"]
+                    assert factor != 1.0 and abs(factor - 1.0) < 0.01
         assert archive.run(run_id).status.value == "completed"
         assert summary["simulated_cycle_s"] > 0 and summary["breakdown_s"]["measuring"] > 0
 

@@ -25,6 +25,7 @@ from ita.sensors.ultrasonic import (
     UltrasonicGauge,
     check_expected,
     interpret,
+    velocity_calibration,
 )
 from ita.sim.faults import Fault, FaultSet
 from ita.sim.ultrasonic import GAUGE, ProbePhysics, TriangleIndex, UltrasonicSim
@@ -91,6 +92,40 @@ def test_reading_on_the_as_built_web_is_within_its_uncertainty(rig, web_spec, pa
     assert np.all(np.abs(values - true) <= np.array([r.expanded_uncertainty for r in readings]))
     assert values.mean() - true == pytest.approx(device.velocity_bias * true, abs=0.0015)
     assert 0.0005 < values.std() < 0.005
+
+
+def test_a_velocity_calibration_on_the_block_removes_the_bias_and_shrinks_u(rig, web_spec, part_truth):
+    world, device, gauge = rig
+    spec = gauge.spec
+    true = part_truth.values[web_spec.id]
+    gauge.apply_couplant()
+    before = [gauge.measure() for _ in range(30)]
+    device.dispense()                        # the block's own couplant; the probe reads its 10 mm step
+    block = interpret(device.pulse_reference(10.0), spec)
+    cal = velocity_calibration(block, 10.0, 0.0005, spec)
+    assert cal is not None and cal.probe == PROBE
+    assert cal.u_rel < spec.velocity_u_rel / 5          # 0.02 % instead of the data sheet's 0.15 %
+    gauge.calibrate(cal)
+    gauge.apply_couplant()
+    after = [gauge.measure() for _ in range(30)]
+    assert all(r.velocity_factor == cal.factor for r in after) and all(r.velocity_factor == 1.0 for r in before)
+    err_before = np.mean([r.thickness_mm for r in before]) - true
+    err_after = np.mean([r.thickness_mm for r in after]) - true
+    assert abs(err_before) > 0.001 * true * 0.9        # the sim's bias is 0.1 .. 0.25 %
+    assert abs(err_after) < abs(err_before) / 2 and abs(err_after) < 0.0015
+    assert after[0].expanded_uncertainty < before[0].expanded_uncertainty * 0.7
+    # honest: most single readings within their (smaller) U
+    within = np.mean([abs(r.thickness_mm - true) <= r.expanded_uncertainty for r in after])
+    assert within >= 0.8
+
+
+def test_a_block_reading_far_off_the_block_calibrates_nothing():
+    spec = GaugeSpec()
+    doubled = Reading(20.004, 0.002, 0.5, 1.2, PROBE)
+    assert velocity_calibration(doubled, 10.0, 0.0005, spec) is None
+    assert velocity_calibration(Reading(10.2, 0.002, 0.5, 1.2, PROBE), 10.0, 0.0005, spec) is None
+    ok = velocity_calibration(Reading(10.02, 0.002, 0.5, 1.2, PROBE), 10.0, 0.0005, spec)
+    assert ok is not None and ok.factor == pytest.approx(10.0 / 10.02)
 
 
 def test_each_pulse_takes_its_dwell(rig):

@@ -31,7 +31,7 @@ from ita.archive.model import Event
 CATEGORIES = ("exceptions", "measuring", "tool_change", "motion", "other", "waiting")  # priority order
 IDLE = "idle"
 
-_NAME_HINTS = (("measuring", ("measure", "scan", "pulse", "couplant", "range", "image", "gauge")),
+_NAME_HINTS = (("measuring", ("measure", "scan", "pulse", "couplant", "range", "image", "gauge", "calibrat")),
                ("tool_change", ("tool", "pickup", "pick_up", "put_down", "putdown", "change", "rack")),
                ("motion", ("move", "approach", "retract", "path", "goto", "go_to", "depart", "home", "traj")))
 

@@ -5,9 +5,11 @@ tests and repairs that are not a measurement.
     stations.handlers     # message name -> command -> Reply
 
 - CALIBRATE(Tool, cal_block): the probe in hand reads the calibration block (a stepped
-  gauge block; its :data:`CAL_STEP_MM` step): straight down onto its face from the
-  approach point, couplant, one reading, straight back up; replies ``VALUE(V)`` or the
-  gauge's exception ``GAUGE(reason)``.
+  gauge block; its :data:`CAL_STEP_MM` step, certified to :data:`CAL_BLOCK_U_MM`):
+  straight down onto its face from the approach point, couplant, one reading, straight
+  back up; replies ``VALUE(V)`` or the gauge's exception ``GAUGE(reason)``.  A reading
+  close enough to the block sets the gauge's sound velocity for that probe
+  (ita.sensors.ultrasonic.velocity_calibration).
 - LEVEL(couplant_station): the reservoir's level, ``LEVEL(Percent)``.
 - REFILL(couplant_station): refill the reservoir (the EMPTY_COUPLANT fault goes);
   ``LEVEL(100)``.
@@ -35,13 +37,16 @@ from ita.executive.adapters import Completion, PoseResolver
 from ita.executive.commands import Command, Reply
 from ita.logic.terms import Term
 from ita.robot import from_waypoints
-from ita.sensors.ultrasonic import GaugeException, GaugeSpec, interpret
+from ita.sensors.ultrasonic import GaugeException, GaugeSpec, interpret, velocity_calibration
 from ita.sim.faults import Fault
 
-__all__ = ["CAL_STEP_MM", "SECONDS", "StationCommands"]
+__all__ = ["CAL_BLOCK_U_MM", "CAL_STEP_MM", "SECONDS", "StationCommands"]
 
 #: the thickness (mm) of the calibration block's step the probe reads
 CAL_STEP_MM = 10.0
+
+#: the standard uncertainty (mm) of that step's thickness on its certificate
+CAL_BLOCK_U_MM = 0.0005
 
 #: simulated seconds of the station operations (the motion to the station is planned apart)
 SECONDS = {
@@ -61,15 +66,18 @@ class StationCommands:
 
     world: the simulated workcell; poses: the Geometric Reasoner (``station`` poses);
     controller: the robot controller; gauge_sim: the simulated gauge (its
-    ``pulse_reference``, ``dispense``, ``station_level``)."""
+    ``pulse_reference``, ``dispense``, ``station_level``); gauge: the gauge facade
+    (ita.sensors.ultrasonic.UltrasonicGauge) whose velocity a block reading sets (None:
+    readings of the block set nothing)."""
 
     def __init__(self, world: Any, poses: PoseResolver, controller: Any, gauge_sim: Any,
-                 spec: GaugeSpec = GaugeSpec()) -> None:
+                 spec: GaugeSpec = GaugeSpec(), gauge: Any = None) -> None:
         self.world = world
         self.poses = poses
         self.controller = controller
         self.gauge_sim = gauge_sim
         self.spec = spec
+        self.gauge = gauge
 
     @property
     def handlers(self) -> dict[str, Callable[[Command], Reply | Completion]]:
@@ -110,8 +118,13 @@ class StationCommands:
         if isinstance(reply, GaugeException):
             return Reply.exception(Term("GAUGE", (reply.reason.value,)), f"gauge on the calibration block: "
                                    f"{reply.reason.value}")
+        calibration = velocity_calibration(reply, thickness_mm, CAL_BLOCK_U_MM, self.spec, world.clock.now)
+        if calibration is not None and self.gauge is not None:
+            self.gauge.calibrate(calibration)
         data = MeasuredValue("cal_block", float(reply.thickness_mm), float(reply.u_mm), source=reply)
-        return Reply.normal(Term("VALUE", (float(reply.thickness_mm),)), f"block {thickness_mm:.3f} mm", data=data)
+        note = "" if calibration is None else f"; velocity set for {tool.name}: x{calibration.factor:.5f}"
+        return Reply.normal(Term("VALUE", (float(reply.thickness_mm),)), f"block {thickness_mm:.3f} mm{note}",
+                            data=data)
 
     def level(self, command: Command) -> Reply | Completion:
         if self._silent():

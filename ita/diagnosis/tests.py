@@ -42,7 +42,7 @@ from ita.diagnosis.classify import classify_reply
 from ita.logic.terms import Term
 from ita.planning.state import WorldState
 from ita.specs.model import Tool, is_ultrasonic
-from ita.toplevel.measure import MeasureOutcome, MeasureStatus, measure_one, state_after
+from ita.toplevel.measure import MeasureOutcome, MeasureStatus, execute_goals, measure_one, state_after
 
 if TYPE_CHECKING:
     from ita.executive import ExecutionReport
@@ -257,23 +257,8 @@ class TestBench:
 
     def execute_goals(self, goals: list[Any], state: WorldState, *, name: str = ""
                       ) -> tuple[Any, Any, WorldState, str]:
-        """Plan `goals` from `state` and run the plan: (plan, report, state after, note).
-        No plan: (None, None, state, why).  A failed step frees the arm if it is stuck."""
-        from ita.planning import NoPlanError
-
-        s = self.session
-        try:
-            plan = s.planner.plan_goals(goals, state, name=name)
-        except NoPlanError as exc:
-            return None, None, state, f"no plan: {exc.reason}"
-        clock = s.world.clock
-        report = s.executive.execute(plan, start_s=clock.now)
-        if clock.now < report.finished_s:
-            clock.advance(report.finished_s - clock.now)
-        if report.ok:
-            return plan, report, plan.final_state, ""
-        s.arm.recover()
-        return plan, report, state_after(plan, report), ""
+        """Plan `goals` from `state` and run the plan (ita.toplevel.measure.execute_goals)."""
+        return execute_goals(self.session, goals, state, name=name)
 
     def _outcome(self, test: str, report: Any) -> str:
         if report.failure is not None:

@@ -18,12 +18,21 @@ calibration certificate (`GaugeSpec`), never from the part: the calibrated sound
 velocity's relative uncertainty, the stated repeatability and the display resolution,
 combined in quadrature; U = k u (k = 2) is what the ISO 14253-1 decision
 (ita.archive.decide) shrinks and grows the tolerance by.
+
+Velocity calibration: a reading of the calibration block's step (its thickness known to
+its certificate) sets the sound velocity for the probe that read it, as an operator sets a
+gauge on a step block before use (`velocity_calibration`, `UltrasonicGauge.calibrate`).
+Later readings of that probe are scaled by block / reading, and the velocity term of their
+uncertainty is the calibration's own (the block reading's repeatability and resolution and
+the block's certificate over its thickness: about 0.02 % instead of the data sheet's
+0.15 %).  A block reading more than :data:`CAL_ACCEPT_REL` off the block (a doubled echo, a
+worn probe) sets nothing.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from enum import Enum
 from typing import Protocol
 
@@ -111,16 +120,53 @@ class GaugeSpec:
     min_amplitude: float = 0.05
     coverage_k: float = 2.0
 
-    def standard_uncertainty(self, thickness_mm: float) -> float:
-        """u (mm) of one reading of `thickness_mm`: velocity, repeatability, resolution."""
-        return math.sqrt((self.velocity_u_rel * thickness_mm) ** 2 + self.repeatability_sd_mm ** 2
-                         + self.resolution_mm ** 2 / 12.0)
+    def standard_uncertainty(self, thickness_mm: float, velocity_u_rel: float | None = None) -> float:
+        """u (mm) of one reading of `thickness_mm`: velocity (the data sheet's, or
+        `velocity_u_rel` after a calibration), repeatability, resolution."""
+        rel = self.velocity_u_rel if velocity_u_rel is None else velocity_u_rel
+        return math.sqrt((rel * thickness_mm) ** 2 + self.reading_u() ** 2)
+
+    def reading_u(self) -> float:
+        """u (mm) of one reading apart from the velocity: repeatability and resolution."""
+        return math.sqrt(self.repeatability_sd_mm ** 2 + self.resolution_mm ** 2 / 12.0)
+
+
+#: a block reading further than this share from the block's thickness calibrates nothing
+CAL_ACCEPT_REL = 0.01
+
+
+@dataclass(frozen=True)
+class VelocityCalibration:
+    """The sound velocity set on the calibration block with `probe`: a reading of `block_mm`
+    gave `reading_mm`; later readings are scaled by :attr:`factor`; u_rel: the relative
+    standard uncertainty of that scale; time: simulated time of the block reading (s)."""
+
+    probe: str
+    block_mm: float
+    reading_mm: float
+    u_rel: float
+    time: float = 0.0
+
+    @property
+    def factor(self) -> float:
+        return self.block_mm / self.reading_mm
+
+
+def velocity_calibration(reading: Reading, block_mm: float, block_u_mm: float, spec: GaugeSpec,
+                         time: float = 0.0) -> VelocityCalibration | None:
+    """The calibration a block reading gives (None: the reading is more than
+    CAL_ACCEPT_REL off the block, so it calibrates nothing)."""
+    if not (block_mm > 0 and abs(reading.thickness_mm / block_mm - 1.0) <= CAL_ACCEPT_REL):
+        return None
+    u_rel = math.hypot(spec.reading_u(), block_u_mm) / block_mm
+    return VelocityCalibration(reading.probe, float(block_mm), float(reading.thickness_mm), u_rel, float(time))
 
 
 @dataclass(frozen=True)
 class Reading:
     """A thickness reading: value and standard uncertainty (mm), echo amplitude (0..1),
-    the time it took (s), the probe that took it and the coverage factor of U."""
+    the time it took (s), the probe that took it, the coverage factor of U and the
+    velocity calibration's scale applied to it."""
 
     thickness_mm: float
     u_mm: float
@@ -128,6 +174,7 @@ class Reading:
     dwell_s: float
     probe: str
     coverage_k: float = 2.0
+    velocity_factor: float = 1.0    # the scale a velocity calibration applied (1: none)
 
     @property
     def expanded_uncertainty(self) -> float:
@@ -187,14 +234,26 @@ class UltrasonicGauge:
     def __init__(self, device: GaugeDevice, spec: GaugeSpec = GaugeSpec()) -> None:
         self.device = device
         self.spec = spec
+        self.calibrations: dict[str, VelocityCalibration] = {}
+
+    def calibrate(self, calibration: VelocityCalibration) -> None:
+        """Set the sound velocity for the calibration's probe (replaces an earlier one)."""
+        self.calibrations[calibration.probe] = calibration
 
     def apply_couplant(self) -> Dispensed:
         """Squirt couplant along the probe's axis onto the surface ahead of it."""
         return self.device.dispense()
 
     def measure(self) -> GaugeReply:
-        """One pulse: a Reading or a GaugeException."""
-        return interpret(self.device.pulse(), self.spec)
+        """One pulse: a Reading (scaled by its probe's velocity calibration, if any) or a
+        GaugeException."""
+        reply = interpret(self.device.pulse(), self.spec)
+        cal = self.calibrations.get(reply.probe) if isinstance(reply, Reading) else None
+        if cal is None or not isinstance(reply, Reading):
+            return reply
+        t = reply.thickness_mm * cal.factor
+        return replace(reply, thickness_mm=t, u_mm=self.spec.standard_uncertainty(t, cal.u_rel),
+                       velocity_factor=cal.factor)
 
 
 def _finite(x: object) -> bool:

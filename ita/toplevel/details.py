@@ -132,7 +132,7 @@ def vision_overlay(frame: Any, placement: Any, spec: Any, value: MeasuredValue) 
 def _gauge(value: MeasuredValue) -> dict[str, Any]:
     src = value.source
     out: dict[str, Any] = {"value": value.value, "u": value.u}
-    for name in ("thickness_mm", "u_mm", "amplitude", "dwell_s", "probe", "coverage_k", "message"):
+    for name in ("thickness_mm", "u_mm", "amplitude", "dwell_s", "probe", "coverage_k", "velocity_factor", "message"):
         if hasattr(src, name):
             out[name] = _scalar(getattr(src, name))
     reason = getattr(src, "reason", None)

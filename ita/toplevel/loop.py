@@ -49,11 +49,13 @@ import numpy as np
 from ita.archive import Decision, Event, Outcome, Result, RunStatus
 from ita.archive.timeline import breakdown, intervals, span
 from ita.devices.arm import RECOVER_SECONDS
+from ita.devices.stations import CAL_STEP_MM
+from ita.logic.terms import Term
 from ita.planning.state import WorldState
 from ita.sequence.next_step import next_step, the_arm
 from ita.toplevel.details import measurement_details
 from ita.toplevel.events import archive_events
-from ita.toplevel.measure import MeasureOutcome, MeasureStatus, measure_one
+from ita.toplevel.measure import MeasureOutcome, MeasureStatus, execute_goals, measure_one, placement_problem
 from ita.toplevel.network import EVENT_KIND, Pending, decide, network_key
 from ita.toplevel.signals import RunSignals, StopNow
 
@@ -205,6 +207,7 @@ class TopLevel:
                 p = Pending.from_event(event)
                 if p.spec_id not in self.done:
                     self.pending[p.spec_id] = p
+        self.calibrated: set[str] = set()        # probes whose velocity this process set (or tried to)
         self.handler = None
         if handle_exceptions:
             from ita.diagnosis import ExceptionHandler
@@ -346,6 +349,9 @@ class TopLevel:
         """Measure one step (and its view group's other members) and record it; a failure
         goes to the Exception Handler, which diagnoses it, puts the cell right and takes
         the measurement again.  The new state."""
+        if step.tool not in self.calibrated and self._is_probe(step.tool) \
+                and placement_problem(self.session, step.spec_id, step.tool) is None:
+            state = self._calibrate(step.tool, state)
         out = measure_one(self.session, step.spec_id, state, step.tool)
         if out.status is MeasureStatus.CANNOT_BE_DONE:
             self._unmeasured(step.spec_id, Outcome.CANNOT_BE_DONE, out.reason or "", tool=step.tool)
@@ -399,6 +405,43 @@ class TopLevel:
                 # Exception Handler if that fails too); a frame made for another is no attempt of its own
                 self.failed_in_others[other.spec_id] = f"{other.reason or 'not done'} (in the frame of {step.spec_id})"
         return out.state
+
+    # -- the gauge's sound velocity on the calibration block ---------------------------------
+    def _is_probe(self, tool: str | None) -> bool:
+        try:
+            return tool is not None and self.session.ctx.workcell.tool(tool).tool_class.ultrasonic
+        except KeyError:
+            return False
+
+    def _calibrate(self, probe: str, state: WorldState) -> WorldState:
+        """Before a probe's first reading in this process: read the calibration block with it
+        (plan ``calibrated(Probe)``: pick it up, the block, couplant, one reading), which sets
+        the gauge's sound velocity for it (ita.devices.stations).  A calibration that fails
+        is logged and the readings keep the data sheet's velocity uncertainty; it is not
+        tried again in this process.  The state after."""
+        self.calibrated.add(probe)
+        t0 = self.session.world.clock.now
+        plan, report, state, note = execute_goals(self.session, [Term("calibrated", (probe,))], state,
+                                                  name="calibrate")
+        events: list[Event] = []
+        if report is not None:
+            self.plan_no += 1
+            events.append(Event("plan_start", "top", report.started_s, {
+                "spec": None, "macrop": plan.macrop_name, "source": plan.source.value, "steps": len(plan.steps),
+                "purpose": "calibration", "tool": probe}))
+            events += archive_events(report, self.plan_no)
+            events.append(Event("plan_end", "top", report.finished_s, {
+                "spec": None, "status": "ok" if report.ok else "failed", "purpose": "calibration"}))
+        ok = report is not None and report.ok
+        reading = None
+        if ok:
+            last = report.outcomes[-1].reply
+            reading = float(last.payload.args[0]) if isinstance(last.payload, Term) and last.payload.args else None
+        events.append(Event("calibration", "top", self.session.world.clock.now, {
+            "probe": probe, "ok": ok, "block_mm": CAL_STEP_MM, "reading_mm": reading, "started": t0,
+            "note": note or ("" if ok or report is None else report.failure.reason)}))
+        self.archive.record_events(self.run_id, events)
+        return state
 
     # -- hole positions by a network ------------------------------------------------------
     def _hold(self, spec_id: str, value: Any, tool: str | None, t0: float | None, t1: float | None,

@@ -30,7 +30,8 @@ if TYPE_CHECKING:
     from ita.planning import OperationPlan
     from ita.toplevel.session import Session
 
-__all__ = ["MeasureOutcome", "MeasureStatus", "execute_measurement", "measure_one", "placement_problem", "state_after"]
+__all__ = ["MeasureOutcome", "MeasureStatus", "execute_goals", "execute_measurement", "measure_one",
+           "placement_problem", "state_after"]
 
 
 class MeasureStatus(str, Enum):
@@ -160,3 +161,22 @@ def execute_measurement(session: Session, spec_id: str, tool: str, plan: Operati
                               plan.final_state, t0, t1)
     return MeasureOutcome(spec_id, tool, MeasureStatus.MEASURED, value, None, others, plan, report,
                           plan.final_state, t0, t1)
+
+
+def execute_goals(session: Session, goals: list[Any], state: WorldState, *, name: str = ""
+                  ) -> tuple[Any, Any, WorldState, str]:
+    """Plan `goals` (terms such as ``calibrated(us_probe_1)``) from `state` and run the plan
+    now: (plan, report, state after, note).  No plan: (None, None, state, why).  A failed
+    step frees the arm if it is stuck."""
+    try:
+        plan = session.planner.plan_goals(goals, state, name=name)
+    except NoPlanError as exc:
+        return None, None, state, f"no plan: {exc.reason}"
+    clock = session.world.clock
+    report = session.executive.execute(plan, start_s=clock.now)
+    if clock.now < report.finished_s:
+        clock.advance(report.finished_s - clock.now)
+    if report.ok:
+        return plan, report, plan.final_state, ""
+    session.arm.recover()
+    return plan, report, state_after(plan, report), ""

@@ -109,9 +109,10 @@ def open_session(part_dir: Path | None = None, *, seed: int = 0,
     world = SimWorld(cell, part.directory, seed=seed, q0=reasoner.home)
     try:
         gauge_sim = UltrasonicSim(world)
-        gauge = GaugeCommands(UltrasonicGauge(gauge_sim), specs)
+        ut = UltrasonicGauge(gauge_sim)
+        gauge = GaugeCommands(ut, specs)
         arm = ArmDevice(world, reasoner, planners_for(cell, part), extra=gauge.handlers)
-        arm.add_handlers(StationCommands(world, reasoner, arm.controller, gauge_sim).handlers, "station_s")
+        arm.add_handlers(StationCommands(world, reasoner, arm.controller, gauge_sim, gauge=ut).handlers, "station_s")
         slra_tools = [t for t in cell.tools if t.tool_class.value == "slra_tool"]
         vctx = VisionContext.from_part(part, cell, tool=slra_tools[0].name if slra_tools else "slra_1",
                                        specs=list(ctx.specs))
