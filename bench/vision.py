@@ -1,6 +1,6 @@
 """Benchmark SLRA measurement over the bulkhead's specs against the as-built truth.
 
-    python bench/vision.py [--kinds hole_diameter,edge_distance] [--match -LH-] [--limit N]
+    python bench/vision.py [--kinds hole_diameter,edge_distance] [--match -LH-] [--limit N] [--part DIR]
                            [--repeats 3] [--seed 0] [--out FILE] [--render DIR] [--pixels N]
 
 For every SLRA spec (or the first N of each kind): the sensor is put at the spec's viewing
@@ -43,16 +43,18 @@ from ita.sensors.slra_frame import ScanGeometry
 from ita.sim.slra import SlraParams, SlraScene, pose_error, simulate_frame
 from ita.specs.io import read_specs
 from ita.specs.model import MeasurementKind as K
+from ita.vision.calibration import SlraCalibration
 from ita.vision.context import SLRA_KINDS, VisionContext
 from ita.vision.measure import measure_frames
 from ita.vision.scan import frames_for, scan_for
-from ita.workcell import load_workcell
+from ita.workcell import load_workcell, workcell_for
 
 DEFAULT_OUT = Path(__file__).resolve().parent / "results" / "vision.json"
 ROTATION_SIGMA = 0.05e-3
 
 
-DIAGNOSTICS = ("registered_on", "left_out", "deviation", "shift", "edge_points", "mode", "frames", "budget")
+DIAGNOSTICS = ("registered_on", "left_out", "deviation", "shift", "edge_points", "mode", "frames", "budget",
+               "calibration_class", "correction")
 
 
 def _plain(v):
@@ -69,15 +71,17 @@ def decide(value: float, big_u: float, low: float, high: float) -> str:
     return "uncertain"
 
 
-def run(kinds, limit, repeats, seed, render_dir=None, match="", pixels=None):
-    part = load_part(None)
-    wc = load_workcell()
+def run(kinds, limit, repeats, seed, render_dir=None, match="", pixels=None, part_dir=None, raw=False):
+    part = load_part(part_dir)
+    wc = workcell_for(part.directory) if part_dir is not None else load_workcell()
     specs = read_specs(part.specs_path)
     truth = load_truth(part.directory)
     t0 = time.perf_counter()
     scene = SlraScene.from_truth(part.directory, wc)
     scene_s = time.perf_counter() - t0
     ctx = VisionContext.from_part(part, wc, specs=specs)
+    if raw:      # as the calibration study measures: the measurers' own type-B terms, no correction
+        ctx = replace(ctx, calibration=SlraCalibration())
     if pixels is not None:
         ctx = replace(ctx, shape=(pixels, pixels))
     tool = wc.tool("slra_1")
@@ -204,13 +208,17 @@ def main() -> None:
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--out", type=Path, default=DEFAULT_OUT)
+    ap.add_argument("--raw", action="store_true", help="without the SLRA calibration (the measurers' "
+                    "type-B terms, no bias correction), as bench/slra_calibration.py measures")
+    ap.add_argument("--part", type=Path, default=None, help="a part directory with an as-built truth "
+                    "(default: the built-in bulkhead), e.g. a reference workpiece from `ita part new DIR --seed S`")
     ap.add_argument("--match", default="", help="only specs whose id contains this (e.g. -LH-)")
     ap.add_argument("--render", type=Path, default=None, help="write a PNG per spec (first repeat) here")
     ap.add_argument("--pixels", type=int, default=None,
                     help="override VisionContext.shape with (N, N) (scan_for may still ask for more)")
     args = ap.parse_args()
     kinds = [K.parse(k) for k in args.kinds.split(",") if k.strip()]
-    rows, timing = run(kinds, args.limit, args.repeats, args.seed, args.render, args.match, args.pixels)
+    rows, timing = run(kinds, args.limit, args.repeats, args.seed, args.render, args.match, args.pixels, args.part, args.raw)
     table = summarize(rows)
     print_table(table, timing)
     args.out.parent.mkdir(parents=True, exist_ok=True)

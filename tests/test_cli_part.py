@@ -62,3 +62,41 @@ def test_info_counts_specs_out_of_reach_with_the_reason(tmp_path):
     assert result.exit_code == 0, result.output
     data = json.loads(result.output)
     assert data["unreachable"] == 2 and data["reach"] == {"reachable": 1, "too_far": 2}
+
+
+def test_part_new_makes_another_bulkhead_with_its_truth(builtin_part, tmp_path):
+    """`ita part new DIR --seed S`: another layout and as-built part, the same seed twice the
+    same files, a smaller part from a parameter file; a non-empty DIR is refused."""
+    from ita.part.store import load_part
+    from ita.part.truth import load_truth
+
+    runner = CliRunner()
+    a, b = tmp_path / "a", tmp_path / "b"
+    for d in (a, b):
+        result = runner.invoke(main, ["part", "new", str(d), "--seed", "7"])
+        assert result.exit_code == 0, result.output
+    assert (a / "specs.csv").read_bytes() == (b / "specs.csv").read_bytes()
+    assert (a / "nominal.stl").read_bytes() == (b / "nominal.stl").read_bytes()
+    truth_a, truth_builtin = load_truth(a), load_truth(builtin_part.directory)
+    assert truth_a.values and truth_a.values != truth_builtin.values
+    assert (a / "specs.csv").read_bytes() != builtin_part.specs_path.read_bytes()
+    assert load_part(a).directory == a
+    # a smaller bulkhead from its own parameter file
+    params = (tmp_path / "small.toml")
+    from ita.part.bulkhead import default_params_path
+
+    text = default_params_path().read_text(encoding="utf-8")
+    text = text.replace("width = 2500.0", "width = 1600.0").replace("height = 1500.0", "height = 1000.0")
+    text = text.replace("x = [-950.0, -650.0, -300.0, 300.0, 650.0, 950.0]", "x = [-600.0, 600.0]")
+    text = text.replace("y = [-420.0, 0.0, 420.0]", "y = [-300.0, 300.0]")
+    params.write_text(text, encoding="utf-8")
+    result = runner.invoke(main, ["part", "new", str(tmp_path / "small"), "--params", str(params), "--seed", "3"])
+    assert result.exit_code == 0, result.output
+    info = json.loads(runner.invoke(main, ["part", "info", "--json", "--part", str(tmp_path / "small")]).output)
+    assert info["size_mm"][:2] == [1600.0, 1000.0] and info["spec_count"] < 1000 and info["unreachable"] == 0
+    # refused: a directory with something in it, nothing written into it
+    (tmp_path / "full").mkdir()
+    (tmp_path / "full" / "keep.txt").write_text("mine")
+    result = runner.invoke(main, ["part", "new", str(tmp_path / "full")])
+    assert result.exit_code == 2 and "not an empty directory" in result.output
+    assert [p.name for p in (tmp_path / "full").iterdir()] == ["keep.txt"]

@@ -67,6 +67,8 @@ with Archive.open(archive_path({str(runs)!r})) as archive:
         pending = {e.payload["spec"] for e in archive.events(run_id, kinds=[EVENT_KIND])}
         assert archive.run(run_id).state_label == "dead"
         assert not pending & archive.done_spec_ids(run_id)        # not decided before the network is solved
+        # and nothing of theirs lost: their range frames and details are in the archive already
+        assert all(archive.frames(run_id, s) and archive.details(run_id, s) for s in pending)
     done = subprocess.run([sys.executable, str(REPO / "cli.py"), "continue", run_id, "--runs-dir", str(runs)],
                           env=env, capture_output=True, text=True, timeout=400, check=False)
     assert done.returncode == 0, done.stderr[-2000:]
@@ -83,6 +85,7 @@ with Archive.open(archive_path({str(runs)!r})) as archive:
         assert all(r.outcome.value == "measured" and "network of 3 frames" in (r.reason or "")
                    for r in positions.values())
         assert len(archive.events(run_id, kinds=["network"])) == 1
+        assert all(archive.frames(run_id, s) for s in pending)
 
 
 def test_an_uncertain_result_says_why() -> None:

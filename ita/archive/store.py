@@ -352,6 +352,25 @@ class Archive:
                           "VALUES (?, ?, ?, ?, ?, ?)", (run_id, f.spec_id, f.n, *encode(f)))
         return True
 
+    def record_pending(self, run_id: str, spec_id: str, events: Iterable[Event] = (), *,
+                       details: Mapping[str, Any] | None = None, frames: Iterable[StoredFrame] = ()) -> None:
+        """Commit what a measurement whose result is not decided yet has made (its events,
+        details and range frames) in one transaction, with no result: a result waiting for
+        its network.  Its later `record_result` replaces the details and frames it gives.
+        Events without a spec_id get `spec_id`."""
+        events = list(events)
+        frames = list(frames)
+        with self._write() as c:
+            if not c.execute("SELECT 1 FROM runs WHERE id = ?", (run_id,)).fetchone():
+                raise UnknownRun(f"no run {run_id!r} in {self.path}")
+            self._insert_events(c, run_id, events, default_spec=spec_id)
+            if details:
+                c.execute("INSERT OR REPLACE INTO details(run_id, spec_id, payload) VALUES (?, ?, ?)",
+                          (run_id, spec_id, _json(details)))
+            for f in frames:
+                c.execute("INSERT OR REPLACE INTO frames(run_id, spec_id, n, meta, range, intensity) "
+                          "VALUES (?, ?, ?, ?, ?, ?)", (run_id, f.spec_id, f.n, *encode(f)))
+
     def details(self, run_id: str, spec_id: str) -> dict[str, Any]:
         """What was kept beside the result of `spec_id` ({} when nothing)."""
         row = self._conn.execute("SELECT payload FROM details WHERE run_id = ? AND spec_id = ?",

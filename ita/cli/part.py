@@ -71,6 +71,26 @@ def render(part_dir: Path | None, output: Path, make_dirs: bool) -> None:
     click.echo(f"wrote {written}")
 
 
+@part.command("new")
+@click.argument("directory", type=click.Path(path_type=Path, file_okay=False))
+@click.option("--params", "params_path", type=click.Path(path_type=Path, dir_okay=False, exists=True), default=None,
+              help="A part.toml of the bulkhead generator (default: the built-in bulkhead's, bulkhead/part.toml): "
+                   "other dimensions, flanges, stiffeners, holes, tolerances.")
+@click.option("--seed", type=int, default=None,
+              help="The generator's seed (default: the parameter file's): another layout of lightening holes "
+                   "and another as-built part.  Not the simulator's noise: that is `ita inspect --seed`.")
+@reports_errors
+def new(directory: Path, params_path: Path | None, seed: int | None) -> None:
+    """Generate a new bulkhead into DIRECTORY (new or empty): nominal mesh, specs.csv,
+    features and its as-built truth, ready for `ita inspect --part DIRECTORY`.
+
+    Families of parts for tests and studies: `ita part new ref --seed 7`."""
+    from ita.part.store import new_part
+
+    made = new_part(directory, params_path, seed)
+    click.echo(f"wrote {made}")
+
+
 @part.command()
 @click.option("-o", "--output", type=click.Path(path_type=Path, file_okay=False), default=None,
               help="Copy the built-in bulkhead into this new directory (an editable part).")

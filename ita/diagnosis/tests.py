@@ -42,7 +42,7 @@ from ita.diagnosis.classify import classify_reply
 from ita.logic.terms import Term
 from ita.planning.state import WorldState
 from ita.specs.model import Tool, is_ultrasonic
-from ita.toplevel.measure import MeasureOutcome, MeasureStatus, execute_goals, measure_one, state_after
+from ita.toplevel.measure import MeasureOutcome, MeasureStatus, execute_goals, measure_one
 
 if TYPE_CHECKING:
     from ita.executive import ExecutionReport

@@ -89,13 +89,14 @@ def _locked(lock_path: Path) -> Iterator[None]:
             fcntl.flock(handle, fcntl.LOCK_UN)
 
 
-def _generate_into(path: Path, fp: str) -> None:
-    """Generate the built-in bulkhead (nominal and truth) into the empty directory `path`."""
+def _generate_into(path: Path, fp: str, params: Any = None) -> None:
+    """Generate a bulkhead (nominal and truth) into the empty directory `path`: of
+    `params` (ita.part.params.BulkheadParams), default the built-in part.toml's."""
     from ita.part import truth as truth_mod  # the store is one of the two truth writers
     from ita.part.bulkhead import default_params_path, generate, load_params
     from ita.specs.io import write_specs
 
-    params = load_params(default_params_path())
+    params = params if params is not None else load_params(default_params_path())
     part = generate(params)
     part.mesh.export(path / MESH_FILE)
     write_specs(path / SPECS_FILE, part.specs)
@@ -168,6 +169,37 @@ def build_part(out_dir: Path) -> Path:
     if out_dir.exists():
         out_dir.rmdir()
     os.rename(tmp, out_dir)
+    return out_dir
+
+
+def new_part(out_dir: Path, params_path: Path | None = None, seed: int | None = None) -> Path:
+    """Generate a new bulkhead into `out_dir` (must not exist, or be empty): the built-in
+    part.toml's parameters or `params_path`'s (same schema), with the generator's seed
+    replaced by `seed` when given (another layout of lightening holes and specs, and
+    another as-built part).  The part carries its as-built truth, as the built-in one
+    does.  Returns `out_dir`."""
+    from dataclasses import replace as dc_replace
+
+    from ita.part.bulkhead import default_params_path, load_params
+
+    out_dir = Path(out_dir)
+    if out_dir.exists() and (not out_dir.is_dir() or any(out_dir.iterdir())):
+        raise InputError([(Location(str(out_dir)), "exists and is not an empty directory")])
+    source = Path(params_path) if params_path is not None else default_params_path()
+    params = load_params(source)
+    if seed is not None:
+        params = dc_replace(params, part=dc_replace(params.part, seed=int(seed)))
+    fp = hashlib.sha256(f"{fingerprint(source)} seed={params.part.seed}".encode()).hexdigest()
+    out_dir.parent.mkdir(parents=True, exist_ok=True)
+    tmp = out_dir.with_name(f".{out_dir.name}-{uuid.uuid4().hex}")
+    tmp.mkdir()
+    try:
+        _generate_into(tmp, fp, params)
+        if out_dir.exists():
+            out_dir.rmdir()
+        os.rename(tmp, out_dir)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
     return out_dir
 
 

@@ -446,17 +446,15 @@ class TopLevel:
     # -- hole positions by a network ------------------------------------------------------
     def _hold(self, spec_id: str, value: Any, tool: str | None, t0: float | None, t1: float | None,
               events: list[Event], details: dict | None = None, frames: tuple = ()) -> bool:
-        """Keep a measured position pending for its network (its sightings and the plan's
-        events to the archive now; its details and range frames in memory, recorded with
-        its result, lost if the process dies first); False when the network does not
-        decide it."""
+        """Keep a measured position pending for its network (its sightings, the plan's
+        events, its details and range frames to the archive now, in one transaction: a
+        killed run loses none of them); False when the network does not decide it."""
         if not any(spec_id in members for members in self.networks.values()):
             return False
         p = Pending.from_value(spec_id, value, tool, t0, t1)
         if p is None:
             return False
-        self.archive.record_events(self.run_id, [*(replace(e, spec_id=e.spec_id or spec_id) for e in events),
-                                                 p.to_event()])
+        self.archive.record_pending(self.run_id, spec_id, [*events, p.to_event()], details=details, frames=frames)
         events.clear()
         self.pending[spec_id] = p
         self.kept[spec_id] = (details, tuple(frames))

@@ -147,7 +147,9 @@ class VisionContext:
     (a datum neighbour's radius, see :func:`register_on_neighbours`); pose_sigma_m: the
     arm's pose error per axis (1 sigma);
     pose_datum_frames: frames (each from its own approach) averaged for a position whose
-    only datum is the pose (see :func:`frames_for`).
+    only datum is the pose (see :func:`frames_for`); calibration: the SLRA's calibration on
+    reference workpieces (ita.vision.calibration.SlraCalibration; None: none, the
+    measurers' type-B terms stand).
     """
 
     features: Mapping[str, Feature]
@@ -160,11 +162,14 @@ class VisionContext:
     shape: tuple[int, int] = (256, 256)
     pose_datum_frames: int = POSE_DATUM_FRAMES
     diameter_tolerances: Mapping[str, float] = field(default_factory=dict)
+    calibration: Any = None
 
     @classmethod
     def from_part(cls, part: Any, workcell: Any, tool: str = "slra_1", specs: Any = None) -> VisionContext:
-        """Context of a loaded Part in a Workcell (specs: default read from the part)."""
+        """Context of a loaded Part in a Workcell (specs: default read from the part), with
+        the cell's SLRA calibration."""
         from ita.specs.io import read_specs
+        from ita.vision.calibration import SlraCalibration
 
         specs = read_specs(part.specs_path) if specs is None else specs
         t = workcell.tool(tool)
@@ -173,7 +178,7 @@ class VisionContext:
         diameters = {s.feature: (s.upper - s.lower) / 2 for s in specs if s.kind is K.HOLE_DIAMETER}
         return cls({f.id: f for f in part.features}, workcell.part, t.standoff_nominal, tuple(t.fov_deg),
                    max(web) if web else 0.127, zones, workcell.arm.repeatability_m / 3,
-                   diameter_tolerances=diameters)
+                   diameter_tolerances=diameters, calibration=SlraCalibration.load())
 
     def pockets(self) -> list[Pocket]:
         return [f for f in self.features.values() if isinstance(f, Pocket)]

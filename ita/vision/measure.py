@@ -61,6 +61,10 @@ inside it: the rim points move out by half of that, and the other half is a type
 Failures are replies, never made-up values: OUT_OF_VIEW (a patch the measurement needs is
 outside the frame), OCCLUDED (something nearer than the surface covers a patch),
 TOO_FEW_PIXELS (too few valid pixels or edge points), FIT_RESIDUAL (a fit does not match).
+
+Calibration.  Sizes (hole diameters, edge distances, flange and rib widths) are corrected
+by the SLRA's calibration on reference workpieces, and their uncertainty is the frame's
+own random part plus what the study measured (:mod:`ita.vision.calibration`).
 """
 
 from __future__ import annotations
@@ -74,6 +78,7 @@ from numpy.typing import NDArray
 from ita.sensors.slra_frame import RangeFrame
 from ita.specs.model import MeasurementKind as K
 from ita.specs.model import MeasurementSpec
+from ita.vision.calibration import SlraCalibration
 from ita.vision.context import VisionContext, VisionException, VisionFail, VisionFailure, VisionReply, VisionResult
 from ita.vision.kinds import MEASURERS
 from ita.vision.patches import View
@@ -89,9 +94,10 @@ def measure(frame: RangeFrame, spec: MeasurementSpec, ctx: VisionContext) -> Vis
         return VisionException(spec.id, VisionFailure.NOT_MEASURABLE,
                                f"the SLRA does not measure {spec.kind.value} of {spec.feature!r}")
     try:
-        return entry[1](View(frame, ctx.placement), spec, feature, ctx)
+        result = entry[1](View(frame, ctx.placement), spec, feature, ctx)
     except VisionFail as exc:
         return VisionException(spec.id, exc.reason, exc.detail)
+    return (ctx.calibration or SlraCalibration()).apply(result, feature)
 
 
 def measure_frames(frames: Sequence[RangeFrame], spec: MeasurementSpec, ctx: VisionContext) -> VisionReply:
