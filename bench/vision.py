@@ -62,16 +62,18 @@ def _plain(v):
     return [float(x) for x in v] if isinstance(v, (tuple, np.ndarray)) else v
 
 
-def decide(value: float, big_u: float, low: float, high: float) -> str:
-    """ISO 14253-1 decision with guard band U: 'conforms', 'nonconforms' or 'uncertain'."""
-    if low + big_u <= value <= high - big_u:
-        return "conforms"
-    if value < low - big_u or value > high + big_u:
-        return "nonconforms"
-    return "uncertain"
+def decide(value: float, big_u: float, low: float, high: float, kind: str = "") -> str:
+    """The run's ISO 14253-1 decision (ita.archive.decide; a true position against its upper
+    limit only) with guard band U: 'conforms', 'nonconforms' or 'uncertain'."""
+    from ita.archive.decision import decide as archive_decide
+    from ita.archive.model import BOUNDED_BELOW
+
+    d = archive_decide(value, big_u, low, high, bounded_below=kind in BOUNDED_BELOW).value
+    return {"does_not_conform": "nonconforms"}.get(d, d)
 
 
-def run(kinds, limit, repeats, seed, render_dir=None, match="", pixels=None, part_dir=None, raw=False):
+def run(kinds, limit, repeats, seed, render_dir=None, match="", pixels=None, part_dir=None, raw=False,
+        pose_frames=None):
     part = load_part(part_dir)
     wc = workcell_for(part.directory) if part_dir is not None else load_workcell()
     specs = read_specs(part.specs_path)
@@ -84,6 +86,8 @@ def run(kinds, limit, repeats, seed, render_dir=None, match="", pixels=None, par
         ctx = replace(ctx, calibration=SlraCalibration())
     if pixels is not None:
         ctx = replace(ctx, shape=(pixels, pixels))
+    if pose_frames is not None:
+        ctx = replace(ctx, pose_datum_frames=pose_frames)
     tool = wc.tool("slra_1")
     params = SlraParams()
     rng = np.random.default_rng(seed)
@@ -158,7 +162,7 @@ def summarize(rows):
         dec = Counter()
         outside = 0
         for r in ok:
-            d = decide(r["value"], 2 * r["u"], r["low"], r["high"])
+            d = decide(r["value"], 2 * r["u"], r["low"], r["high"], r["kind"])
             true_ok = r["low"] <= r["truth"] <= r["high"]
             dec[d] += 1
             dec["FA"] += d == "conforms" and not true_ok
@@ -208,6 +212,8 @@ def main() -> None:
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--out", type=Path, default=DEFAULT_OUT)
+    ap.add_argument("--pose-frames", type=int, default=None, help="re-approached frames averaged for a position "
+                    "whose datum is the pose (default: Vision's own, POSE_DATUM_FRAMES)")
     ap.add_argument("--raw", action="store_true", help="without the SLRA calibration (the measurers' "
                     "type-B terms, no bias correction), as bench/slra_calibration.py measures")
     ap.add_argument("--part", type=Path, default=None, help="a part directory with an as-built truth "
@@ -218,7 +224,8 @@ def main() -> None:
                     help="override VisionContext.shape with (N, N) (scan_for may still ask for more)")
     args = ap.parse_args()
     kinds = [K.parse(k) for k in args.kinds.split(",") if k.strip()]
-    rows, timing = run(kinds, args.limit, args.repeats, args.seed, args.render, args.match, args.pixels, args.part, args.raw)
+    rows, timing = run(kinds, args.limit, args.repeats, args.seed, args.render, args.match, args.pixels, args.part, args.raw,
+                       args.pose_frames)
     table = summarize(rows)
     print_table(table, timing)
     args.out.parent.mkdir(parents=True, exist_ok=True)

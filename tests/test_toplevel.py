@@ -238,3 +238,31 @@ def test_a_member_another_frame_could_not_measure_gets_its_own_view(runs, monkey
     session.close()
     assert spoilt and spoilt[0] in mine
     assert mine[spoilt[0]].outcome.value == "measured", mine[spoilt[0]].reason
+
+
+def test_a_lightening_hole_position_takes_only_the_frames_its_decision_needs(session, monkeypatch) -> None:
+    """Its datum is the arm's pose: re-approached frames are averaged, but only until the
+    position is decided.  Far inside its zone one frame decides it; with a zone so tight
+    that one frame's U straddles the limit, the SLRA goes on re-approaching."""
+    from dataclasses import replace as dc_replace
+
+    from ita.planning.state import WorldState
+    from ita.sequence.next_step import the_arm
+    from ita.toplevel.measure import MeasureStatus, measure_one
+
+    spec_id = next(i for i in session.specs if i.startswith("HP-LH-"))
+    spec = session.specs[spec_id]
+
+    state = [WorldState(arm=the_arm(session.kb), holding=session.world.held)]   # what earlier runs left held
+
+    def frames_taken(upper: float) -> tuple[int, float, float]:
+        monkeypatch.setitem(session.slra.specs, spec_id, dc_replace(spec, upper=upper))
+        out = measure_one(session, spec_id, state[0], "slra_1")
+        assert out.status is MeasureStatus.MEASURED, out.reason
+        state[0] = out.state
+        return len(out.frames), out.value.value, out.value.u
+
+    loose, value, u = frames_taken(5.0)
+    assert loose == 1 and value + 2 * u < 5.0
+    tight, _, u_tight = frames_taken(value + 2 * u - 0.05)
+    assert tight > 1 and u_tight < u

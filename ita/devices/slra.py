@@ -9,7 +9,10 @@
   pose) gets them at one SCAN, each after a re-approach: the arm backs off
   :data:`REAPPROACH_M` from the part and comes back to the viewing configuration
   (through the robot controller, so each return settles with a new repeatability draw
-  and takes its real time).
+  and takes its real time).  Only as many as the decision needs: after 1, 2, 4, 8 ...
+  frames Vision measures those members on the frames so far, and once each is decided
+  (ISO 14253-1, conforms or does not conform with its U) no more are taken
+  (:meth:`SlraDevice._decided`; Vision's time for it counts).
 - MEASURE(min_value(meas(Id)), ...): Vision on the group's last frames, for every
   member of the group; replies ``VALUE(V, S)`` for Id (or ``VISION(reason)``) with one
   :class:`~ita.devices.data.MeasuredValue` per member as data.
@@ -149,6 +152,7 @@ class SlraDevice:
         plan = self._frame_plan(group)
         t = max(now, world.clock.now)
         frames: list[Any] = []
+        checks = {2 ** i for i in range(plan.count.bit_length())} - {plan.count}
         for k in range(plan.count):
             if k:
                 moved = self._reapproach(np.asarray(anchor.q, dtype=float), anchor.pose)
@@ -167,6 +171,14 @@ class SlraDevice:
             t += frame.frame_time
             self.stats["frames"] += 1
             self.stats["scan_s"] += frame.frame_time
+            if len(frames) in checks:
+                decided, took = self._decided(group, frames)
+                t += took
+                self.stats["vision_s"] += took
+                if decided:
+                    self.stats["reapproaches_saved"] = self.stats.get("reapproaches_saved", 0) \
+                        + plan.count - len(frames)
+                    break
         self._frames = {group.id: tuple(frames)}
         return Completion(t, Reply.normal(Term("IMAGE", (group.id,)), data=ScanData(group.id, tuple(frames))))
 
@@ -238,6 +250,27 @@ class SlraDevice:
 
     def _members(self, group: Any, spec_id: str) -> list[str]:
         return [m for m in group.members if m == spec_id or self.wanted(m)]
+
+    def _decided(self, group: Any, frames: Sequence[Any]) -> tuple[bool, float]:
+        """Whether the frames so far decide every member of `group` that asks for several
+        (each conforms or does not, with its U), and Vision's time to find out."""
+        from ita.archive.decision import decide
+        from ita.archive.model import BOUNDED_BELOW
+
+        took = 0.0
+        for m in self._members(group, group.anchor):
+            spec = self.specs.get(m)
+            if spec is None or frames_for(spec, self.vctx).count <= 1:
+                continue
+            reply = _guarded_measure(measure_frames, list(frames), spec, self.vctx)
+            took += VISION_SECONDS * len(frames)
+            if not reply.ok or not (math.isfinite(reply.value) and math.isfinite(reply.uncertainty)):
+                return False, took
+            d = decide(float(reply.value), 2.0 * float(reply.uncertainty), spec.low_limit, spec.high_limit,
+                       bounded_below=spec.kind.value in BOUNDED_BELOW)
+            if d.value == "uncertain":
+                return False, took
+        return True, took
 
     def _frame_plan(self, group: Any) -> Any:
         """The frames the group's wanted members need (the most any of them needs)."""

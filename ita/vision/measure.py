@@ -40,8 +40,9 @@ two things in the same image:
   unknowns of the adjustment rather than a zone's worth of uncertainty;
 * a lightening hole has no neighbour in view (pocket walls lie outside the window): its
   datum is the arm's pose (`datum = "pose"`), whose error is a new draw of the arm's
-  repeatability at each approach.  `frames_for` asks for ctx.pose_datum_frames frames, each
-  after its own approach, and `measure_frames` averages their deviations: the random part
+  repeatability at each approach.  `frames_for` allows up to ctx.pose_datum_frames frames,
+  each after its own approach (the SLRA takes only as many as its decision needs: 1, 2, 4,
+  8 ..., see ita.devices.slra), and `measure_frames` averages their deviations: the random part
   (pose, rim fit) falls by the square root of their number (never below what the frames'
   own scatter shows); the systematic part (the edge model) does not.  This assumes the
   arm's error at a taught pose is repeatability only (the simulated arm has no absolute

@@ -95,7 +95,8 @@ class FramePlan:
 def frames_for(spec: MeasurementSpec, ctx: VisionContext) -> FramePlan:
     """How many frames `spec` needs.  A lightening hole's position has no datum in view but
     the arm's pose, whose error (repeatability) is new at every approach: the deviations of
-    ctx.pose_datum_frames approaches are averaged (:func:`ita.vision.measure.measure_frames`), at
+    up to ctx.pose_datum_frames approaches are averaged (the SLRA stops as soon as they
+    decide it, ita.devices.slra) (:func:`ita.vision.measure.measure_frames`), at
     :data:`REAPPROACH_SHAPE` pixels (its rim has hundreds of edge points even so).
     Everything else needs one frame."""
     f = ctx.features.get(spec.feature)
