@@ -16,7 +16,8 @@ Per kind (and per hole role): n, mean and sd of the error against the truth; %GR
 tolerance band with s_r the pooled within-spec sd of the repeats (repeatability only); the
 decision under ISO 14253-1 with U = 2u as guard band (conforms / does not conform /
 uncertain) against the truth's conformance: false accepts (FA) and false rejects (FR);
-how often |error| > U; exceptions by reason.  Timing: wall-clock per frame (by pixels) to
+how often |error| > U and the coverage of U (the share within it; k = 2 promises about 95 %),
+the mean U over the tolerance zone; exceptions by reason.  Timing: wall-clock per frame (by pixels) to
 simulate and to measure, the simulated frame time and scan time per measurement (the arm's
 re-approach moves are not simulated here: `ita inspect` accounts them).  This is scoring: it may read the truth.
 Figures, not assertions.
@@ -176,6 +177,8 @@ def summarize(rows):
             "grr_percent": grr, "conforms": dec["conforms"], "nonconforms": dec["nonconforms"],
             "uncertain": dec["uncertain"], "FA": dec["FA"], "FR": dec["FR"],
             "error_beyond_U": outside,
+            "coverage_percent": 100.0 * (1 - outside / len(ok)) if ok else float("nan"),
+            "mean_U_over_zone": float(np.mean([2 * r["u"] / r["band"] for r in ok])) if ok else float("nan"),
             "exceptions": dict(Counter(r["reason"] for r in rs if "reason" in r)),
             "frames_per_measurement": float(np.mean([r.get("frames", 1) for r in rs])),
         }
@@ -184,13 +187,15 @@ def summarize(rows):
 
 def print_table(table, timing):
     head = f"{'kind':28s} {'n':>5s} {'mean err':>9s} {'sd err':>8s} {'mean u':>8s} {'%GRR':>6s} " \
-           f"{'conf':>5s} {'nonc':>5s} {'unc':>5s} {'FA':>3s} {'FR':>3s} {'>U':>4s}  exceptions"
+           f"{'conf':>5s} {'nonc':>5s} {'unc':>5s} {'FA':>3s} {'FR':>3s} {'>U':>4s} {'cov%':>6s} {'U/zone':>6s}" \
+           f"  exceptions"
     print(head)
     print("-" * len(head))
     for name, t in table.items():
         print(f"{name:28s} {t['n']:5d} {t['mean_error']:9.4f} {t['sd_error']:8.4f} {t['mean_u']:8.4f} "
               f"{t['grr_percent']:6.1f} {t['conforms']:5d} {t['nonconforms']:5d} {t['uncertain']:5d} "
-              f"{t['FA']:3d} {t['FR']:3d} {t['error_beyond_U']:4d}  {t['exceptions'] or ''}")
+              f"{t['FA']:3d} {t['FR']:3d} {t['error_beyond_U']:4d} {t['coverage_percent']:6.1f} "
+              f"{t['mean_U_over_zone']:6.3f}  {t['exceptions'] or ''}")
     print()
     for shape in sorted(timing["sim_s"]):
         for key in ("sim_s", "measure_s"):
