@@ -16,9 +16,11 @@ each class of measurement finds the mean error (the bias) and the scatter of the
 between features.
 
 Applied to a result of class C: value - bias(C), and U the larger of the study's coverage
-interval and the frame's own: U_C = the 95th percentile of |error - bias| over the study's
-frames (the coverage interval taken from the errors' own distribution, as GUM Supplement
-1 does, since they are not normal: a few features of a class sit far out), combined with
+interval and the frame's own: U_C = the percentile of |error - bias| over the study's
+frames that covers 95 % of them with 90 % confidence given the number of features studied
+(:func:`coverage_level`; the coverage interval taken from the errors' own distribution, as
+GUM Supplement 1 does, since they are not normal: a few features of a class sit far out,
+and a tolerance bound, since a study is finite), combined with
 the bias's own uncertainty (scatter / sqrt(features)) and the references' certificate; and
 2 u_frame, where u_frame is the frame's own random part (the fits of the edges and rims it
 saw: :data:`RANDOM_TERMS` of the budget), which the study's frames already carry but which
@@ -66,6 +68,22 @@ LARGE_HOLE_MM = 25.0
 #: standard uncertainty (mm) of a reference workpiece's dimensions on its certificate
 REFERENCE_U_MM = 0.0005
 
+#: the confidence with which a class's interval covers 95 % of its errors (a finite study)
+CONFIDENCE = 0.90
+
+
+def coverage_level(features: int, coverage: float = 0.95, confidence: float = CONFIDENCE) -> float:
+    """The quantile of a study's errors that bounds their `coverage` quantile with
+    `confidence`, from `features` independent features: the k-th of them in order, k the
+    least with P(Binomial(features, coverage) < k) >= confidence (a distribution-free
+    tolerance bound, ISO 16269-6), as a share of them (1 when there are too few)."""
+    from scipy.stats import binom
+
+    if features < 1:
+        return 1.0
+    k = int(binom.ppf(confidence, features, coverage)) + 1
+    return min(1.0, k / features)
+
 
 def default_path() -> Path:
     """The cell's SLRA calibration: bulkhead/slra_calibration.json."""
@@ -111,7 +129,7 @@ class CalibrationClass:
         bias = sum(errors) / n
         scatter = math.sqrt(sum((e - bias) ** 2 for e in errors) / (n - 1)) if n > 1 else 0.0
         rms = math.sqrt(sum(u * u for u in u_frames) / len(u_frames)) if u_frames else 0.0
-        q95 = float(np.quantile(np.abs(np.asarray(errors) - bias), 0.95)) if n else 0.0
+        q95 = float(np.quantile(np.abs(np.asarray(errors) - bias), coverage_level(features))) if n else 0.0
         u = math.sqrt((q95 / 2) ** 2 + scatter ** 2 / max(features, 1) + REFERENCE_U_MM ** 2)
         return cls(name, n, features, bias, scatter, rms, u)
 
