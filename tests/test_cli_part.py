@@ -9,6 +9,20 @@ from click.testing import CliRunner
 from ita.cli import main
 
 
+def small_bulkhead_params(text: str) -> str:
+    """bulkhead/part.toml's text made a smaller bulkhead: 1600 x 1000 mm, a smaller
+    opening, four vertical ribs."""
+    for a, b in {"width = 2500.0": "width = 1600.0", "height = 1500.0": "height = 1000.0",
+                 "corner_radius = 350.0": "corner_radius = 250.0",
+                 "width = 1000.0\nheight = 440.0\ncorner_radius = 150.0": "width = 600.0\nheight = 260.0\n"
+                                                                           "corner_radius = 100.0",
+                 "x = [-950.0, -650.0, -300.0, 300.0, 650.0, 950.0]": "x = [-550.0, -200.0, 200.0, 550.0]",
+                 "y = [-420.0, 0.0, 420.0]": "y = [-280.0, 0.0, 280.0]"}.items():
+        assert a in text, a
+        text = text.replace(a, b)
+    return text
+
+
 def test_info_prints_size_and_counts(builtin_part):
     result = CliRunner().invoke(main, ["part", "info"])
     assert result.exit_code == 0, result.output
@@ -86,14 +100,19 @@ def test_part_new_makes_another_bulkhead_with_its_truth(builtin_part, tmp_path):
     from ita.part.bulkhead import default_params_path
 
     text = default_params_path().read_text(encoding="utf-8")
-    text = text.replace("width = 2500.0", "width = 1600.0").replace("height = 1500.0", "height = 1000.0")
-    text = text.replace("x = [-950.0, -650.0, -300.0, 300.0, 650.0, 950.0]", "x = [-600.0, 600.0]")
-    text = text.replace("y = [-420.0, 0.0, 420.0]", "y = [-300.0, 300.0]")
-    params.write_text(text, encoding="utf-8")
+    params.write_text(small_bulkhead_params(text), encoding="utf-8")
     result = runner.invoke(main, ["part", "new", str(tmp_path / "small"), "--params", str(params), "--seed", "3"])
     assert result.exit_code == 0, result.output
     info = json.loads(runner.invoke(main, ["part", "info", "--json", "--part", str(tmp_path / "small")]).output)
     assert info["size_mm"][:2] == [1600.0, 1000.0] and info["spec_count"] < 1000 and info["unreachable"] == 0
+    # parameters the generator's layout does not fit (an opening across the ribs): refused, nothing made
+    bad = tmp_path / "bad.toml"
+    bad.write_text(text.replace("width = 2500.0", "width = 1600.0").replace("height = 1500.0", "height = 1000.0")
+                   .replace("x = [-950.0, -650.0, -300.0, 300.0, 650.0, 950.0]", "x = [-600.0, 600.0]")
+                   .replace("y = [-420.0, 0.0, 420.0]", "y = [-300.0, 300.0]"), encoding="utf-8")
+    result = runner.invoke(main, ["part", "new", str(tmp_path / "badpart"), "--params", str(bad)])
+    assert result.exit_code == 2 and "leave its surface" in result.output and "bad.toml" in result.output
+    assert not (tmp_path / "badpart").exists() and not list(tmp_path.glob(".badpart-*"))
     # refused: a directory with something in it, nothing written into it
     (tmp_path / "full").mkdir()
     (tmp_path / "full" / "keep.txt").write_text("mine")

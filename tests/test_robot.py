@@ -208,3 +208,26 @@ def test_tool_pick_up_and_put_down(ctl):
                                atol=1e-6)
     assert changer.put_down().status is MotionStatus.REJECTED
     assert changer.pick_up("no_such_tool").status is MotionStatus.REJECTED
+
+
+def test_a_step_back_along_the_line_of_sight_keeps_the_tool_s_orientation():
+    """joint_translation moves the TCP 80 mm back exactly and does not turn it; the
+    position-only least-norm step (joint_offset) turns it by a degree or more there."""
+    from ita.kinematics import arm_model
+    from ita.robot import joint_offset, joint_translation
+    from ita.workcell import load_workcell
+
+    wc = load_workcell()
+    model, tcp = arm_model(wc.arm), wc.tool("slra_1").tcp.matrix()
+    q = np.array([-0.49184, -0.31501, 0.55509, 1.98849, 0.54296, -0.47823])   # a viewing pose of the bulkhead
+    start = flange_poses(model, q[None])[0] @ tcp
+    step = -0.08 * start[:3, 2] / np.linalg.norm(start[:3, 2])
+
+    def turned_deg(dq):
+        end = flange_poses(model, (q + dq)[None])[0] @ tcp
+        r = start[:3, :3].T @ end[:3, :3]
+        return float(np.degrees(np.arccos(np.clip((np.trace(r) - 1) / 2, -1, 1)))), end[:3, 3] - start[:3, 3]
+
+    angle, moved = turned_deg(joint_translation(model, q, tcp, step))
+    assert angle < 1e-4 and np.allclose(moved, step, atol=1e-7)
+    assert turned_deg(joint_offset(model, q, tcp, step))[0] > 0.5

@@ -15,9 +15,8 @@
     trials = 3               # runs per part and appraiser
 
 The runs are every part x appraiser x trial (a crossed gauge R&R study, AIAG MSA); run
-(part S, appraiser A, trial T) is `ita inspect --part PART_S --seed 1000 A + T`: the
-simulator's seed is the appraiser's seed and the trial together, so no two runs share
-their noise.  :func:`load_campaign` checks every table and key and raises InputError
+(part S, appraiser A, trial T) is `ita inspect --part PART_S --seed N` with N drawn from
+the three (:func:`sim_seed`), so no two runs share their noise.  :func:`load_campaign` checks every table and key and raises InputError
 naming the file and the field.
 """
 
@@ -34,8 +33,10 @@ from ita.errors import InputError, Location
 
 __all__ = ["Campaign", "RunTask", "load_campaign"]
 
-#: the simulator seed of appraiser a's trial t is SEED_STRIDE * a + t
-SEED_STRIDE = 1000
+def sim_seed(part_seed: int, appraiser: int, trial: int) -> int:
+    """The simulator's seed of a run: a digest of its part, appraiser and trial (31 bits)."""
+    digest = hashlib.sha256(f"ita-campaign/{part_seed}/{appraiser}/{trial}".encode()).digest()
+    return int.from_bytes(digest[:4], "big") & 0x7FFFFFFF
 
 
 @dataclass(frozen=True)
@@ -100,7 +101,7 @@ class Campaign:
             key = self.part_key(p)
             for a in self.appraisers:
                 for t in range(1, self.trials + 1):
-                    out.append(RunTask(f"p{p}-a{a}-t{t}", p, a, t, SEED_STRIDE * a + t, self.limit, self.faults,
+                    out.append(RunTask(f"p{p}-a{a}-t{t}", p, a, t, sim_seed(p, a, t), self.limit, self.faults,
                                        self.fault_kinds, text, str(out_dir / "parts" / key),
                                        str(out_dir / "homes" / key)))
         return out

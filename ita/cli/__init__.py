@@ -33,6 +33,7 @@ COMMANDS: dict[str, str] = {
     "measure": "ita.cli.measure:measure",
     "diagnosis": "ita.cli.diagnosis:diagnosis",
     "serve": "ita.cli.serve:serve",
+    "campaign": "ita.cli.campaign:campaign",
 }
 
 

@@ -46,9 +46,10 @@ from ita.devices.arm import RETRACT_SPEED, exception_reply
 from ita.devices.data import MeasuredValue, ScanData, spec_of_message
 from ita.executive.adapters import Completion, PoseResolver
 from ita.executive.commands import Command, Reply, Wait
+from ita.kinematics.fk import flange_poses
 from ita.logic.terms import Term
 from ita.robot import RobotController, from_waypoints
-from ita.robot.controller import joint_offset
+from ita.robot.controller import joint_translation
 from ita.sensors.slra_frame import ScanGeometry
 from ita.sim.faults import Fault
 from ita.sim.slra import SlraParams, simulate_frame
@@ -207,7 +208,7 @@ class SlraDevice:
                                           f"calibration block: {valid.mean():.0%} valid pixels"))
 
     def _rescan(self, command: Command, now: float) -> Completion:
-        from ita.robot.controller import joint_offset
+        from ita.robot.controller import joint_translation
 
         world = self.world
         tool = world.held_tool
@@ -222,7 +223,7 @@ class SlraDevice:
         q_view = np.asarray(anchor.q, dtype=float)
         pose = np.asarray(anchor.pose, dtype=float)
         look = pose[:3, 2] / np.linalg.norm(pose[:3, 2])
-        q_back = q_view + joint_offset(world.model, q_view, tool.tcp.matrix(), -RESCAN_BACK_M * look)
+        q_back = q_view + joint_translation(world.model, q_view, tool.tcp.matrix(), -RESCAN_BACK_M * look)
         t = max(now, world.clock.now)
         out = self.controller.execute(from_waypoints(world.model, [np.asarray(world.q), q_back],
                                                      speed_scale=RETRACT_SPEED), command="rescan")
@@ -230,8 +231,9 @@ class SlraDevice:
         if not out.ok:
             return Completion(t, exception_reply("REAPPROACH", f"second stand-off for {spec_id}: {out.message}",
                                                  out.status.value))
-        back_pose = pose.copy()
-        back_pose[:3, 3] -= RESCAN_BACK_M * look
+        # the pose the controller reports there: its forward kinematics of the joints it was
+        # sent to (the least-norm step back along the line of sight turns the tool a little too)
+        back_pose = flange_poses(world.model, q_back[None])[0] @ tool.tcp.matrix()
         fov = tuple(min(f * 1.0, m) for f, m in zip(group.fov_deg, self.vctx.max_fov_deg))
         frame = simulate_frame(self.scene, world.tcp_pose(), ScanGeometry(tuple(group.pixels), fov),
                                self._physics(tool.name), self.rng, reported_pose=back_pose, timestamp=t,
@@ -286,7 +288,7 @@ class SlraDevice:
         pose = np.asarray(view_pose, dtype=float)
         look = pose[:3, 2] / np.linalg.norm(pose[:3, 2])      # the sensor looks along its z axis
         tcp = world.held_tool.tcp.matrix()
-        q_back = q_view + joint_offset(world.model, q_view, tcp, -REAPPROACH_M * look)
+        q_back = q_view + joint_translation(world.model, q_view, tcp, -REAPPROACH_M * look)
         traj = from_waypoints(world.model, [np.asarray(world.q), q_back, q_view], speed_scale=RETRACT_SPEED)
         return self.controller.execute(traj, command="reapproach")
 

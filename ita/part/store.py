@@ -195,12 +195,28 @@ def new_part(out_dir: Path, params_path: Path | None = None, seed: int | None = 
     tmp.mkdir()
     try:
         _generate_into(tmp, fp, params)
+        _check_generated(tmp, source)
         if out_dir.exists():
             out_dir.rmdir()
         os.rename(tmp, out_dir)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
     return out_dir
+
+
+def _check_generated(tmp: Path, params_path: Path) -> None:
+    """A generated part whose specs leave its own surface (parameters the layout does not
+    fit: an opening across the ribs, ribs too close for a pocket) is refused, naming the
+    parameter file and the first specs that are off."""
+    from ita.specs import service
+
+    try:
+        service.validate_file(load_part(tmp))
+    except InputError as exc:
+        problems = list(exc.problems)
+        raise InputError([(Location(str(params_path)), f"these parameters make a part whose specs leave its surface "
+                                                        f"({len(problems)} problems; the generator's layout does not "
+                                                        f"fit them), e.g. {problems[0][1]}")]) from None
 
 
 def _find_files(path: Path) -> tuple[Path, Path]:

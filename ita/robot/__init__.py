@@ -15,6 +15,7 @@ from ita.robot.controller import (
     MotionStatus,
     RobotController,
     joint_offset,
+    joint_translation,
 )
 from ita.robot.toolchanger import ToolChanger
 from ita.robot.waypoints import TimedTrajectory, from_waypoints
@@ -28,4 +29,5 @@ __all__ = [
     "ToolChanger",
     "from_waypoints",
     "joint_offset",
+    "joint_translation",
 ]
