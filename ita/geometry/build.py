@@ -67,6 +67,9 @@ PRESS_M = 0.0015          # the probe tip pushed this far into its spring travel
 GROUP_GROWTH = 1.25       # a view group's window at most this times its widest member's
 APPROACH_LADDER_M = (0.08, 0.10, 0.12, 0.15, 0.20)  # m, tried in turn for the probe
 APPROACH_TILTS_DEG = (0.0, 10.0, 20.0)  # approach directions off the normal, tried in turn
+SHORT_APPROACH_M = (0.03, 0.02, 0.015, 0.01)  # m, nearer approach points, tried after the ladder
+COUPLANT_OFFSET_M = 0.003  # the couplant, squirted along the probe's axis from the approach point, must land
+                           # this near the contact point (half the dispenser's 6 mm spot)
 TILT_AZIMUTHS = 8         # directions about the normal per tilt
 FALLBACK_ROLLS = 36       # rolls about the normal tried when the plan's own are blocked
 CONTACT_STEPS = 12        # configurations checked along the straight approach-to-contact move
@@ -84,10 +87,15 @@ __all__ = [
 
 def mkb_digest(specs_digest: str, cell: Workcell) -> str:
     """Digest of what an MKB depends on: the specs (their file's digest), the workcell and
-    Vision's rule for a frame's pixels (its view groups' rasters)."""
+    Vision's rules for a frame's window and pixels (the source of ita.vision.scan, so a
+    changed rule never meets a stored MKB made with the old one)."""
+    from pathlib import Path
 
-    raster = f"{MIN_HOLE_PIXELS},{RASTER_STEP},{MAX_RASTER}"
-    text = f"{MKB_VERSION}|{PRESS_M}|{GROUP_GROWTH}|{raster}|{specs_digest}|{cell!r}"
+    import ita.vision.scan as scan_rules
+
+    raster = f"{MIN_HOLE_PIXELS},{RASTER_STEP},{MAX_RASTER},{SHORT_APPROACH_M},{COUPLANT_OFFSET_M}"
+    rules = hashlib.sha256(Path(scan_rules.__file__).read_bytes()).hexdigest()
+    text = f"{MKB_VERSION}|{PRESS_M}|{GROUP_GROWTH}|{raster}|{rules}|{specs_digest}|{cell!r}"
     return hashlib.sha256(text.encode()).hexdigest()
 
 
@@ -97,11 +105,13 @@ def _probe_entries(cell: Workcell, tool: ToolSpec, specs: Sequence[MeasurementSp
                    planner: PathPlanner | None) -> list[MkbEntry]:
     """Contact and approach configurations of the probe's measurements.
 
-    The approach point is the nearest of :data:`APPROACH_LADDER_M` (the tool's own
-    approach distance first) that the Path Planner finds collision-free with the probe
-    held, along the normal or, failing that, along directions tilted
-    :data:`APPROACH_TILTS_DEG` off it (the probe keeps the contact pose's orientation, so it
-    still meets the surface along its normal, as the gauge needs); and from which the
+    The approach point is the first of :data:`APPROACH_LADDER_M` (the tool's own
+    approach distance first), then of the nearer :data:`SHORT_APPROACH_M`, that the Path
+    Planner finds collision-free with the probe held, along the normal or, failing that,
+    along directions tilted :data:`APPROACH_TILTS_DEG` off it (the probe keeps the contact
+    pose's orientation, so it still meets the surface along its normal, as the gauge needs;
+    a tilted approach point is near enough that the couplant squirted along the probe's
+    axis from there lands within :data:`COUPLANT_OFFSET_M` of the contact point); and from which the
     straight move to contact keeps the arm and the probe (all but its spring-loaded tip)
     off everything (:func:`_contact_free`).  When none is, :data:`FALLBACK_ROLLS` rolls of
     the probe about the normal are tried, nearest to the chosen configuration first; when
@@ -203,8 +213,12 @@ def _probe_at(model: Any, planner: PathPlanner | None, tool: ToolSpec, surface: 
     todo = ok_c.copy()
     normal_dirs = surface[:, :3, 2]
     for tilt in APPROACH_TILTS_DEG:
+        # off the normal the probe's axis misses the contact point by d sin(tilt) at the
+        # approach point, where the couplant is squirted: only approaches near enough
+        reach = COUPLANT_OFFSET_M / math.sin(math.radians(tilt)) if tilt else math.inf
+        distances = [d for d in [*ladder, *SHORT_APPROACH_M] if d <= reach]
         for direction in _tilted(normal_dirs, tilt):
-            for d in ladder:
+            for d in distances:
                 if not todo.any():
                     return out
                 approach = surface.copy()

@@ -177,14 +177,19 @@ def _stiffener(view: View, spec: MeasurementSpec, rib: Stiffener, ctx: VisionCon
     top, top_px = fit_face(view, patch, region & (np.abs(t) < top_w), rib.height)
     if spec.kind is K.STIFFENER_HEIGHT:
         webs = []
+        missing: list[VisionFail] = []
         for side in (-1.0, 1.0):
             try:
                 webs.append(_web_plane(view, p, side * across, along, (half + b + 1.0, half + b + 11.0), span, ctx,
                                        f"web {'left' if side < 0 else 'right'}"))
-            except VisionFail as exc:
-                if exc.reason is not VisionFailure.NOT_MEASURABLE and exc.reason is not VisionFailure.TOO_FEW_PIXELS:
+            except VisionFail as exc:     # one web beside the rib is enough (its own fit and tolerance)
+                if exc.reason not in (VisionFailure.NOT_MEASURABLE, VisionFailure.TOO_FEW_PIXELS,
+                                      VisionFailure.OUT_OF_VIEW):
                     raise
+                missing.append(exc)
         if not webs:
+            if all(e.reason is VisionFailure.OUT_OF_VIEW for e in missing):
+                raise VisionFail(VisionFailure.OUT_OF_VIEW, "; ".join(e.detail for e in missing))
             raise VisionFail(VisionFailure.TOO_FEW_PIXELS, "no web visible beside the rib")
         value, unc, diag = _height(patch.take(view.points)[top_px], webs, ctx)
         return VisionResult(spec.id, spec.kind, value, unc, diag)

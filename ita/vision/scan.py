@@ -50,7 +50,9 @@ def _window_mm(spec: MeasurementSpec, ctx: VisionContext) -> float:
     if spec.kind in (K.FLANGE_HEIGHT, K.FLANGE_WIDTH) and isinstance(f, FlangeSegment):
         return 2 * (f.cap_width + 2.0)
     if spec.kind in (K.STIFFENER_HEIGHT, K.STIFFENER_WIDTH) and isinstance(f, Stiffener):
-        return 2 * (f.width / 2 + 14.0)
+        # the webs beside the rib reach 14 mm across it and 10 along: at any roll of the
+        # sensor about its axis the square window must hold that rectangle's corners
+        return 2 * math.hypot(f.width / 2 + 14.0, 11.0)
     return 100.0
 
 
