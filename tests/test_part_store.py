@@ -114,3 +114,40 @@ def test_user_part_errors_name_dir_and_what_is_missing(tmp_path, files, message)
 def test_missing_dir_is_an_input_error(tmp_path):
     with pytest.raises(InputError, match="not found"):
         store.load_part(tmp_path / "nope")
+
+
+def _plate_part(d, scale: float, spec_scale: float = 1.0):
+    """A 800 x 500 x 10 mm plate (its mesh scaled by `scale`) with three web specs on its top
+    face (their points scaled by `spec_scale`)."""
+    import trimesh
+
+    d.mkdir()
+    trimesh.creation.box((800.0, 500.0, 10.0)).apply_translation((0, 0, 5.0)).apply_scale(scale).export(d / "p.stl")
+    rows = ["id,kind,feature,x,y,z,nx,ny,nz,nominal,lower,upper,datum,dx,dy,dz,note"]
+    for i, (x, y) in enumerate([(-300.0, -200.0), (0.0, 0.0), (300.0, 200.0)]):
+        rows.append(f"WT-{i},web_thickness,plate,{x * spec_scale},{y * spec_scale},{10.0 * spec_scale},0,0,1,10,"
+                    f"-0.1,0.1,A,,,,")
+    (d / "specs.csv").write_text("\n".join(rows) + "\n")
+    return d
+
+
+def test_a_mesh_in_metres_is_refused_saying_so(tmp_path):
+    from click.testing import CliRunner
+
+    from ita.cli import main
+
+    d = _plate_part(tmp_path / "metres", 0.001)
+    result = CliRunner().invoke(main, ["part", "info", "--part", str(d)])
+    assert result.exit_code == 2 and "in metres?" in result.output and "p.stl" in result.output
+
+
+def test_specs_and_mesh_in_different_units_are_named(tmp_path):
+    from click.testing import CliRunner
+
+    from ita.cli import main
+
+    d = _plate_part(tmp_path / "inches", 1 / 25.4)
+    result = CliRunner().invoke(main, ["spec", "validate", "--part", str(d)])
+    assert result.exit_code == 2 and "mesh in inches?" in result.output
+    ok = _plate_part(tmp_path / "mm", 1.0)
+    assert CliRunner().invoke(main, ["spec", "validate", "--part", str(ok)]).exit_code == 0

@@ -40,6 +40,8 @@ SPECS_FILE = "specs.csv"
 GENERATED_SPECS_FILE = "specs.generated.csv"
 FEATURES_FILE = "features.json"
 MESH_SUFFIXES = (".stl", ".obj", ".ply")
+MIN_PART_MM = 5.0         # a mesh smaller than this across is taken for one in metres
+MAX_PART_MM = 20000.0     # and larger than this (20 m) for one in micrometres
 BUILTIN_NAME = "bulkhead"
 GENERATOR_MODULES = ("geometry2d", "params", "model", "layout", "mesh", "specgen", "bulkhead", "truth")
 
@@ -286,6 +288,15 @@ def _read_part(path: Path) -> Part:
         raise InputError([(Location(str(mesh_path)), f"mesh has {bad} vertices with NaN or infinite coordinates")])
     if len(getattr(mesh, "faces", ())) == 0:
         raise InputError([(Location(str(mesh_path)), "mesh has no triangles")])
+    extent = float(np.max(mesh.extents))
+    if extent < MIN_PART_MM:
+        raise InputError([(Location(str(mesh_path)), f"the mesh is {extent:.4g} units across: in metres? A part's "
+                                                      f"mesh is in millimetres (scale it by 1000; a part under "
+                                                      f"{MIN_PART_MM:g} mm is too small for this cell)")])
+    if extent > MAX_PART_MM:
+        raise InputError([(Location(str(mesh_path)), f"the mesh is {extent:.4g} units across: in micrometres, or "
+                                                      f"not a part? A part's mesh is in millimetres, at most "
+                                                      f"{MAX_PART_MM:g} mm across for this cell")])
     features: tuple = ()
     if (path / FEATURES_FILE).is_file():
         try:

@@ -52,6 +52,24 @@ def surface_distances(mesh, points: np.ndarray, chunk: int = CHUNK_POINTS) -> np
     return out
 
 
+def _units_hint(points: np.ndarray, extents: np.ndarray) -> str:
+    """When most points are off the part: whether their spread says the specs and the mesh
+    are in different units (inches, metres), as a sentence; "" otherwise."""
+    spread = float(np.max(np.ptp(points, axis=0)))
+    size = float(np.max(extents))
+    if spread <= 0 or size <= 0:
+        return ""
+    ratio = spread / size          # the points span at most the part: about the unit factor or less
+    for low, high, what in ((8.0, 30.0, "the specs in millimetres and the mesh in inches"),
+                            (300.0, 1100.0, "the specs in millimetres and the mesh in metres"),
+                            (1 / 30.0, 1 / 20.0, "the specs in inches and the mesh in millimetres"),
+                            (1 / 1100.0, 1 / 800.0, "the specs in metres and the mesh in millimetres")):
+        if low <= ratio <= high:
+            return (f"most points are off the part and they spread {ratio:.3g} times as far as the mesh: "
+                    f"{what}? Both must be in millimetres")
+    return ""
+
+
 def check_on_surface(
     specs: Sequence[MeasurementSpec],
     mesh,
@@ -81,4 +99,8 @@ def check_on_surface(
         ))
     if len(far) > MAX_PROBLEMS:
         problems.append((Location(file), f"... and {len(far) - MAX_PROBLEMS} more points off the surface"))
+    if len(far) > len(specs) // 2 and len(specs) >= 3:
+        hint = _units_hint(points, np.asarray(mesh.extents, dtype=float))
+        if hint:
+            problems.append((Location(file), hint))
     return problems
