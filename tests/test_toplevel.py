@@ -289,3 +289,39 @@ def test_a_rescan_from_the_second_stand_off_measures_from_the_pose_the_arm_repor
     assert report is not None and report.ok, note
     value = measured_values(report)[spec_id]
     assert abs(value.value - truth[spec_id]) <= 2 * value.u
+
+
+def test_recovery_backs_the_tool_out_when_its_last_free_configuration_is_not(session) -> None:
+    """A retract that settled on the edge of a collision leaves the arm where the Path
+    Planner cannot start, and its last free configuration is that same place: the recovery
+    backs the tool straight out along its axis instead of leaving every later move blocked."""
+    import numpy as np
+
+    from ita.logic.terms import Term
+
+    arm, world = session.arm, session.world
+    spec_id = next(i for i in session.specs if i.startswith("WT-"))
+    probe = "us_probe_1"
+    before_q, before_held, before_last = np.array(world.q), world.held, arm.last_free_q
+    try:
+        if world.held != probe:
+            if world.held is not None:
+                world.detach()
+            world.attach(probe)
+        contact = np.asarray(session.reasoner.resolve(Term("in_contact_point", (Term("meas", (spec_id,)),)), probe).q)
+        world.set_q(contact)                  # the tip pressed on the web: not a place to start a move from
+        arm.last_free_q = contact
+        planner, tool = arm.planner_for(probe)
+        assert not planner.config_free(contact[None], tool)[0]
+        assert arm.recover()
+        assert planner.config_free(np.asarray(world.q)[None], tool)[0]
+        back = world.tcp_pose()[:3, 3] - world.tcp_pose(contact)[:3, 3]
+        axis = world.tcp_pose(contact)[:3, 2]
+        assert float(back @ axis) < -0.005                  # moved out, against the probe's axis
+    finally:
+        if world.held is not None:
+            world.detach()
+        if before_held is not None:
+            world.attach(before_held)
+        world.set_q(before_q)
+        arm.last_free_q = before_last

@@ -40,6 +40,8 @@ __all__ = ["CONTACT_SPEED", "RECOVER_SECONDS", "RETRACT_SPEED", "SPRING_N_PER_M"
 
 #: speed scale of the guarded contact move and of the retract (of the joints' limits)
 CONTACT_SPEED = 0.5
+#: how far (m) a recovery backs the tool straight out when its last free configuration is not
+BACK_OFF_M = (0.01, 0.02, 0.04, 0.06)
 RETRACT_SPEED = 1.0
 #: the probe's spring rate (N/m), to report the contact force
 SPRING_N_PER_M = 2000.0
@@ -123,15 +125,34 @@ class ArmDevice:
 
     def recover(self) -> bool:
         """After a failed plan: if the arm is not where the Path Planner can start from (in
-        contact, bumped), put it back at the last configuration it left free (an operator's
+        contact, bumped), put it back at the last configuration it left free, or, when that
+        one is not free either, back the tool straight out along its axis (an operator's
         jog, taking :data:`RECOVER_SECONDS`).  Returns whether it moved the arm."""
         planner, tool = self.planner_for(self.world.held)
-        q = np.asarray(self.world.q)[None]
-        if planner.config_free(q, tool)[0] and planner.context(tool).motion_free.clear(q)[0]:
+
+        def free(q: np.ndarray) -> bool:
+            q = np.asarray(q, dtype=float)[None]
+            return bool(planner.config_free(q, tool)[0] and planner.context(tool).motion_free.clear(q)[0])
+
+        if free(self.world.q):
             return False
-        self.world.set_q(self.last_free_q)
+        target = self.last_free_q
+        if not free(target):      # the last free one is not (a retract that settled on an edge): straight back out
+            target = next((c for c in self._backed_off(np.asarray(self.world.q, dtype=float)) if free(c)), target)
+        self.world.set_q(target)
         self.world.clock.advance(RECOVER_SECONDS)
         return True
+
+    def _backed_off(self, q: np.ndarray) -> list[np.ndarray]:
+        """Configurations with the tool moved straight back along its axis, away from the
+        part, by :data:`BACK_OFF_M` steps, keeping its orientation."""
+        from ita.robot.controller import joint_translation
+
+        world = self.world
+        tcp = world.held_tool.tcp.matrix() if world.held_tool is not None else np.eye(4)
+        pose = np.asarray(world.tcp_pose(q))
+        look = pose[:3, 2] / np.linalg.norm(pose[:3, 2])
+        return [q + joint_translation(world.model, q, tcp, -d * look) for d in BACK_OFF_M]
 
     # -- commands ----------------------------------------------------------------------
     def _q(self, term: Any) -> np.ndarray:

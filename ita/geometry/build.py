@@ -68,6 +68,7 @@ GROUP_GROWTH = 1.25       # a view group's window at most this times its widest 
 APPROACH_LADDER_M = (0.08, 0.10, 0.12, 0.15, 0.20)  # m, tried in turn for the probe
 APPROACH_TILTS_DEG = (0.0, 10.0, 20.0)  # approach directions off the normal, tried in turn
 SHORT_APPROACH_M = (0.03, 0.02, 0.015, 0.01)  # m, nearer approach points, tried after the ladder
+APPROACH_MARGIN_M = 0.002  # an approach pose stays free this far off it along every axis
 COUPLANT_OFFSET_M = 0.003  # the couplant, squirted along the probe's axis from the approach point, must land
                            # this near the contact point (half the dispenser's 6 mm spot)
 TILT_AZIMUTHS = 8         # directions about the normal per tilt
@@ -93,7 +94,7 @@ def mkb_digest(specs_digest: str, cell: Workcell) -> str:
 
     import ita.vision.scan as scan_rules
 
-    raster = f"{MIN_HOLE_PIXELS},{RASTER_STEP},{MAX_RASTER},{SHORT_APPROACH_M},{COUPLANT_OFFSET_M}"
+    raster = f"{MIN_HOLE_PIXELS},{RASTER_STEP},{MAX_RASTER},{SHORT_APPROACH_M},{COUPLANT_OFFSET_M},{APPROACH_MARGIN_M}"
     rules = hashlib.sha256(Path(scan_rules.__file__).read_bytes()).hexdigest()
     text = f"{MKB_VERSION}|{PRESS_M}|{GROUP_GROWTH}|{raster}|{rules}|{specs_digest}|{cell!r}"
     return hashlib.sha256(text.encode()).hexdigest()
@@ -178,6 +179,25 @@ def _tilted(normal_dirs: FloatArray, tilt_deg: float) -> list[FloatArray]:
             for a in np.linspace(0.0, 2.0 * math.pi, TILT_AZIMUTHS, endpoint=False)]
 
 
+def _free_around(model: Any, planner: PathPlanner, tool: ToolSpec, poses: FloatArray, q: FloatArray
+                 ) -> NDArray[np.bool_]:
+    """Whether the approach poses (n, 4, 4) stay collision-free when the arm ends up to
+    :data:`APPROACH_MARGIN_M` off them along any axis (a retract settles with the arm's
+    repeatability; a start configuration on the edge of a collision blocks every move after
+    it), their configurations near q (n, 6)."""
+    tcp = tool.tcp.matrix()
+    ok = np.ones(len(poses), dtype=bool)
+    for axis in range(3):
+        for sign in (-1.0, 1.0):
+            moved = poses.copy()
+            moved[:, axis, 3] += sign * APPROACH_MARGIN_M
+            q_m, found = choose_nearest(model, ik_tool(model, moved[:, None], tcp).flatten_batch(), q)
+            ok &= found
+            if ok.any():
+                ok[ok] = planner.config_free(q_m[ok], tool)
+    return ok
+
+
 def _contact_free(cell: Workcell, planner: PathPlanner, tool: ToolSpec) -> Any:
     """``(q_a (n, 6), q_c (n, 6)) -> bool (n,)``: whether the straight joint move from the
     approach point to contact (the controller's CONTACT) keeps the arm and the probe off the
@@ -228,6 +248,8 @@ def _probe_at(model: Any, planner: PathPlanner | None, tool: ToolSpec, surface: 
                 free = np.zeros(n, dtype=bool)
                 if good.any():
                     free[good] = planner.config_free(q_a[good], tool) if planner is not None else True
+                if planner is not None and free.any():
+                    free[free] = _free_around(model, planner, tool, approach[free], q_a[free])
                 if contact_free is not None and free.any():
                     free[free] = contact_free(q_a[free], q_c[free])
                 for i in np.flatnonzero(free):
