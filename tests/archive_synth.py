@@ -1,6 +1,7 @@
 """A synthetic run for the archive's tests: what the Top Level and the Executive record.
 
-Not a fixture file: tests/test_report.py and tests/test_cli_archive.py import it.
+Not a fixture file: tests/test_report.py and tests/test_cli_archive.py import it; the
+process tests import :func:`wait_for_run`.
 """
 
 from __future__ import annotations
@@ -96,3 +97,22 @@ def record_synthetic_run(archive: Archive, specs: list[FakeSpec], truth: dict[st
                                                       sim_time_end=t), events)
     archive.set_status(run_id, status)
     return run_id
+
+
+def wait_for_run(proc, runs: Path, ready, timeout: float = 240.0) -> str | None:
+    """The id of the run process `proc` keeps in the archive of `runs`, once
+    `ready(archive, run_id)` holds; None if `proc` ends first or `timeout` (s) passes."""
+    import time
+
+    from ita.archive import archive_path
+
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline and proc.poll() is None:
+        time.sleep(0.05)
+        if not archive_path(runs).exists():
+            continue
+        with Archive.open(archive_path(runs)) as archive:
+            mine = [r for r in archive.runs() if r.pid == proc.pid]
+            if mine and ready(archive, mine[0].id):
+                return mine[0].id
+    return None

@@ -7,11 +7,11 @@ import random
 import signal
 import subprocess
 import sys
-import time
 from collections import Counter
 from pathlib import Path
 
 import pytest
+from archive_synth import wait_for_run
 from click.testing import CliRunner
 
 from ita.cli import main
@@ -144,17 +144,8 @@ def test_sigkill_then_continue_loses_and_repeats_nothing(runs, ita_home) -> None
     from ita.archive import Archive, archive_path
 
     run_id = None
-    deadline = time.monotonic() + 120
     try:
-        while time.monotonic() < deadline and proc.poll() is None:
-            time.sleep(0.05)
-            if not archive_path(runs).exists():
-                continue
-            with Archive.open(archive_path(runs)) as archive:
-                mine = [r for r in archive.runs() if r.pid == proc.pid]
-                if mine and mine[0].done >= kill_at:
-                    run_id = mine[0].id
-                    break
+        run_id = wait_for_run(proc, runs, lambda archive, r: archive.run(r).done >= kill_at, timeout=120)
         os.kill(proc.pid, signal.SIGKILL)
     finally:
         proc.wait(timeout=30)

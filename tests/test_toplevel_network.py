@@ -7,9 +7,10 @@ import os
 import signal
 import subprocess
 import sys
-import time
 from collections import Counter
 from pathlib import Path
+
+from archive_synth import wait_for_run
 
 from ita.archive import Archive, Event, archive_path
 from ita.toplevel.network import EVENT_KIND, Pending
@@ -24,19 +25,6 @@ def test_a_pending_frame_survives_the_archive() -> None:
                 0.21, 0.05)
     again = Pending.from_event(Event(EVENT_KIND, "top", 2.5, p.to_event().payload))
     assert again == p
-
-
-def _wait_for(proc: subprocess.Popen, runs: Path, ready, timeout: float = 240.0) -> str | None:
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline and proc.poll() is None:
-        time.sleep(0.05)
-        if not archive_path(runs).exists():
-            continue
-        with Archive.open(archive_path(runs)) as archive:
-            mine = [r for r in archive.runs() if r.pid == proc.pid]
-            if mine and ready(archive, mine[0].id):
-                return mine[0].id
-    return None
 
 
 def test_killed_before_its_network_is_solved_continue_loses_and_repeats_nothing(tmp_path, ita_home,
@@ -58,7 +46,7 @@ with Archive.open(archive_path({str(runs)!r})) as archive:
     cmd = [sys.executable, "-c", child]
     proc = subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     try:   # kill it once two position frames wait for their network
-        run_id = _wait_for(proc, runs, lambda a, r: len(a.events(r, kinds=[EVENT_KIND])) >= 2)
+        run_id = wait_for_run(proc, runs, lambda a, r: len(a.events(r, kinds=[EVENT_KIND])) >= 2)
         os.kill(proc.pid, signal.SIGKILL)
     finally:
         proc.wait(timeout=30)

@@ -226,9 +226,16 @@ class ArmDevice:
         self._ready.update(completions)
         return first_completion
 
-    def _path(self, traj: Any) -> ArmPath:
-        """The trajectory `traj` as the archive keeps it (a few dozen knots, the tool point)."""
-        return ArmPath.sampled(traj.times, traj.q, lambda qs: [self.world.tcp_pose(q) for q in qs], self.world.held)
+    def _path(self, *trajs: Any) -> ArmPath:
+        """The trajectories `trajs`, flown one after the other, as the archive keeps them (a
+        few dozen knots, the tool point)."""
+        times, qs, t0 = [], [], 0.0
+        for traj in trajs:
+            times.append(np.asarray(traj.times, dtype=float) + t0)
+            qs.append(np.asarray(traj.q, dtype=float))
+            t0 = float(times[-1][-1])
+        return ArmPath.sampled(np.concatenate(times), np.concatenate(qs),
+                               lambda q: [self.world.tcp_pose(x) for x in q], self.world.held)
 
     @staticmethod
     def _motion_failure(reply: Any, command: Command) -> Reply:
@@ -260,13 +267,7 @@ class ArmDevice:
         else:
             legs = [(before, goal, RETRACT_SPEED)]
         trajs = [from_waypoints(world.model, [a, b], speed_scale=v) for a, b, v in legs]
-        times, qs, t0 = [], [], 0.0
-        for traj in trajs:
-            times.append(np.asarray(traj.times, dtype=float) + t0)
-            qs.append(np.asarray(traj.q, dtype=float))
-            t0 = float(times[-1][-1])
-        flown = ArmPath.sampled(np.concatenate(times), np.concatenate(qs),
-                                lambda q: [world.tcp_pose(x) for x in q], world.held)
+        flown = self._path(*trajs)
         for traj in trajs:
             reply = self.controller.execute(traj, command=command.name.lower())
             if not reply.ok:

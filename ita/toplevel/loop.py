@@ -425,13 +425,7 @@ class TopLevel:
                                                   name="calibrate")
         events: list[Event] = []
         if report is not None:
-            self.plan_no += 1
-            events.append(Event("plan_start", "top", report.started_s, {
-                "spec": None, "macrop": plan.macrop_name, "source": plan.source.value, "steps": len(plan.steps),
-                "purpose": "calibration", "tool": probe}))
-            events += archive_events(report, self.plan_no)
-            events.append(Event("plan_end", "top", report.finished_s, {
-                "spec": None, "status": "ok" if report.ok else "failed", "purpose": "calibration"}))
+            events += self._plan_events(plan, report, None, "calibration", tool=probe)
         ok = report is not None and report.ok
         reading = None
         if ok:
@@ -517,17 +511,23 @@ class TopLevel:
         for label, plan, report in handled.executed:
             if report is None:
                 continue
-            self.plan_no += 1
-            events.append(Event("plan_start", "top", report.started_s, {
-                "spec": d.spec_id, "macrop": plan.macrop_name, "source": plan.source.value,
-                "steps": len(plan.steps), "purpose": label}))
-            events += archive_events(report, self.plan_no)
-            events.append(Event("plan_end", "top", report.finished_s, {
-                "spec": d.spec_id, "status": "ok" if report.ok else "failed", "purpose": label}))
+            events += self._plan_events(plan, report, d.spec_id, label)
         for update in d.updates:
             events.append(Event("world_update", "top", d.t1, {"update": update, "spec": d.spec_id}))
         events.append(Event("recovery", "top", d.t1, {"spec": d.spec_id, "how": d.recovery, "cause": d.cause}))
         return events
+
+    def _plan_events(self, plan: Any, report: Any, spec_id: str | None, purpose: str, **start: Any) -> list[Event]:
+        """The archive events of a plan run for something other than a measurement's own
+        round trip (a diagnosis' tests and repairs, a calibration): its start with
+        `purpose`, the executive's log, its end."""
+        self.plan_no += 1
+        return [Event("plan_start", "top", report.started_s, {
+                    "spec": spec_id, "macrop": plan.macrop_name, "source": plan.source.value,
+                    "steps": len(plan.steps), "purpose": purpose, **start}),
+                *archive_events(report, self.plan_no),
+                Event("plan_end", "top", report.finished_s, {
+                    "spec": spec_id, "status": "ok" if report.ok else "failed", "purpose": purpose})]
 
     def _events(self, out: MeasureOutcome, group: int | None = None) -> list[Event]:
         """The archive events of a measurement's plan: its start, the executive's log, its
