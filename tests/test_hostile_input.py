@@ -138,18 +138,24 @@ def test_a_busy_run_suggests_a_command_that_exists(tmp_path: Path):
     assert f"ita monitor {run_id} --stop" in str(err.value)
 
 
-def test_inspect_refuses_a_part_without_truth_before_preparing(builtin_part, tmp_path: Path):
+def test_inspect_refuses_an_asbuilt_mesh_in_other_units_before_preparing(builtin_part, tmp_path: Path):
     import shutil
     import time
+
+    import trimesh
 
     copy = tmp_path / "copy"
     assert run("part", "build", "-o", str(copy)).exit_code == 0
     shutil.rmtree(copy / "truth", ignore_errors=True)
+    asbuilt = trimesh.load(copy / "nominal.stl")
+    asbuilt.apply_scale(0.001)                     # in metres
+    asbuilt.export(copy / "asbuilt.stl")
     started = time.monotonic()
     result = run("inspect", "--part", str(copy), "--limit", "1", "--runs-dir", str(tmp_path / "runs"))
     assert result.exit_code == 2, result.output
-    assert "no as-built truth" in result.output
+    assert "asbuilt.stl" in result.output and "same frame and units (mm)" in result.output
     assert time.monotonic() - started < 60
+    assert not (tmp_path / "runs").exists() or not any((tmp_path / "runs").rglob("*.sqlite"))
 
 
 @pytest.mark.parametrize("command", [["part", "info"], ["spec", "remove", "X"],

@@ -6,10 +6,12 @@ import json
 import multiprocessing
 import shutil
 
+import numpy as np
 import pytest
 
 from ita.errors import InputError
 from ita.part import store
+from ita.part.model import Hole, Stiffener
 from ita.specs.io import read_specs
 
 
@@ -94,8 +96,22 @@ def test_user_part_with_obj_mesh(tmp_path, builtin_part):
     builtin_part.mesh.export(d / "thing.obj")
     shutil.copy(builtin_part.specs_path, d / "specs.csv")
     part = store.load_part(d)
-    assert part.name == "p" and part.features == ()
+    assert part.name == "p" and part.unfound == ()
     assert len(part.mesh.faces) == len(builtin_part.mesh.faces)
+    # without features.json, every feature the SLRA's specs name is found on the mesh, as generated
+    generated = {f.id: f for f in builtin_part.features}
+    assert set(part.found) == {f.id for f in part.features} and len(part.found) > 200
+    for f in part.features:
+        g = generated[f.id]
+        assert type(f) is type(g)
+        if isinstance(f, Hole):
+            assert np.allclose(f.center, g.center, atol=1e-3) and f.diameter == g.diameter
+            assert f.depth == pytest.approx(g.depth, abs=1e-3)
+        elif isinstance(f, Stiffener):
+            assert (f.width, f.height) == pytest.approx((g.width, g.height), abs=1e-3)
+        else:
+            assert (f.cap_width, f.wall_thickness, f.cap_thickness, f.height) == pytest.approx(
+                (g.cap_width, g.wall_thickness, g.cap_thickness, g.height), abs=3e-3)
 
 
 @pytest.mark.parametrize("files, message", [

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -15,9 +16,11 @@ from ita.specs import service
 from ita.specs.io import COLUMNS, read_specs
 
 HEADER = ",".join(COLUMNS)
-# A 100 x 50 x 2.5 mm plate with its back face at z = 0.
+# A 100 x 50 x 2.5 mm plate with its back face at z = 0, a 6 mm hole through it at (80, 10).
 PLATE = trimesh.creation.box(extents=(100.0, 50.0, 2.5),
-                             transform=trimesh.transformations.translation_matrix((50, 25, 1.25)))
+                             transform=trimesh.transformations.translation_matrix((50, 25, 1.25))).difference(
+    trimesh.creation.cylinder(radius=3.0, height=10.0, sections=96,
+                              transform=trimesh.transformations.translation_matrix((80, 10, 0))))
 ROWS = [
     "WT-1,web_thickness,P01,10,20,2.5,0,0,1,2.5,-0.127,0.127,A,,,,",
     "WT-2,web_thickness,P01,60,30,2.5,0,0,1,2.5,-0.127,0.127,A,,,,",
@@ -53,13 +56,26 @@ def test_point_off_the_surface_is_rejected_with_its_line(part: Plate, tmp_path: 
 
 
 def test_hole_centre_may_lie_within_the_hole_radius(part: Plate) -> None:
+    # the centre on the entry face is the hole's radius (3 mm) from the nearest surface
     service.add(part, {"id": "HP-1", "kind": "hole_position", "feature": "H1", "x": "80",
-                       "y": "10", "z": "5.0", "nx": "0", "ny": "0", "nz": "1", "nominal": "0",
+                       "y": "10", "z": "2.5", "nx": "0", "ny": "0", "nz": "1", "nominal": "0",
                        "lower": "0", "upper": "0.5", "datum": "A|B|C"})
     with pytest.raises(InputError, match="from the part's surface"):
         service.add(part, {"id": "HP-2", "kind": "hole_position", "feature": "H1", "x": "80",
                            "y": "10", "z": "9.0", "nx": "0", "ny": "0", "nz": "1", "nominal": "0",
                            "lower": "0", "upper": "0.5", "datum": "A|B|C"})
+
+
+def test_a_hole_spec_where_the_mesh_has_no_hole_is_rejected_naming_it(part: Plate, tmp_path: Path) -> None:
+    other = tmp_path / "other.csv"
+    other.write_text("\n".join([HEADER, *ROWS, "HD-2,hole_diameter,H2,30,30,2.5,0,0,1,6.0,-0.05,0.05,A,,,,",
+                                "HD-3,hole_diameter,H3,80,10,2.5,0,0,1,8.0,-0.05,0.05,A,,,,"]) + "\n")
+    with pytest.raises(InputError) as info:
+        service.validate_file(part, other)
+    (loc2, msg2), (loc3, msg3) = info.value.problems
+    assert (loc2.line, loc2.field, loc3.line) == (5, "feature", 6)
+    assert "HD-2: feature 'H2' not found" in msg2 and "no hole at (30.0, 30.0, 2.5)" in msg2
+    assert re.search(r"is 6\.00\d mm across; its diameter spec says 8\.000 mm", msg3)
 
 
 def test_add_edit_remove(part: Plate) -> None:

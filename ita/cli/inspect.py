@@ -196,7 +196,7 @@ def inspect(part_dir: Path | None, limit: int | None, seed: int, runs_dir: Path 
             if injection.active:
                 settings["faults"] = injection.to_dict()
             run_id = start_run(session, archive, limit=limit, run_id=run_id, settings=settings)
-            view.note(f"run {run_id}: {archive.run(run_id).total} measurements of {session.ctx.part_name} "
+            view.note(f"run {run_id}: {archive.run(run_id).total} measurements of {session.part.name} "
                       f"(set up in {session.setup_seconds:.1f} s)")
             _run(session, archive, run_id, as_json, view)
     finally:

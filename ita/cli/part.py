@@ -30,7 +30,7 @@ def info(part_dir: Path | None, as_json: bool) -> None:
 
     loaded = load_part(part_dir)
     specs = read_specs(loaded.specs_path)
-    reach = spec_reach(specs, workcell_for(loaded.directory), KnowledgeBase())
+    reach = spec_reach(specs, workcell_for(loaded.directory, loaded.mesh.bounds), KnowledgeBase())
     unreachable = reach.n_unreachable
     summary = summarize(loaded, specs, unreachable=unreachable)
     if as_json:

@@ -31,11 +31,10 @@ DEFAULT_TOOL = "us_probe_1"
 
 def _scene(part_dir: Path | None) -> tuple[Any, Any]:
     from ita.part.store import load_part
-    from ita.workcell import load_workcell
+    from ita.workcell import workcell_for
 
-    own = None if part_dir is None else Path(part_dir) / "workcell.toml"
-    cell = load_workcell(own if own is not None and own.is_file() else None)
-    return cell, load_part(part_dir)
+    part = load_part(part_dir)
+    return workcell_for(part.directory, part.mesh.bounds), part
 
 
 @click.group()

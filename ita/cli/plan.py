@@ -36,11 +36,11 @@ def _tool_for(part_dir: Path | None, kb: object, meas_id: str) -> str:
 def _planner(part_dir: Path | None) -> tuple["OperationPlanner", object]:
     """The part and an Operation Planner on its MACROP store (slow imports here)."""
     from ita.logic.bridge import KnowledgeBase
-    from ita.part.store import load_part
+    from ita.part.store import load_part, part_key
     from ita.planning import OperationPlanner, store_path
 
     part = load_part(part_dir)
-    return OperationPlanner(KnowledgeBase(), store_path(part.name)), part
+    return OperationPlanner(KnowledgeBase(), store_path(part_key(part))), part
 
 
 def _table(headers: tuple[str, ...], rows: list[tuple[str, ...]]) -> str:

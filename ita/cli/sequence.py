@@ -176,10 +176,10 @@ def sequence(ctx: click.Context, part_dir: Path | None, method: str, as_json: bo
 @reports_errors
 def show(part_dir: Path | None, as_json: bool) -> None:
     """Print the stored sequence plan of the part."""
-    from ita.part.store import load_part
+    from ita.part.store import load_part, part_key
     from ita.sequence.store import load_plan, plan_to_dict
 
-    plan = load_plan(load_part(part_dir).name)
+    plan = load_plan(part_key(load_part(part_dir)))
     if as_json:
         click.echo(json.dumps(plan_to_dict(plan), indent=1))
         return

@@ -271,7 +271,7 @@ def prepare(part_dir: Path | None, progress: Callable[[str], None] = lambda _msg
     kb = step("knowledge_bases", "loading the knowledge bases", KnowledgeBase)
     diagnostics = step("kb_check", "checking the knowledge bases", kb.check)
     predicates = kb.list_predicates()
-    cell = step("workcell", "loading the workcell", lambda: workcell_for(part.directory))
+    cell = step("workcell", "loading the workcell", lambda: workcell_for(part.directory, part.mesh.bounds))
     reach = step("reach", "testing the arm's reach for every spec", lambda: spec_reach(specs, cell, kb))
     summary = summarize(part, specs, unreachable=reach.n_unreachable)
     prep = None

@@ -188,7 +188,11 @@ class Part:
     """A loaded part: its nominal mesh (trimesh, mm), features and specs file.
 
     directory: where its files are; specs_path: its specs CSV (read it with
-    ita.specs.io.read_specs); features: empty for a user part without features.json.
+    ita.specs.io.read_specs); features: features.json's, and for the SLRA's specs whose
+    feature it lacks (or has no features.json), the features found on the mesh
+    (ita.part.infer); unfound: the specs whose feature the mesh does not show
+    (ita.part.infer.NotFound, with the reason); found: ids of the features found on the
+    mesh.
     """
 
     name: str
@@ -197,6 +201,8 @@ class Part:
     features: tuple[Feature, ...]
     specs_path: Path
     metadata: dict[str, Any] = field(default_factory=dict)
+    unfound: tuple[Any, ...] = ()
+    found: tuple[str, ...] = ()
 
     def feature(self, feature_id: str) -> Feature:
         """The feature with id `feature_id`; KeyError when there is none."""

@@ -1,7 +1,9 @@
 """Finding and loading parts; materialising the built-in bulkhead.
 
 A part directory holds exactly one mesh (`*.stl`, `*.obj` or `*.ply`, millimetres, part
-frame) and `specs.csv`; optionally `features.json` and `part.json` (metadata).  The
+frame) and `specs.csv`; optionally `features.json` and `part.json` (metadata).  Features
+the SLRA's specs name that features.json lacks (all of them without one) are found on the
+mesh (ita.part.infer).  The
 built-in bulkhead is generated on first use into `ita_home()/parts/bulkhead/` as
 part.json, nominal.stl, specs.csv, features.json and truth/, and regenerated when its
 generator fingerprint (part.toml plus the generator's source) changes.  A specs.csv the
@@ -40,6 +42,7 @@ SPECS_FILE = "specs.csv"
 GENERATED_SPECS_FILE = "specs.generated.csv"
 FEATURES_FILE = "features.json"
 MESH_SUFFIXES = (".stl", ".obj", ".ply")
+ASBUILT_STEM = "asbuilt"  # asbuilt.stl beside the nominal mesh is the as-built part (the simulator's)
 MIN_PART_MM = 5.0         # a mesh smaller than this across is taken for one in metres
 MAX_PART_MM = 20000.0     # and larger than this (20 m) for one in micrometres
 BUILTIN_NAME = "bulkhead"
@@ -228,10 +231,11 @@ def _find_files(path: Path) -> tuple[Path, Path]:
         raise InputError([(loc, "part directory not found")])
     if not path.is_dir():
         raise InputError([(loc, "not a directory (a part is a directory with a mesh and specs.csv)")])
-    meshes = sorted(p for p in path.iterdir() if p.is_file() and p.suffix.lower() in MESH_SUFFIXES)
+    meshes = sorted(p for p in path.iterdir() if p.is_file() and p.suffix.lower() in MESH_SUFFIXES
+                    and p.stem != ASBUILT_STEM)
     problems = []
     if not meshes:
-        problems.append((loc, "no mesh: expected one *.stl, *.obj or *.ply file"))
+        problems.append((loc, "no mesh: expected one *.stl, *.obj or *.ply file (besides an asbuilt.*)"))
     elif len(meshes) > 1:
         problems.append((loc, f"{len(meshes)} meshes ({', '.join(p.name for p in meshes)}); expected exactly one"))
     if not (path / SPECS_FILE).is_file():
@@ -239,6 +243,20 @@ def _find_files(path: Path) -> tuple[Path, Path]:
     if problems:
         raise InputError(problems)
     return meshes[0], path / SPECS_FILE
+
+
+def part_key(part: Part) -> str:
+    """The name its stores go by (sequence plan, MKB, MACROPs): the part's name and a digest
+    of its content (mesh, features.json, specs.csv, workcell.toml), so a copied or edited
+    part never shares a stored plan with another."""
+    h = hashlib.sha256()
+    directory = Path(part.directory)
+    files = sorted(p for p in directory.iterdir() if p.is_file() and (
+        (p.suffix.lower() in MESH_SUFFIXES and p.stem != ASBUILT_STEM)
+        or p.name in (FEATURES_FILE, SPECS_FILE, "workcell.toml")))
+    for f in files:
+        h.update(f.name.encode() + b"\0" + hashlib.sha256(f.read_bytes()).digest())
+    return f"{part.name}-{h.hexdigest()[:12]}"
 
 
 def _nonfinite_vertices(mesh) -> int:
@@ -304,8 +322,24 @@ def _read_part(path: Path) -> Part:
             features = tuple(feature_from_dict(d) for d in data)
         except (ValueError, KeyError, TypeError) as exc:
             raise InputError([(Location(str(path / FEATURES_FILE)), f"bad features file: {exc}")]) from None
+    found, unfound = _found_features(mesh, specs_path, features)
     meta = _metadata(path)
-    return Part(meta.get("name", path.name), path, mesh, features, specs_path, meta)
+    return Part(meta.get("name", path.name), path, mesh, features + found, specs_path, meta, unfound,
+                tuple(f.id for f in found))
+
+
+def _found_features(mesh, specs_path: Path, features: tuple) -> tuple[tuple, tuple]:
+    """The features the specs name that `features` lacks, found on the mesh, and the specs
+    whose feature is not there (ita.part.infer); none while the specs file is unreadable
+    (the spec commands that mend it report that)."""
+    from ita.part.infer import infer_features
+    from ita.specs.io import read_specs
+
+    try:
+        specs = read_specs(specs_path)
+    except (InputError, OSError, ValueError):
+        return (), ()
+    return infer_features(mesh, specs, {f.id: f for f in features})
 
 
 def load_part(part_dir: Path | None = None) -> Part:

@@ -196,3 +196,52 @@ def load_truth(part_dir: Path) -> Truth:
     mesh = trimesh.load(d / MESH_FILE, force="mesh", process=False)
     return Truth(features, mesh, {k: float(v) for k, v in data["values"].items()},
                  data["deviations"], tuple(data["out_of_tolerance"]), int(data["seed"]))
+
+
+ASBUILT_STEM = "asbuilt"   # a user's as-built mesh beside the nominal one: asbuilt.stl (.obj, .ply)
+
+
+@dataclass(frozen=True, eq=False)
+class SimulatedPart:
+    """The part the simulated workcell holds: its mesh (mm), the holes whose rims the
+    simulator takes as exact circles (a generated part's as-built holes along +Z; none for
+    a mesh), and where it came from: "generated" (the part's as-built truth, with true
+    values), "as-built mesh" (the user's asbuilt.stl) or "nominal mesh" (no as-built
+    given: the part is simulated as designed).  description says it in a sentence."""
+
+    mesh: trimesh.Trimesh
+    holes: tuple[Hole, ...]
+    source: str
+    description: str
+
+
+def asbuilt_mesh_path(part_dir: Path) -> Path | None:
+    """A user's as-built mesh in the part directory (asbuilt.stl, .obj or .ply), if any."""
+    found = sorted(p for p in Path(part_dir).glob(f"{ASBUILT_STEM}.*") if p.suffix.lower() in (".stl", ".obj", ".ply"))
+    return found[0] if found else None
+
+
+def simulated_part(part_dir: Path, nominal: trimesh.Trimesh) -> SimulatedPart:
+    """What the simulator holds for the part in `part_dir` (nominal: its nominal mesh): the
+    as-built truth when it has one, else the user's as-built mesh, else the nominal mesh."""
+    d = Path(part_dir) / TRUTH_DIR
+    if all((d / n).is_file() for n in (MESH_FILE, FEATURES_FILE, VALUES_FILE)):
+        t = load_truth(part_dir)
+        return SimulatedPart(t.mesh, tuple(f for f in t.features if isinstance(f, Hole)), "generated",
+                             f"the generated part's as-built truth (seed {t.seed}); results are scored against it")
+    own = asbuilt_mesh_path(part_dir)
+    if own is not None:
+        try:
+            mesh = trimesh.load(own, force="mesh")
+        except Exception as exc:  # trimesh raises many kinds on bad files
+            raise InputError([(Location(str(own)), f"cannot read the as-built mesh: {exc}")]) from None
+        if len(getattr(mesh, "faces", ())) == 0:
+            raise InputError([(Location(str(own)), "the as-built mesh has no triangles")])
+        gap = float(np.max(np.abs(np.asarray(mesh.bounds) - np.asarray(nominal.bounds))))
+        if gap > 0.05 * float(np.max(nominal.extents)) + 5.0:
+            raise InputError([(Location(str(own)), f"the as-built mesh's box is {gap:.1f} mm off the nominal's: "
+                                                    "it must be the same part in the same frame and units (mm)")])
+        return SimulatedPart(mesh, (), "as-built mesh", f"the user's as-built mesh {own.name}; no true values, "
+                                                         "so no scoring")
+    return SimulatedPart(nominal, (), "nominal mesh", "the nominal mesh (no as-built part given: simulated as "
+                                                      "designed); no true values, so no scoring")

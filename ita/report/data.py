@@ -289,7 +289,7 @@ def jsonable(obj: Any) -> Any:
 
 def settings_rows(run: RunInfo) -> list[tuple[str, str]]:
     """The run's settings as (name, value) a person reads (the spec list is counted)."""
-    names = {"simulated": "simulated", "limit": "limit (first N of the sequence)", "part_arg": "part directory",
+    names = {"simulated": "simulated", "simulated_part": "part in the simulated cell", "limit": "limit (first N of the sequence)", "part_arg": "part directory",
              "mkb_digest": "MKB digest", "sequence_total_s": "sequence plan's arm time (s)"}
     out = []
     for key, value in sorted(run.settings.items()):

@@ -48,7 +48,7 @@ class PartScene:
 
         part = load_part(None if part_dir is None else Path(part_dir))
         mesh = part.mesh
-        cell = workcell_for(part.directory)
+        cell = workcell_for(part.directory, part.mesh.bounds)
         return cls(part.directory, (np.asarray(mesh.vertices, dtype=float), np.asarray(mesh.faces, dtype=int)),
                    tuple(service.load(part)), cell, arm_model(cell.arm))
 

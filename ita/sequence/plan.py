@@ -142,7 +142,7 @@ class PlanningContext:
     """
 
     kb: KnowledgeBase
-    part_name: str
+    part_name: str              # the key its stores go by (ita.part.store.part_key): name and content digest
     specs: tuple[MeasurementSpec, ...]
     feature_kinds: Mapping[str, str]
     workcell: Workcell
@@ -190,7 +190,7 @@ def planning_context(
     workcell (the part's own workcell.toml when it has one).  With `use_mkb`, the facts
     add what the part's stored MKB, when current, says about placing each measurement for
     each tool class (:func:`with_mkb`)."""
-    from ita.part.store import load_part
+    from ita.part.store import load_part, part_key
     from ita.specs.io import read_specs
     from ita.workcell import workcell_for
 
@@ -201,8 +201,8 @@ def planning_context(
     loaded = part if part is not None else load_part(part_dir)
     specs = tuple(read_specs(loaded.specs_path))
     ctx = PlanningContext(
-        kb=kb, part_name=loaded.name, specs=specs, feature_kinds=feature_kinds_of(loaded.features),
-        workcell=workcell_for(loaded.directory), specs_digest=specs_digest(loaded.specs_path), method=method,
+        kb=kb, part_name=part_key(loaded), specs=specs, feature_kinds=feature_kinds_of(loaded.features),
+        workcell=workcell_for(loaded.directory, loaded.mesh.bounds), specs_digest=specs_digest(loaded.specs_path), method=method,
         cost_model=cost_model,
     )
     if not use_mkb:

@@ -122,14 +122,6 @@ def _box_mesh_in_part(box: Box, placement: PartPlacement) -> trimesh.Trimesh:
     return trimesh.Trimesh(placement.to_part(np.asarray(m.vertices)), m.faces, process=False)
 
 
-def require_simulation_truth(part_dir: Path) -> None:
-    """InputError, before any long work, when the part has no as-built truth for the
-    simulated workcell to be built from (ita.part.truth.require_truth)."""
-    from ita.part.truth import require_truth
-
-    require_truth(part_dir)
-
-
 class SlraScene:
     """What the beam can hit, built once: the part mesh and boxes, in the part frame (mm).
 
@@ -157,13 +149,20 @@ class SlraScene:
         self._directions: dict[ScanGeometry, FloatArray] = {}
 
     @classmethod
-    def from_truth(cls, part_dir: Path, workcell: Workcell, extra_boxes: Sequence[Box] = ()) -> SlraScene:
-        """The as-built part in `part_dir` with every static box of `workcell`."""
-        from ita.part.truth import load_truth
+    def from_simulated(cls, simulated, workcell: Workcell, extra_boxes: Sequence[Box] = ()) -> SlraScene:
+        """The simulated part (ita.sim.world.simulated_part) with every static box of `workcell`."""
+        return cls(simulated.mesh, workcell.part, tuple(workcell.static_boxes()) + tuple(extra_boxes),
+                   simulated.holes)
 
-        truth = load_truth(part_dir)
-        holes = [f for f in truth.features if isinstance(f, Hole)]
-        return cls(truth.mesh, workcell.part, tuple(workcell.static_boxes()) + tuple(extra_boxes), holes)
+    @classmethod
+    def from_truth(cls, part_dir: Path, workcell: Workcell, extra_boxes: Sequence[Box] = ()) -> SlraScene:
+        """The part in `part_dir` as the simulator holds it (its as-built truth, else its
+        as-built mesh, else its nominal mesh) with every static box of `workcell`."""
+        from ita.part.store import load_part
+        from ita.sim.world import simulated_part
+
+        part = load_part(part_dir)
+        return cls.from_simulated(simulated_part(part.directory, part.mesh), workcell, extra_boxes)
 
     def directions(self, geometry: ScanGeometry) -> FloatArray:
         """Sensor-frame pixel directions (H*W, 3) of `geometry` (cached)."""

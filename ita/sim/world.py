@@ -346,10 +346,17 @@ class SimWorld:
 
 def _load_asbuilt(part_dir) -> trimesh.Trimesh:
     from ita.part.store import load_part
-    from ita.part.truth import load_truth
 
-    directory = part_dir if part_dir is not None else load_part(None).directory
-    return load_truth(directory).mesh
+    part = load_part(part_dir)
+    return simulated_part(part.directory, part.mesh).mesh
+
+
+def simulated_part(part_dir, nominal: trimesh.Trimesh):
+    """What the simulated cell holds for the part in `part_dir` (ita.part.truth.SimulatedPart):
+    its as-built truth, else the user's asbuilt mesh, else the nominal mesh `nominal`."""
+    from ita.part.truth import simulated_part as _simulated
+
+    return _simulated(part_dir, nominal)
 
 
 def _matrix(pos, quat) -> FloatArray:

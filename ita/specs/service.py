@@ -6,7 +6,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Mapping, Protocol, Sequence
 
-from ita.errors import InputError
+from ita.errors import InputError, Location
 from ita.files.atomic import locked
 from ita.specs import edit
 from ita.specs.io import read_spec_table, write_specs
@@ -34,14 +34,35 @@ def validate_file(part: PartLike, path: Path | None = None,
     """Validate a specs file (default: the part's own) against the part; returns the count."""
     table = read_spec_table(Path(path) if path is not None else part.specs_path)
     problems = check_on_surface(table.specs, part.mesh, str(table.path), table.lines, max_distance)
+    if not problems:
+        problems = feature_problems(part, table.specs, str(table.path), table.lines)
     if problems:
         raise InputError(problems)
     return len(table.specs)
 
 
+def feature_problems(part: PartLike, specs: Sequence[MeasurementSpec], file: str,
+                     lines: Sequence[int] | None = None) -> list[tuple[Location, str]]:
+    """Problems for the SLRA's specs whose feature neither the part's features.json has nor
+    its mesh shows at the spec's point (ita.part.infer), naming the feature field."""
+    from ita.part.infer import infer_features
+
+    found = set(getattr(part, "found", ()))
+    known = {f.id: f for f in getattr(part, "features", ()) if f.id not in found}
+    _, unfound = infer_features(part.mesh, specs, known)
+    line_of = {s.id: (lines[i] if lines is not None else 0) for i, s in enumerate(specs)}
+    return [(Location(file, line_of.get(n.spec_id, 0), field="feature"),
+             f"{n.spec_id}: feature {n.feature!r} not found on the part's mesh: {n.reason}") for n in unfound]
+
+
 def _save(part: PartLike, specs: Sequence[MeasurementSpec], changed: Sequence[MeasurementSpec],
           origin: str, lines: Sequence[int] | None, max_distance: float) -> None:
     problems = check_on_surface(changed, part.mesh, origin, lines, max_distance, context=specs)
+    if not problems:
+        ids = {s.id for s in changed}
+        at = {s.id: i for i, s in enumerate(changed)}
+        problems = [(Location(origin, lines[at[p.split(":")[0]]] if lines is not None else 0, field="feature"), p)
+                    for _, p in feature_problems(part, specs, origin) if p.split(":")[0] in ids]
     if problems:
         raise InputError(problems)
     write_specs(part.specs_path, specs)

@@ -94,9 +94,9 @@ def start_run(session: Session, archive: Archive, *, limit: int | None = None, r
     todo = order[:limit] if limit is not None else order
     if limit is None:
         todo += [i for i, _ in plan.cannot]
-    settings = {"simulated": True, "limit": limit, "part_arg": session.part_arg, "specs": todo,
+    settings = {"simulated": True, "simulated_part": session.simulated, "limit": limit, "part_arg": session.part_arg, "specs": todo,
                 "mkb_digest": session.mkb.digest, "sequence_total_s": plan.total_s, **(settings or {})}
-    return archive.create_run(session.ctx.part_name, session.part.directory, seed=session.seed,
+    return archive.create_run(session.part.name, session.part.directory, seed=session.seed,
                               settings=settings, total=len(todo), run_id=run_id)
 
 

@@ -18,6 +18,7 @@ import numpy as np
 
 from ita.devices import ArmDevice, GaugeCommands, SlraDevice
 from ita.devices.stations import StationCommands
+from ita.errors import InputError, Location
 from ita.executive import PlanExecutive
 from ita.geometry import GeometricReasoner
 from ita.logic.bridge import KnowledgeBase
@@ -28,9 +29,9 @@ from ita.planning import OperationPlanner, store_path
 from ita.sensors.ultrasonic import UltrasonicGauge
 from ita.sequence.plan import planning_context, with_mkb
 from ita.sequence.store import apply_tool_marks, load_tool_marks
-from ita.sim.slra import SlraScene, require_simulation_truth
+from ita.sim.slra import SlraScene
 from ita.sim.ultrasonic import UltrasonicSim
-from ita.sim.world import SimWorld
+from ita.sim.world import SimWorld, simulated_part
 from ita.vision.context import VisionContext
 
 if TYPE_CHECKING:
@@ -42,7 +43,7 @@ if TYPE_CHECKING:
     from ita.part.model import Part
     from ita.planning import OperationPlanner
     from ita.sequence.plan import PlanningContext, SequencePlan
-    from ita.sim.world import SimWorld
+    from ita.sim.world import SimWorld, simulated_part
     from ita.specs.model import MeasurementSpec
 
 __all__ = ["Session", "open_session"]
@@ -70,6 +71,7 @@ class Session:
     planner: OperationPlanner
     seed: int
     setup_seconds: float = 0.0
+    simulated: str = "generated"
 
     @property
     def specs(self) -> dict[str, MeasurementSpec]:
@@ -98,7 +100,10 @@ def open_session(part_dir: Path | None = None, *, seed: int = 0,
     kb = KnowledgeBase()
     apply_tool_marks(kb, load_tool_marks())
     part = load_part(part_dir)
-    require_simulation_truth(part.directory)  # the simulated workcell needs it: say so before preparing
+    if part.unfound:
+        raise InputError([(Location(str(part.specs_path)), f"{n.spec_id}: feature {n.feature!r} not found on the "
+                                                           f"part's mesh: {n.reason}") for n in part.unfound])
+    simulated = simulated_part(part.directory, part.mesh)  # a bad as-built mesh is named before preparing
     ctx = planning_context(part_dir, kb=kb, part=part)
     plan, mkb, _ = prepare_inspection(ctx, part, progress=progress, warm=False)
     ctx = with_mkb(ctx, mkb)              # a resequencing keeps what the MKB could not place
@@ -106,7 +111,7 @@ def open_session(part_dir: Path | None = None, *, seed: int = 0,
     cell = ctx.workcell
     reasoner = GeometricReasoner(mkb, cell, ctx.specs)
     progress("building the simulated workcell")
-    world = SimWorld(cell, part.directory, seed=seed, q0=reasoner.home)
+    world = SimWorld(cell, part.directory, asbuilt_mesh=simulated.mesh, seed=seed, q0=reasoner.home)
     try:
         gauge_sim = UltrasonicSim(world)
         ut = UltrasonicGauge(gauge_sim)
@@ -116,7 +121,7 @@ def open_session(part_dir: Path | None = None, *, seed: int = 0,
         slra_tools = [t for t in cell.tools if t.tool_class.value == "slra_tool"]
         vctx = VisionContext.from_part(part, cell, tool=slra_tools[0].name if slra_tools else "slra_1",
                                        specs=list(ctx.specs))
-        scene = SlraScene.from_truth(part.directory, cell)
+        scene = SlraScene.from_simulated(simulated, cell)
         slra = SlraDevice(world, scene, reasoner, vctx, specs, np.random.default_rng([seed, 21]))
         executive = PlanExecutive(kb, {"path_planner": arm, "vision": slra}, clock=world.clock)
         op = OperationPlanner(kb, store_path(ctx.part_name))
@@ -124,4 +129,4 @@ def open_session(part_dir: Path | None = None, *, seed: int = 0,
         world.close()
         raise
     return Session(kb, part, None if part_dir is None else str(Path(part_dir).resolve()), ctx, plan, mkb,
-                   reasoner, world, arm, slra, executive, op, seed, time.perf_counter() - t0)
+                   reasoner, world, arm, slra, executive, op, seed, time.perf_counter() - t0, simulated.source)

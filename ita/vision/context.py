@@ -149,7 +149,12 @@ class VisionContext:
     pose_datum_frames: frames (each from its own approach) averaged for a position whose
     only datum is the pose (see :func:`frames_for`); calibration: the SLRA's calibration on
     reference workpieces (ita.vision.calibration.SlraCalibration; None: none, the
-    measurers' type-B terms stand).
+    measurers' type-B terms stand); floor: for a part without pockets among its features
+    (one whose features were found on its mesh), the nominal mesh's height below a point
+    (:class:`MeshFloor`), the web a height is measured from; uncalibrated: ids of the
+    features the calibration's reference workpieces do not stand for (those found on a
+    user part's mesh: the study measured generated bulkheads' features), whose results
+    keep the measurers' type-B terms.
     """
 
     features: Mapping[str, Feature]
@@ -163,6 +168,8 @@ class VisionContext:
     pose_datum_frames: int = POSE_DATUM_FRAMES
     diameter_tolerances: Mapping[str, float] = field(default_factory=dict)
     calibration: Any = None
+    floor: Any = None
+    uncalibrated: frozenset[str] = frozenset()
 
     @classmethod
     def from_part(cls, part: Any, workcell: Any, tool: str = "slra_1", specs: Any = None) -> VisionContext:
@@ -176,9 +183,12 @@ class VisionContext:
         web = [s.upper for s in specs if s.kind is K.WEB_THICKNESS]
         zones = {s.feature: s.upper for s in specs if s.kind is K.HOLE_POSITION}
         diameters = {s.feature: (s.upper - s.lower) / 2 for s in specs if s.kind is K.HOLE_DIAMETER}
-        return cls({f.id: f for f in part.features}, workcell.part, t.standoff_nominal, tuple(t.fov_deg),
+        features = {f.id: f for f in part.features}
+        floor = None if any(isinstance(f, Pocket) for f in features.values()) else MeshFloor(part.mesh)
+        return cls(features, workcell.part, t.standoff_nominal, tuple(t.fov_deg),
                    max(web) if web else 0.127, zones, workcell.arm.repeatability_m / 3,
-                   diameter_tolerances=diameters, calibration=SlraCalibration.load())
+                   diameter_tolerances=diameters, calibration=SlraCalibration.load(), floor=floor,
+                   uncalibrated=frozenset(getattr(part, "found", ())))
 
     def pockets(self) -> list[Pocket]:
         return [f for f in self.features.values() if isinstance(f, Pocket)]
@@ -188,11 +198,45 @@ class VisionContext:
         for p in self.pockets():
             if g2.points_in_polygon(np.atleast_2d(xy), p.outline_array)[0]:
                 return p.web_thickness
-        return None
+        return None if self.floor is None else self.floor.height(xy)
+
+
+class MeshFloor:
+    """Heights of a nominal mesh's upward faces seen from above (mm, part frame)."""
+
+    def __init__(self, mesh: Any):
+        import trimesh
+
+        self.top = float(np.asarray(mesh.bounds)[1, 2]) + 10.0
+        self.normals = np.asarray(mesh.face_normals, dtype=float)
+        try:
+            self.rays = trimesh.ray.ray_pyembree.RayMeshIntersector(mesh)
+        except Exception:  # no embree
+            self.rays = trimesh.ray.ray_triangle.RayMeshIntersector(mesh)
+        self.mesh = mesh
+
+    def height(self, xy: FloatArray) -> float | None:
+        """Height (mm) of the first face met straight down at part point (2,), if it faces up."""
+        o = np.array([[float(xy[0]), float(xy[1]), self.top]])
+        face = int(self.rays.intersects_first(o, np.array([[0.0, 0.0, -1.0]]))[0])
+        if face < 0 or self.normals[face, 2] < 0.99:
+            return None
+        tri = np.asarray(self.mesh.triangles[face], dtype=float)
+        n = self.normals[face]
+        return float(tri[0, 2] - (n[0] * (xy[0] - tri[0, 0]) + n[1] * (xy[1] - tri[0, 1])) / n[2])
 
 
 def fastener_neighbours(hole: Hole, ctx: VisionContext, within: float) -> list[Hole]:
+    """The fastener holes drilled into the same face as `hole` (same axis, entry within
+    1 mm along it) within `within` mm across the axis, nearest first."""
+    axis = np.asarray(hole.axis, dtype=float)
+    c = np.asarray(hole.center, dtype=float)
+
+    def across(h: Hole) -> float:
+        d = np.asarray(h.center) - c
+        return float(np.linalg.norm(d - np.dot(d, axis) * axis))
+
     out = [h for h in ctx.features.values() if isinstance(h, Hole) and h.role is HoleRole.FASTENER
-           and h.id != hole.id and abs(h.center[2] - hole.center[2]) < 1.0
-           and math.dist(h.center[:2], hole.center[:2]) < within]
-    return sorted(out, key=lambda h: math.dist(h.center[:2], hole.center[:2]))
+           and h.id != hole.id and float(np.dot(h.axis, axis)) > 0.999
+           and abs(float(np.dot(np.asarray(h.center) - c, axis))) < 1.0 and across(h) < within]
+    return sorted(out, key=across)

@@ -72,10 +72,12 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from dataclasses import replace
 
 import numpy as np
 from numpy.typing import NDArray
 
+from ita.part.model import Hole
 from ita.sensors.slra_frame import RangeFrame
 from ita.specs.model import MeasurementKind as K
 from ita.specs.model import MeasurementSpec
@@ -94,11 +96,50 @@ def measure(frame: RangeFrame, spec: MeasurementSpec, ctx: VisionContext) -> Vis
     if entry is None or not isinstance(feature, entry[0]):
         return VisionException(spec.id, VisionFailure.NOT_MEASURABLE,
                                f"the SLRA does not measure {spec.kind.value} of {spec.feature!r}")
+    calibrated = feature
+    if isinstance(feature, Hole) and feature.axis[2] < AXIS_UP_COS:
+        ctx, spec, feature = along_axis(ctx, spec, feature)
     try:
         result = entry[1](View(frame, ctx.placement), spec, feature, ctx)
     except VisionFail as exc:
         return VisionException(spec.id, exc.reason, exc.detail)
-    return (ctx.calibration or SlraCalibration()).apply(result, feature)
+    if calibrated.id in ctx.uncalibrated:
+        return _outside_calibration(result)
+    return (ctx.calibration or SlraCalibration()).apply(result, calibrated)
+
+
+def _outside_calibration(result: VisionResult) -> VisionResult:
+    diag = dict(result.diagnostics)
+    diag["calibration"] = ("none: the feature was found on the part's mesh, unlike the calibration's reference "
+                           "workpieces (type-B terms)")
+    return replace(result, diagnostics=diag)
+
+
+AXIS_UP_COS = 0.999999   # a hole whose axis is further than this from +Z is measured in its own frame
+
+
+def along_axis(ctx: VisionContext, spec: MeasurementSpec, hole: Hole) -> tuple[VisionContext, MeasurementSpec, Hole]:
+    """The context, spec and hole in a frame of the hole's own whose +Z is its axis (the
+    measurers see every face along +Z): the part frame turned by R (columns: two axes
+    across the hole's, then its axis), with the holes drilled into the same face."""
+    n = np.asarray(hole.axis, dtype=float)
+    a = np.array([1.0, 0.0, 0.0]) if abs(n[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    u = np.cross(n, a)
+    u /= np.linalg.norm(u)
+    rot = np.column_stack([u, np.cross(n, u), n])            # local -> part
+
+    def local(p: Sequence[float]) -> tuple[float, float, float]:
+        x = rot.T @ np.asarray(p, dtype=float)
+        return float(x[0]), float(x[1]), float(x[2])
+
+    up = (0.0, 0.0, 1.0)
+    same_face = {f.id: replace(f, center=local(f.center), axis=up) for f in ctx.features.values()
+                 if isinstance(f, Hole) and float(np.dot(f.axis, n)) > AXIS_UP_COS}
+    pl = ctx.placement
+    placement = replace(pl, rotation=tuple(tuple(float(x) for x in row) for row in pl.rotation_matrix() @ rot))
+    spec = replace(spec, point=local(spec.point), normal=up,
+                   direction=None if spec.direction is None else local(spec.direction))
+    return replace(ctx, features=same_face, placement=placement, floor=None), spec, same_face[hole.id]
 
 
 def measure_frames(frames: Sequence[RangeFrame], spec: MeasurementSpec, ctx: VisionContext) -> VisionReply:

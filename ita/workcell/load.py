@@ -11,6 +11,7 @@ import math
 import re
 import tomllib
 import xml.etree.ElementTree as ET
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -304,8 +305,11 @@ def _read_part(r: _Reader, part: dict[str, Any]) -> PartPlacement:
         r.fail("part.x_axis", f"x_axis and y_axis: {exc}")
         rot = np.eye(3)
     translation = r.vector(part, "translation", "part.translation")
-    lo = r.vector(part, "envelope_min_mm", "part.envelope_min_mm")
-    hi = r.vector(part, "envelope_max_mm", "part.envelope_max_mm")
+    if "envelope_min_mm" not in part and "envelope_max_mm" not in part:
+        lo, hi = (-math.inf,) * 3, (math.inf,) * 3     # from the part's mesh (workcell_for)
+    else:
+        lo = r.vector(part, "envelope_min_mm", "part.envelope_min_mm")
+        hi = r.vector(part, "envelope_max_mm", "part.envelope_max_mm")
     if any(a >= b for a, b in zip(lo, hi)):
         r.fail("part.envelope_max_mm", "must exceed envelope_min_mm on every axis")
     rotation = tuple(tuple(float(v) for v in row) for row in rot)
@@ -411,8 +415,35 @@ def _check_unique_names(r: _Reader, cell: Workcell) -> None:
         seen.add(name)
 
 
-def workcell_for(part_directory: Path | str | None) -> Workcell:
+def workcell_for(part_directory: Path | str | None, bounds: Any = None) -> Workcell:
     """The workcell of a part: its directory's own ``workcell.toml`` when it has one, else
-    the built-in workcell (also for None, the built-in part)."""
+    the built-in workcell (also for None, the built-in part).
+
+    bounds: the part mesh's box (2, 3) mm.  The part's envelope (the box the wrist and the
+    SLRA stay out of) is the one its own workcell.toml states, else this box: a user part
+    in the built-in cell never keeps the built-in bulkhead's envelope.
+    """
     own = None if part_directory is None else Path(part_directory) / "workcell.toml"
-    return load_workcell(own if own is not None and own.is_file() else None)
+    has_own = own is not None and own.is_file()
+    cell = load_workcell(own if has_own else None)
+    stated = has_own and all(map(math.isfinite, cell.part.envelope_min_mm))
+    if bounds is None or stated or (not has_own and _is_builtin(part_directory)):
+        if not all(map(math.isfinite, cell.part.envelope_min_mm)):
+            raise InputError([(Location(str(own)), "[part] has no envelope_min_mm/envelope_max_mm and no part mesh "
+                                                   "was given to take them from")])
+        return cell
+    lo, hi = np.asarray(bounds, dtype=float)
+    placement = replace(cell.part, envelope_min_mm=tuple(float(x) for x in lo),
+                        envelope_max_mm=tuple(float(x) for x in hi))
+    return replace(cell, part=placement)
+
+
+def _is_builtin(part_directory: Path | str | None) -> bool:
+    if part_directory is None:
+        return True
+    from ita.part.store import builtin_dir
+
+    try:
+        return Path(part_directory).resolve() == builtin_dir().resolve()
+    except OSError:
+        return False

@@ -1,0 +1,287 @@
+"""Features found on a part's own mesh from its specs, for parts without `features.json`.
+
+A spec says where a feature is (its point and normal, its direction); the mesh says what
+is there.  Rays cast from the spec point find it:
+
+- a hole (for hole diameter, position and edge distance specs; the point is the hole's
+  centre on its entry face, the normal its axis, in any direction): the bore's radius from
+  rays across the axis just inside the entry face, the entry face from rays onto the ring
+  around the rim, the depth from rays through the material beside the bore;
+- a rib (stiffener height and width; the point on its top, normal +Z): its width and
+  centre line from the narrowest pair of opposite rays inside the top, its length from
+  rays along it;
+- a flange cap (flange height and width; the point on the cap top, normal +Z, the
+  direction across the cap toward its free edge): the cap's width, its thickness and the
+  wall's thickness under it, as a short straight segment.
+
+Whatever cannot be found is a problem naming the spec and the reason, for `ita spec
+validate` and `ita prepare` to refuse (nothing is planned that cannot be measured).  Only
+the nominal mesh is read: the as-built part (the simulator's) is never seen here.
+
+    features, problems = infer_features(mesh, specs, known={f.id: f for f in part.features})
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+import trimesh
+from numpy.typing import NDArray
+
+from ita.part.model import Feature, FlangeSegment, Hole, HoleRole, Stiffener
+from ita.specs.model import MeasurementKind as K
+from ita.specs.model import MeasurementSpec
+
+FloatArray = NDArray[np.float64]
+
+HOLE_KINDS = (K.HOLE_DIAMETER, K.HOLE_POSITION, K.EDGE_DISTANCE)
+RIB_KINDS = (K.STIFFENER_HEIGHT, K.STIFFENER_WIDTH)
+FLANGE_KINDS = (K.FLANGE_HEIGHT, K.FLANGE_WIDTH)
+#: kinds whose measurement (the SLRA's) needs the feature's geometry
+GEOMETRY_KINDS = HOLE_KINDS + RIB_KINDS + FLANGE_KINDS
+
+RAYS = 24                 # rays across a bore or around a ring
+INSIDE_MM = 0.3           # rays start this far inside a face
+ROUND_SHARE = 0.04        # a bore's radii agree within this share of the radius (a polygon of 24+ sides)
+DIAMETER_SHARE = 0.05     # the mesh's hole and the spec's nominal diameter agree within this share (or 0.1 mm)
+FACE_MM = 0.2             # the ring around a rim lies within this of the entry plane
+MAX_RIB_WIDTH_MM = 30.0   # wider than this is no rib
+UP_COS = 0.999            # a rib's or a cap's top faces +Z within ~2.5 deg
+FASTENER_PITCH_MM = 100.0  # holes on one face this close are a fastener row (datums for each other)
+SEGMENT_HALF_MM = 20.0    # a found flange segment reaches this far along the cap each side
+
+
+@dataclass(frozen=True)
+class NotFound:
+    """A spec whose feature the mesh does not show, and why."""
+
+    spec_id: str
+    feature: str
+    reason: str
+
+
+class _Rays:
+    """First hits on a mesh (both faces), distances in mm."""
+
+    def __init__(self, mesh: trimesh.Trimesh):
+        self.mesh = mesh
+        self.normals = np.asarray(mesh.face_normals, dtype=float)
+        self.anchor = np.asarray(mesh.triangles[:, 0], dtype=float)
+        try:
+            self.intersector = trimesh.ray.ray_pyembree.RayMeshIntersector(mesh)
+        except Exception:  # no embree: trimesh's own (slower, same answers)
+            self.intersector = trimesh.ray.ray_triangle.RayMeshIntersector(mesh)
+
+    def first(self, origins: FloatArray, dirs: FloatArray) -> FloatArray:
+        """(n,) distance along unit `dirs` (n, 3) from `origins` (n, 3) to the first face; inf: none."""
+        origins = np.atleast_2d(np.asarray(origins, dtype=float))
+        dirs = np.atleast_2d(np.asarray(dirs, dtype=float))
+        origins = np.broadcast_to(origins, dirs.shape).copy() if len(origins) == 1 else origins
+        dirs = np.broadcast_to(dirs, origins.shape).copy() if len(dirs) == 1 else dirs
+        face = np.asarray(self.intersector.intersects_first(origins, dirs), dtype=np.int64)
+        out = np.full(len(dirs), np.inf)
+        hit = face >= 0
+        nf = self.normals[face[hit]]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            out[hit] = np.abs(np.einsum("ij,ij->i", nf, self.anchor[face[hit]] - origins[hit])
+                              / np.einsum("ij,ij->i", nf, dirs[hit]))
+        return out
+
+
+def _basis(n: FloatArray) -> tuple[FloatArray, FloatArray]:
+    """Two unit vectors across unit `n`, with `n` a right-handed frame."""
+    a = np.array([1.0, 0.0, 0.0]) if abs(n[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    u = np.cross(n, a)
+    u /= np.linalg.norm(u)
+    return u, np.cross(n, u)
+
+
+def _ring(n: FloatArray, count: int = RAYS) -> FloatArray:
+    u, v = _basis(n)
+    t = np.linspace(0.0, 2 * math.pi, count, endpoint=False)
+    return np.cos(t)[:, None] * u + np.sin(t)[:, None] * v
+
+
+def _find_hole(rays: _Rays, fid: str, specs: Sequence[MeasurementSpec]) -> Hole | str:
+    centred = [s for s in specs if s.kind in (K.HOLE_DIAMETER, K.HOLE_POSITION)]
+    if not centred:
+        return ("an edge distance needs its hole's diameter or position spec: their point is the hole's "
+                "centre on its entry face, which the edge distance's point is not")
+    s = centred[0]
+    c, n = np.asarray(s.point, dtype=float), np.asarray(s.normal, dtype=float)
+    n = n / np.linalg.norm(n)
+    radial = _ring(n)
+    size = float(np.max(rays.mesh.extents))
+    radii = rays.first(c - INSIDE_MM * n, radial)
+    if not np.all(np.isfinite(radii)) or float(radii.max()) > size / 2:
+        return f"no hole at {_xyz(c)} along {_xyz(n, 3)}: rays across the axis there leave the part"
+    r = float(np.mean(radii))
+    if float(radii.max() - radii.min()) > ROUND_SHARE * r + 0.02:
+        return (f"no round hole at {_xyz(c)} along {_xyz(n, 3)}: the bore's radius there runs from "
+                f"{radii.min():.2f} to {radii.max():.2f} mm (is the point the hole's centre, the normal its axis?)")
+    # a polygonal bore's rays hit its sides between the corners: the circle through the corners
+    r_circle = r / math.cos(math.pi / max(_polygon_sides(rays, c - INSIDE_MM * n, n, r), 3))
+    nominal = next((x.nominal for x in specs if x.kind is K.HOLE_DIAMETER), None)
+    diameter = float(nominal) if nominal is not None else 2 * r_circle
+    if nominal is not None and abs(2 * r_circle - nominal) > max(0.1, DIAMETER_SHARE * nominal):
+        return (f"the mesh's hole at {_xyz(c)} is {2 * r_circle:.3f} mm across; its diameter spec says "
+                f"{nominal:.3f} mm")
+    ring = c + (r_circle + 1.0) * radial
+    to_face = rays.first(ring + 2.0 * n, np.broadcast_to(-n, ring.shape))
+    on_face = np.abs(to_face - 2.0) < FACE_MM
+    if on_face.mean() < 0.5:
+        return (f"no entry face around the hole at {_xyz(c)}: the point must be the hole's centre on the face "
+                f"it is drilled from (normal out of that face)")
+    through = rays.first(ring[on_face] - 0.01 * n, np.broadcast_to(-n, ring[on_face].shape))
+    bore = rays.first((c + n)[None], (-n)[None])[0] - 1.0
+    depth = float(min(np.median(through[np.isfinite(through)]) + 0.01 if np.isfinite(through).any() else bore, bore))
+    if not math.isfinite(depth) or depth <= 0:
+        return f"the hole at {_xyz(c)} has no depth the mesh shows"
+    return Hole(fid, HoleRole.FASTENER, tuple(float(x) for x in c), tuple(float(x) for x in n), round(diameter, 6),
+                round(depth, 6), parent="")
+
+
+def _polygon_sides(rays: _Rays, p: FloatArray, n: FloatArray, r: float) -> int:
+    """Sides of a polygonal bore (its radii dip between corners); a large count for a true circle."""
+    d = rays.first(p, _ring(n, 360))
+    if not np.all(np.isfinite(d)):
+        return 10_000
+    x = d - d.mean()
+    if float(np.ptp(d)) < 1e-4 * r:
+        return 10_000
+    spectrum = np.abs(np.fft.rfft(x))
+    return int(np.argmax(spectrum[3:]) + 3)
+
+
+def _across(rays: _Rays, p: FloatArray, given: FloatArray | None, limit: float) -> tuple[FloatArray, float, float] | str:
+    """The direction across a wall-like feature at top point p (n = +Z) and the distances to its
+    two side faces (+u, -u) from just inside the top; the narrowest direction when none is given."""
+    start = p - np.array([0.0, 0.0, INSIDE_MM])
+    if given is not None:
+        u = np.array([given[0], given[1], 0.0])
+        u /= np.linalg.norm(u)
+        d = rays.first(np.vstack([start, start]), np.vstack([u, -u]))
+        return u, float(d[0]), float(d[1])
+    t = np.radians(np.arange(0.0, 180.0, 2.0))
+    dirs = np.column_stack([np.cos(t), np.sin(t), np.zeros_like(t)])
+    d = rays.first(np.repeat(start[None], 2 * len(t), axis=0), np.vstack([dirs, -dirs]))
+    width = d[: len(t)] + d[len(t):]
+    k = int(np.argmin(width))
+    if not math.isfinite(width[k]) or width[k] > limit:
+        return f"no wall narrower than {limit:g} mm under {_xyz(p)}"
+    return dirs[k], float(d[k]), float(d[len(t) + k])
+
+
+def _find_rib(rays: _Rays, fid: str, specs: Sequence[MeasurementSpec]) -> Stiffener | str:
+    s = specs[0]
+    p, n = np.asarray(s.point, dtype=float), np.asarray(s.normal, dtype=float)
+    if n[2] < UP_COS:
+        return f"the rib's top at {_xyz(p)} does not face +Z (normal {_xyz(n, 3)}): the SLRA measures ribs standing on the part's web"
+    given = next((x.direction for x in specs if x.direction is not None), None)
+    found = _across(rays, p, None if given is None else np.asarray(given, dtype=float), MAX_RIB_WIDTH_MM)
+    if isinstance(found, str):
+        return f"no rib at {_xyz(p)}: {found}"
+    u, d_plus, d_minus = found
+    width = d_plus + d_minus
+    if not math.isfinite(width) or width > MAX_RIB_WIDTH_MM:
+        return f"no rib at {_xyz(p)}: its sides are not within {MAX_RIB_WIDTH_MM:g} mm across"
+    centre = p[:2] + u[:2] * (d_plus - d_minus) / 2
+    along = np.array([-u[1], u[0], 0.0])
+    start = np.array([*centre, p[2] - INSIDE_MM])
+    ends = rays.first(np.vstack([start, start]), np.vstack([along, -along]))
+    if not np.all(np.isfinite(ends)):
+        return f"the rib at {_xyz(p)} has no end the mesh shows"
+    a, b = centre + along[:2] * ends[0], centre - along[:2] * ends[1]
+    return Stiffener(fid, (float(b[0]), float(b[1])), (float(a[0]), float(a[1])), round(float(width), 6),
+                     round(float(p[2]), 6))
+
+
+def _find_flange(rays: _Rays, fid: str, specs: Sequence[MeasurementSpec]) -> FlangeSegment | str:
+    s = next((x for x in specs if x.direction is not None), specs[0])
+    p, n = np.asarray(s.point, dtype=float), np.asarray(s.normal, dtype=float)
+    if n[2] < UP_COS:
+        return f"the flange cap's top at {_xyz(p)} does not face +Z (normal {_xyz(n, 3)})"
+    if s.direction is None:
+        return "a flange needs a width spec (its direction says which way the cap points, from the wall to its free edge)"
+    found = _across(rays, p, np.asarray(s.direction, dtype=float), 1e9)
+    u, to_free, to_outer = found
+    if not (math.isfinite(to_free) and math.isfinite(to_outer)):
+        return f"no flange cap at {_xyz(p)}: its faces across {_xyz(u, 3)} are not both on the part"
+    cap_width = to_free + to_outer
+    outer = p - u * to_outer
+    down = np.array([0.0, 0.0, -1.0])
+    free_side = outer + u * max(cap_width - 1.0, cap_width / 2)
+    cap_thickness = float(rays.first((free_side + 0.01 * down)[None], down[None])[0]) + 0.01
+    if not math.isfinite(cap_thickness) or cap_thickness >= p[2]:
+        return f"no flange cap at {_xyz(p)}: nothing under the cap's free edge (is it a wall, not an L section?)"
+    below = outer + np.array([0.0, 0.0, -cap_thickness - 2.0]) + 0.01 * u
+    wall = float(rays.first(below[None], u[None])[0]) + 0.01
+    if not math.isfinite(wall) or wall >= cap_width:
+        return f"no wall under the flange cap at {_xyz(p)}"
+    along = np.array([-u[1], u[0], 0.0])
+    mid = outer + u * min(wall / 2, cap_width / 2) - np.array([0.0, 0.0, INSIDE_MM])
+    reach = rays.first(np.vstack([mid, mid]), np.vstack([along, -along]))
+    half_a, half_b = (min(float(x), SEGMENT_HALF_MM) for x in reach)
+    a, b = outer[:2] - along[:2] * half_b, outer[:2] + along[:2] * half_a
+    path = ((float(a[0]), float(a[1])), (float(b[0]), float(b[1])))
+    normal = (float(u[0]), float(u[1]))
+    return FlangeSegment(fid, "outer", (0.0, half_a + half_b), path, (normal, normal), round(float(p[2]), 6),
+                         round(wall, 6), round(float(cap_width), 6), round(cap_thickness, 6))
+
+
+def _xyz(v: FloatArray, digits: int = 1) -> str:
+    return "(" + ", ".join(f"{x:.{digits}f}" for x in v) + ")"
+
+
+def infer_features(mesh: trimesh.Trimesh, specs: Sequence[MeasurementSpec],
+                   known: Mapping[str, Feature] = {}) -> tuple[tuple[Feature, ...], tuple[NotFound, ...]]:
+    """The features the SLRA's specs name and `known` lacks, found on `mesh` (mm, part frame),
+    and the specs whose feature is not there (with the reason).  A feature whose specs ask
+    for different kinds of feature (a hole and a rib) is not found."""
+    by_feature: dict[str, list[MeasurementSpec]] = {}
+    for s in specs:
+        if s.kind in GEOMETRY_KINDS and s.feature not in known:
+            by_feature.setdefault(s.feature, []).append(s)
+    if not by_feature:
+        return (), ()
+    rays = _Rays(mesh)
+    found: list[Feature] = []
+    missing: list[NotFound] = []
+    for fid, group in by_feature.items():
+        kinds = {s.kind for s in group}
+        if kinds <= set(HOLE_KINDS):
+            got: Feature | str = _find_hole(rays, fid, group)
+        elif kinds <= set(RIB_KINDS):
+            got = _find_rib(rays, fid, group)
+        elif kinds <= set(FLANGE_KINDS):
+            got = _find_flange(rays, fid, group)
+        else:
+            got = (f"its specs ask for different features ({', '.join(sorted(k.value for k in kinds))}); "
+                   f"give each feature its own id")
+        if isinstance(got, str):
+            missing += [NotFound(s.id, fid, got) for s in group]
+        else:
+            found.append(got)
+    return tuple(_fastener_roles(found)), tuple(missing)
+
+
+def _fastener_roles(features: list[Feature]) -> list[Feature]:
+    """Found holes with another found hole on the same face within FASTENER_PITCH_MM are fasteners (their
+    neighbours are datums in a frame); a lone hole's position has the arm's pose for datum
+    (re-approached and averaged), as a lightening hole's."""
+    from dataclasses import replace
+
+    holes = [f for f in features if isinstance(f, Hole)]
+    out = []
+    for f in features:
+        if isinstance(f, Hole):
+            near = [h for h in holes if h.id != f.id and np.dot(h.axis, f.axis) > UP_COS
+                    and abs(np.dot(np.subtract(h.center, f.center), f.axis)) < 1.0
+                    and math.dist(h.center, f.center) < FASTENER_PITCH_MM]
+            if not near:
+                f = replace(f, role=HoleRole.LIGHTENING)
+        out.append(f)
+    return out

@@ -1,0 +1,98 @@
+"""Parts the code was not written around, end to end from the command line: a pocketed
+plate from its own mesh and specs only (no features.json, no truth), and a smaller
+bulkhead from `ita part new` whose features.json is taken away."""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+from user_parts import make_plate
+
+from ita.cli import main
+from ita.part.model import Hole, HoleRole
+from ita.part.store import load_part, part_key
+from ita.vision.measure import along_axis
+
+
+def run(*args: str):
+    return CliRunner().invoke(main, list(args), catch_exceptions=False)
+
+
+@pytest.fixture(scope="module")
+def plate(tmp_path_factory) -> Path:
+    return make_plate(tmp_path_factory.mktemp("user") / "plate")
+
+
+def test_the_plate_s_features_are_found_on_its_mesh_in_both_directions(plate):
+    part = load_part(plate)
+    assert part.unfound == () and not (plate / "features.json").exists()
+    holes = {f.id: f for f in part.features if isinstance(f, Hole)}
+    assert holes["S1"].axis == (1.0, 0.0, 0.0) and holes["S1"].depth == pytest.approx(10.0, abs=0.01)
+    assert holes["W1"].axis == (0.0, 0.0, 1.0) and holes["W1"].depth == pytest.approx(3.0, abs=0.01)
+    assert holes["T1"].depth == pytest.approx(12.0, abs=0.01)           # blind: to its bottom, not through
+    rib = part.feature("R1")
+    assert (rib.width, rib.height) == pytest.approx((4.0, 30.0), abs=1e-3)
+
+
+def test_a_side_hole_is_measured_in_a_frame_along_its_axis(plate):
+    from ita.vision.context import VisionContext
+    from ita.workcell import workcell_for
+
+    part = load_part(plate)
+    cell = workcell_for(part.directory, part.mesh.bounds)
+    ctx = VisionContext.from_part(part, cell)
+    spec = next(s for s in __import__("ita.specs.io", fromlist=["x"]).read_specs(part.specs_path) if s.id == "HP-S1")
+    local_ctx, local_spec, hole = along_axis(ctx, spec, part.feature("S1"))
+    assert hole.axis == (0.0, 0.0, 1.0) and local_spec.normal == (0.0, 0.0, 1.0)
+    assert hole.center[2] == pytest.approx(200.0) and set(local_ctx.features) == {"S1", "S2"}
+    # the same world point in both frames
+    p = np.array([[200.0, -60.0, 15.0]])
+    world = cell.part.to_world(p)
+    assert np.allclose(local_ctx.placement.to_world(np.array([hole.center])), world)
+
+
+def test_the_plate_is_prepared_inspected_and_reported(plate, tmp_path, ita_home):
+    result = run("prepare", "--part", str(plate))
+    assert result.exit_code == 0, result.output
+    runs = tmp_path / "runs"
+    result = run("inspect", "--part", str(plate), "--runs-dir", str(runs), "--json")
+    assert result.exit_code == 0, result.output
+    summary = json.loads(result.output[result.output.index("{"):])
+    assert summary["status"] == "completed" and summary["done"] == summary["total"] == 24
+    result = run("results", "--runs-dir", str(runs), "last", "--json")
+    assert result.exit_code == 0, result.output
+    rows = json.loads(result.output)["results"]
+    by_id = {r["spec_id"]: r for r in rows}
+    # every spec is measured, or named as not doable with the reason
+    for r in rows:
+        assert r["value"] is not None or r["reason"], r
+    measured = [r for r in rows if r["value"] is not None]
+    assert len(measured) >= 20
+    assert {"WT-1", "SH-R1-1", "SW-R1-1", "HD-W1", "HP-W1", "HD-T1", "ED-T1"} <= {r["spec_id"] for r in measured}
+    # simulated against its nominal mesh: the values sit near the nominal (as designed)
+    for sid in ("WT-1", "SH-R1-1", "SW-R1-1", "ED-T1"):
+        assert abs(by_id[sid]["value"] - by_id[sid]["nominal"]) < 0.05, by_id[sid]
+    report = tmp_path / "report.html"
+    result = run("report", "--runs-dir", str(runs), "last", "-o", str(report))
+    assert result.exit_code == 0, result.output
+    assert "nominal mesh" in report.read_text()
+
+
+def test_stores_are_keyed_by_the_part_s_content(plate, tmp_path):
+    copy = tmp_path / "copy"
+    shutil.copytree(plate, copy)
+    before = part_key(load_part(copy))
+    assert before.startswith("copy-") and before[-12:] == part_key(load_part(plate))[-12:]   # same content
+    specs = copy / "specs.csv"
+    specs.write_text(specs.read_text().replace("pocket floor", "pocket floor (edited)", 1))
+    assert part_key(load_part(copy))[-12:] != before[-12:]
+
+
+def test_a_lone_found_hole_takes_the_pose_for_datum(plate):
+    holes = {f.id: f for f in load_part(plate).features if isinstance(f, Hole)}
+    assert all(h.role is HoleRole.LIGHTENING for h in holes.values())   # none within a fastener pitch

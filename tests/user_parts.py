@@ -1,0 +1,105 @@
+"""Parts the code was not written around, made as a user would: a mesh, a specs.csv and
+(optionally) a workcell.toml, and nothing else (no features.json, no truth).
+
+- `make_plate(dir)`: a 400 x 300 mm pocketed plate: two pockets on a 3 mm web, a 4 mm rib
+  between them, holes through the web (+Z), blind holes in a wall's top with their edge
+  distances, and holes through the side wall (+X): holes in two directions.
+- `make_scaled_mesh_part(dir)`: see its docstring.
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+
+import numpy as np
+import trimesh
+
+from ita.paths import resource_dir
+from ita.specs.io import COLUMNS
+
+HEADER = ",".join(COLUMNS)
+
+
+def _box(lo, hi) -> trimesh.Trimesh:
+    lo, hi = np.asarray(lo, float), np.asarray(hi, float)
+    return trimesh.creation.box(extents=hi - lo, transform=trimesh.transformations.translation_matrix((lo + hi) / 2))
+
+
+def _cylinder(centre, axis, radius, length) -> trimesh.Trimesh:
+    """A cylinder of `length` centred on `centre` along unit `axis` (a cutter)."""
+    z = np.array([0.0, 0.0, 1.0])
+    axis = np.asarray(axis, float)
+    rot = trimesh.geometry.align_vectors(z, axis)
+    rot[:3, 3] = centre
+    return trimesh.creation.cylinder(radius=radius, height=length, sections=128, transform=rot)
+
+
+def _row(sid, kind, feature, p, n, nominal, lower, upper, datum="A", d=None, note=""):
+    d = d or ("", "", "")
+    return ",".join(str(x) for x in (sid, kind, feature, *p, *n, nominal, lower, upper, datum, *d, note))
+
+
+PLATE_WEB = 3.0
+PLATE_TOP = 30.0
+
+
+def plate_mesh() -> trimesh.Trimesh:
+    """The pocketed plate, mm, datum A (its back face) at z = 0, the pockets open to +Z."""
+    solid = _box((-200, -150, 0), (200, 150, PLATE_TOP))
+    cutters = [_box((-190, -140, PLATE_WEB), (-2, 140, PLATE_TOP + 5)), _box((2, -140, PLATE_WEB), (190, 140, PLATE_TOP + 5))]
+    for x, y in ((-120, -60), (-80, 70), (90, -50), (130, 60)):               # 8 mm through the web
+        cutters.append(_cylinder((x, y, 0), (0, 0, 1), 4.0, 20.0))
+    for x in (-100.0, 100.0):                                                  # 4 mm blind in the wall top, 12 deep
+        cutters.append(_cylinder((x, -145, PLATE_TOP), (0, 0, 1), 2.0, 24.0))
+    for y in (-60.0, 60.0):                                                    # 6 mm through the +X side wall
+        cutters.append(_cylinder((200, y, 15), (1, 0, 0), 3.0, 30.0))
+    return solid.difference(trimesh.boolean.union(cutters))
+
+
+def plate_specs() -> list[str]:
+    rows = []
+    for i, (x, y) in enumerate(((-150, 0), (-40, 100), (60, -100), (150, 0))):
+        rows.append(_row(f"WT-{i + 1}", "web_thickness", f"P{i // 2 + 1}", (x, y, PLATE_WEB), (0, 0, 1), PLATE_WEB,
+                         -0.127, 0.127, note="pocket floor"))
+    for i, y in enumerate((-80.0, 80.0)):
+        rows.append(_row(f"SH-R1-{i + 1}", "stiffener_height", "R1", (0, y, PLATE_TOP), (0, 0, 1), PLATE_TOP,
+                         -0.25, 0.25, note="rib top above datum A"))
+        rows.append(_row(f"SW-R1-{i + 1}", "stiffener_width", "R1", (0, y, PLATE_TOP), (0, 0, 1), 4.0,
+                         -0.127, 0.127, d=(1, 0, 0), note="rib thickness"))
+    for i, (x, y) in enumerate(((-120, -60), (-80, 70), (90, -50), (130, 60))):
+        rows.append(_row(f"HD-W{i + 1}", "hole_diameter", f"W{i + 1}", (x, y, PLATE_WEB), (0, 0, 1), 8.0, -0.076,
+                         0.076, note="hole through the web"))
+        rows.append(_row(f"HP-W{i + 1}", "hole_position", f"W{i + 1}", (x, y, PLATE_WEB), (0, 0, 1), 0.0, 0.0, 0.5,
+                         note="true position"))
+    for i, x in enumerate((-100.0, 100.0)):
+        rows.append(_row(f"HD-T{i + 1}", "hole_diameter", f"T{i + 1}", (x, -145, PLATE_TOP), (0, 0, 1), 4.0,
+                         -0.076, 0.076, note="blind hole in the wall top"))
+        rows.append(_row(f"ED-T{i + 1}", "edge_distance", f"T{i + 1}", (x, -147.5, PLATE_TOP), (0, 0, 1), 5.0,
+                         -0.5, 0.5, d=(0, -1, 0), note="hole centre to the wall's outer edge"))
+    for i, y in enumerate((-60.0, 60.0)):
+        rows.append(_row(f"HD-S{i + 1}", "hole_diameter", f"S{i + 1}", (200, y, 15), (1, 0, 0), 6.0, -0.076, 0.076,
+                         note="hole through the side wall along +X"))
+        rows.append(_row(f"HP-S{i + 1}", "hole_position", f"S{i + 1}", (200, y, 15), (1, 0, 0), 0.0, 0.0, 0.5,
+                         note="true position along +X"))
+    return rows
+
+
+def own_workcell(translation=(1.75, 0.0, 1.35)) -> str:
+    """The built-in workcell.toml with the part placed at `translation` and its envelope
+    left to the part's mesh (the URDF named where it lies)."""
+    text = (resource_dir("bulkhead") / "workcell.toml").read_text()
+    urdf = (resource_dir("bulkhead") / "t3_arm.urdf").resolve()
+    text = re.sub(r'urdf = "t3_arm.urdf"', f'urdf = "{urdf}"', text)
+    text = re.sub(r"translation = \[2\.0, 0\.0, 1\.45\]", f"translation = [{', '.join(map(str, translation))}]", text)
+    text = re.sub(r"envelope_m(in|ax)_mm = .*\n", "", text)
+    return text
+
+
+def make_plate(directory: Path) -> Path:
+    """The plate's directory: plate.stl, specs.csv and its own workcell.toml."""
+    directory.mkdir(parents=True, exist_ok=True)
+    plate_mesh().export(directory / "plate.stl")
+    (directory / "specs.csv").write_text("\n".join([HEADER, *plate_specs()]) + "\n")
+    (directory / "workcell.toml").write_text(own_workcell())
+    return directory
