@@ -39,7 +39,7 @@ import numpy as np
 from ita.kinematics.tool_poses import measurement_poses
 from ita.part.model import Hole
 from ita.part.store import load_part
-from ita.part.truth import load_truth
+from ita.scoring import true_values
 from ita.sensors.slra_frame import ScanGeometry
 from ita.sim.slra import SlraParams, SlraScene, pose_error, simulate_frame
 from ita.specs.io import read_specs
@@ -76,9 +76,9 @@ def decide(value: float, big_u: float, low: float, high: float, kind: str = "") 
 def run(kinds, limit, repeats, seed, render_dir=None, match="", pixels=None, part_dir=None, raw=False,
         pose_frames=None):
     part = load_part(part_dir)
-    wc = workcell_for(part.directory) if part_dir is not None else load_workcell()
+    wc = workcell_for(part.directory, part.mesh.bounds) if part_dir is not None else load_workcell()
     specs = read_specs(part.specs_path)
-    truth = load_truth(part.directory)
+    truth = true_values(part.directory)     # a generated part's truth, else the held mesh's own values
     t0 = time.perf_counter()
     scene = SlraScene.from_truth(part.directory, wc)
     scene_s = time.perf_counter() - t0
@@ -128,10 +128,10 @@ def run(kinds, limit, repeats, seed, render_dir=None, match="", pixels=None, par
             role = f.role.value if isinstance(f, Hole) else ""
             row = {"spec": spec.id, "kind": spec.kind.value, "role": role, "repeat": rep, "frames": len(frames),
                    "scan_time_s": spent,
-                   "truth": truth.values[spec.id], "low": spec.low_limit, "high": spec.high_limit,
+                   "truth": truth[spec.id], "low": spec.low_limit, "high": spec.high_limit,
                    "band": spec.tolerance_band, "fov_deg": geometry.fov_deg[0]}
             if reply.ok:
-                row.update(value=reply.value, u=reply.uncertainty, error=reply.value - truth.values[spec.id])
+                row.update(value=reply.value, u=reply.uncertainty, error=reply.value - truth[spec.id])
                 row.update({k: _plain(reply.diagnostics[k]) for k in DIAGNOSTICS if k in reply.diagnostics})
                 if render_dir is not None and rep == 0:
                     from ita.vision.render import render_measurement

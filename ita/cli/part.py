@@ -8,6 +8,7 @@ from pathlib import Path
 import click
 
 from ita.cli.common import part_option, reports_errors
+from ita.errors import InputError, Location
 
 
 @click.group()
@@ -103,3 +104,56 @@ def build(output: Path | None) -> None:
         click.echo(f"built-in bulkhead at {ensure_builtin()}")
     else:
         click.echo(f"wrote {build_part(output)}")
+
+
+@part.command()
+@part_option
+@click.option("--repeats", type=click.IntRange(min=2), default=4, show_default=True,
+              help="Frames of each spec on the master, each after its own approach of the arm.")
+@click.option("--seed", type=int, default=0, show_default=True, help="Seed of the simulated frames' noise.")
+@reports_errors
+def calibrate(part_dir: Path | None, repeats: int, seed: int) -> None:
+    """Calibrate the laser sensor on the part's master (the substitution method): measure
+    every hole diameter, edge distance, flange and rib width of the part on its nominal
+    geometry, whose values are known, REPEATS times; write the biases and uncertainties
+    to the part's slra_calibration.json, which Vision then applies to this part's results.
+
+    For a user's own part: the cell's calibration stands for generated bulkheads only, and
+    without this the part's results carry the measurers' own (type-B) terms."""
+    from ita.files.atomic import write_atomic
+    from ita.part.store import load_part
+    from ita.sim.master import calibrate_on_master
+    from ita.vision.context import part_calibration_path
+    from ita.workcell import workcell_for
+
+    part = load_part(part_dir)
+    if part_dir is None or part.metadata.get("generator") == "ita.part.bulkhead":
+        raise InputError([(Location(str(part.directory)), "a generated bulkhead uses the cell's calibration "
+                                                          "(bench/slra_calibration.py); calibrate a part of your own")])
+    cell = workcell_for(part.directory, part.mesh.bounds)
+    calibration = calibrate_on_master(part, cell, repeats, seed, progress=lambda m: click.echo(m, err=True))
+    out = write_atomic(part_calibration_path(part.directory), json.dumps(calibration.to_dict(), indent=1) + "\n",
+                       what="calibration")
+    click.echo(f"wrote {out}: {len(calibration.classes)} specs calibrated on the master "
+               f"({calibration.provenance.get('failed_frames', 0)} frames failed)")
+
+
+@part.command()
+@part_option
+@click.option("--seed", type=int, required=True, help="Seed of the deviations (another seed, another as-built part).")
+@click.option("--spread", type=float, default=0.25, show_default=True,
+              help="One sigma of a deviation as a share of its tolerance.")
+@click.option("--out-of-tolerance", type=float, default=0.05, show_default=True,
+              help="Share of the holes pushed 1.15 to 1.6 tolerances off.")
+@reports_errors
+def asbuilt(part_dir: Path | None, seed: int, spread: float, out_of_tolerance: float) -> None:
+    """Make an as-built part of your own part for the simulated cell: every hole its specs
+    name redrilled off nominal (diameter and position, seeded draws), written as
+    asbuilt.stl beside the nominal mesh with the statement of what was done in
+    asbuilt.json.  Runs then inspect the as-built part, and reports score the results
+    against its own values.  An existing asbuilt.* is never overwritten."""
+    from ita.part.store import make_asbuilt
+
+    if part_dir is None:
+        raise InputError([(Location("--part"), "name your part's directory (the built-in bulkhead has its truth)")])
+    click.echo(f"wrote {make_asbuilt(part_dir, seed, spread, out_of_tolerance)}")

@@ -224,6 +224,23 @@ def _check_generated(tmp: Path, params_path: Path) -> None:
                                                         f"fit them), e.g. {problems[0][1]}")]) from None
 
 
+def make_asbuilt(part_dir: Path, seed: int, spread: float = 0.25, out_of_tolerance: float = 0.05) -> Path:
+    """Give the user part in `part_dir` an as-built mesh the program makes: its specs' holes
+    redrilled off nominal, seeded (ita.part.truth.perturbed_asbuilt); asbuilt.stl and the
+    statement asbuilt.json beside the nominal mesh.  Returns the mesh's path."""
+    from ita.part import truth as truth_mod  # the store is one of the two truth writers
+    from ita.specs.io import read_specs
+
+    part = load_part(part_dir)
+    if part.metadata.get("generator") == "ita.part.bulkhead":
+        raise InputError([(Location(str(part.directory)), "a generated bulkhead has its as-built truth already "
+                                                          "(ita part new --seed gives another)")])
+    if not 0.0 <= spread <= 1.0 or not 0.0 <= out_of_tolerance <= 1.0:
+        raise InputError([(Location("--spread/--out-of-tolerance"), "must lie in 0..1")])
+    return truth_mod.write_perturbed(part.directory, part.mesh, read_specs(part.specs_path), part.features, seed,
+                                     spread, out_of_tolerance)
+
+
 def _find_files(path: Path) -> tuple[Path, Path]:
     """The one mesh and the specs file of a user part directory; InputError otherwise."""
     loc = Location(str(path))

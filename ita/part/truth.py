@@ -15,9 +15,10 @@ from __future__ import annotations
 
 import json
 import math
+import os
 from dataclasses import dataclass, replace
 from pathlib import Path
-from typing import Sequence
+from typing import Any, Sequence
 
 import numpy as np
 import trimesh
@@ -241,7 +242,169 @@ def simulated_part(part_dir: Path, nominal: trimesh.Trimesh) -> SimulatedPart:
         if gap > 0.05 * float(np.max(nominal.extents)) + 5.0:
             raise InputError([(Location(str(own)), f"the as-built mesh's box is {gap:.1f} mm off the nominal's: "
                                                     "it must be the same part in the same frame and units (mm)")])
-        return SimulatedPart(mesh, (), "as-built mesh", f"the user's as-built mesh {own.name}; no true values, "
-                                                         "so no scoring")
+        made = (Path(part_dir) / ASBUILT_STATEMENT).is_file()
+        return SimulatedPart(mesh, (), "as-built mesh", f"the as-built mesh {own.name} ("
+                             f"{'made by ita part asbuilt, asbuilt.json says how' if made else 'the user’s'}); "
+                             "true values are its own, found with exact rays")
     return SimulatedPart(nominal, (), "nominal mesh", "the nominal mesh (no as-built part given: simulated as "
-                                                      "designed); no true values, so no scoring")
+                                                      "designed); true values are its own, found with exact rays")
+
+
+def mesh_values(mesh: trimesh.Trimesh, specs: Sequence[MeasurementSpec], features: dict[str, Feature]) -> dict[str, float]:
+    """Spec id -> the value the mesh itself has (mm), found with exact rays from the spec's
+    point: the truth of a part simulated from a mesh (its asbuilt.stl, or its nominal mesh).
+    A hole's diameter and position come from the circle through its bore (the mesh's
+    polygon, as the simulator's beam sees it), an edge distance from that circle's centre
+    to the face's edge along the spec's direction, a height from the top face under the
+    point, a width across it, a thickness through it.  Specs whose geometry the rays do not
+    find are left out (scored as having no truth)."""
+    from ita.part.infer import INSIDE_MM, _Rays, _ring
+
+    rays = _Rays(mesh)
+    out: dict[str, float] = {}
+    circles: dict[str, tuple[np.ndarray, float, np.ndarray]] = {}
+
+    def circle(h: Hole) -> tuple[np.ndarray, float, np.ndarray] | None:
+        if h.id not in circles:
+            n = np.asarray(h.axis, dtype=float)
+            c = np.asarray(h.center, dtype=float) - min(INSIDE_MM, h.depth / 2) * n
+            radial = _ring(n, 720)
+            d = rays.first(c, radial)
+            if not np.all(np.isfinite(d)):
+                return None
+            u, v = radial[0], np.cross(n, radial[0])
+            pts = (radial * d[:, None]) @ np.column_stack([u, v])       # in the entry plane, about c
+            a = np.column_stack([2 * pts, np.ones(len(pts))])
+            sol = np.linalg.lstsq(a, (pts ** 2).sum(1), rcond=None)[0]
+            centre2, radius = sol[:2], float(np.sqrt(sol[2] + sol[:2] @ sol[:2]))
+            circles[h.id] = (np.asarray(h.center) + centre2[0] * u + centre2[1] * v, radius, n)
+        return circles[h.id]
+
+    for s in specs:
+        p, n = np.asarray(s.point, dtype=float), np.asarray(s.normal, dtype=float)
+        f = features.get(s.feature)
+        value: float | None = None
+        if s.kind in (K.WEB_THICKNESS, K.FLANGE_THICKNESS):
+            d = float(rays.first((p + 2 * n)[None], (-n)[None])[0])
+            if math.isfinite(d):
+                back = float(rays.first((p + (2 - d - 0.01) * n)[None], (-n)[None])[0])
+                value = back + 0.01 if math.isfinite(back) else None
+        elif s.kind in (K.HOLE_DIAMETER, K.HOLE_POSITION, K.EDGE_DISTANCE) and isinstance(f, Hole):
+            got = circle(f)
+            if got is not None:
+                centre, radius, axis = got
+                if s.kind is K.HOLE_DIAMETER:
+                    value = 2 * radius
+                elif s.kind is K.HOLE_POSITION:
+                    off = centre - np.asarray(f.center)
+                    value = 2 * float(np.linalg.norm(off - np.dot(off, axis) * axis))
+                elif s.direction is not None:
+                    u = np.asarray(s.direction, dtype=float)
+                    u = u - np.dot(u, axis) * axis
+                    u /= np.linalg.norm(u)
+                    start = centre - INSIDE_MM * axis + (radius + 0.3) * u
+                    hit = float(rays.first(start[None], u[None])[0])
+                    value = radius + 0.3 + hit if math.isfinite(hit) else None
+        elif s.kind in (K.STIFFENER_HEIGHT, K.FLANGE_HEIGHT):
+            d = float(rays.first((p + 5 * n)[None], (-n)[None])[0])
+            value = float((p + (5 - d) * n)[2]) if math.isfinite(d) else None
+        elif s.kind in (K.STIFFENER_WIDTH, K.FLANGE_WIDTH) and s.direction is not None:
+            u = np.asarray(s.direction, dtype=float)
+            start = p - INSIDE_MM * n
+            d = rays.first(np.vstack([start, start]), np.vstack([u, -u]))
+            value = float(d.sum()) if np.all(np.isfinite(d)) else None
+        if value is not None:
+            out[s.id] = round(float(value), 6)
+    return out
+
+
+ASBUILT_STATEMENT = "asbuilt.json"   # the stated deviations of an as-built mesh the program made
+
+
+def _cylinder(centre: np.ndarray, axis: np.ndarray, radius: float, length: float) -> trimesh.Trimesh:
+    """A 256-sided cylinder of `length` along unit `axis`, centred on `centre` (a cutter)."""
+    rot = trimesh.geometry.align_vectors([0.0, 0.0, 1.0], axis)
+    rot[:3, 3] = centre
+    return trimesh.creation.cylinder(radius=radius, height=length, sections=256, transform=rot)
+
+
+def perturbed_asbuilt(mesh: trimesh.Trimesh, specs: Sequence[MeasurementSpec], features: Sequence[Feature],
+                      seed: int, spread: float = 0.25, out_of_tolerance: float = 0.05
+                      ) -> tuple[trimesh.Trimesh, dict[str, Any]]:
+    """An as-built part of a mesh part: each hole the specs name (found on the mesh) redrilled
+    with its diameter and position off nominal by normal draws (one sigma = `spread` x the
+    spec's tolerance: the diameter's half band, the position zone's radius / sqrt 2 per
+    axis, clipped to 0.9 of it), and a seeded `out_of_tolerance` share of them pushed 1.15
+    to 1.6 tolerances off, as the generator does for its bulkheads.  The hole is filled
+    (a plug a little wider than it, over its depth) and cut again.  Returns the mesh and
+    the statement of what was done (per hole: the diameter change and the shift, mm)."""
+    rng = np.random.default_rng([seed, 3])
+    by_feature: dict[str, dict[K, MeasurementSpec]] = {}
+    for s in specs:
+        by_feature.setdefault(s.feature, {})[s.kind] = s
+    holes = [f for f in features if isinstance(f, Hole) and f.id in by_feature]
+    devs: dict[str, dict[str, float]] = {}
+    for h in holes:
+        mine = by_feature[h.id]
+        d_tol = mine[K.HOLE_DIAMETER].upper if K.HOLE_DIAMETER in mine else 0.0
+        zone = mine[K.HOLE_POSITION].upper if K.HOLE_POSITION in mine else 0.0
+        dd = float(np.clip(rng.normal(0.0, spread * d_tol), -0.9 * d_tol, 0.9 * d_tol)) if d_tol else 0.0
+        shift = np.clip(rng.normal(0.0, spread * zone / 2 / math.sqrt(2), 2), -0.6 * zone / 2, 0.6 * zone / 2) \
+            if zone else np.zeros(2)
+        devs[h.id] = {"diameter": dd, "du": float(shift[0]), "dv": float(shift[1])}
+    out = sorted(rng.choice([h.id for h in holes], size=int(round(out_of_tolerance * len(holes))),
+                            replace=False).tolist()) if holes else []
+    for hid in out:
+        mine = by_feature[hid]
+        size = float(rng.uniform(1.15, 1.6))
+        if K.HOLE_DIAMETER in mine and (K.HOLE_POSITION not in mine or rng.random() < 0.5):
+            devs[hid]["diameter"] = float(rng.choice([-1.0, 1.0])) * size * mine[K.HOLE_DIAMETER].upper
+        elif K.HOLE_POSITION in mine:
+            ang = float(rng.uniform(0, 2 * math.pi))
+            r = size * mine[K.HOLE_POSITION].upper / 2
+            devs[hid]["du"], devs[hid]["dv"] = r * math.cos(ang), r * math.sin(ang)
+    from ita.part.infer import _basis, _Rays
+
+    rays = _Rays(mesh)
+    plugs, cutters, statement = [], [], {}
+    for h in holes:
+        n = np.asarray(h.axis, dtype=float)
+        c = np.asarray(h.center, dtype=float)
+        u, v = _basis(n)
+        d = devs[h.id]
+        r = h.diameter / 2
+        through = float(rays.first((c + n)[None], (-n)[None])[0]) > h.depth + 1.5
+        plugs.append(_cylinder(c - n * h.depth / 2, n, r + 0.3, h.depth))
+        new_c = c + d["du"] * u + d["dv"] * v
+        if through:
+            cutters.append(_cylinder(new_c - n * (h.depth / 2), n, r + d["diameter"] / 2, h.depth + 2.0))
+        else:
+            cutters.append(_cylinder(new_c - n * (h.depth - 1.0) / 2, n, r + d["diameter"] / 2, h.depth + 1.0))
+        shift = d["du"] * u + d["dv"] * v
+        statement[h.id] = {"diameter_change_mm": round(d["diameter"], 6),
+                           "shift_mm": [round(float(x), 6) for x in shift]}
+    made = mesh
+    if holes:
+        made = trimesh.boolean.union([mesh, *plugs]).difference(trimesh.boolean.union(cutters))
+    return made, {"seed": seed, "spread": spread, "out_of_tolerance": out_of_tolerance,
+                  "pushed_out_of_tolerance": out, "holes": statement,
+                  "unchanged": "everything but the holes the specs name (their true values are the mesh's own)"}
+
+
+def write_perturbed(part_dir: Path, mesh: trimesh.Trimesh, specs: Sequence[MeasurementSpec],
+                    features: Sequence[Feature], seed: int, spread: float, out_of_tolerance: float) -> Path:
+    """Make the part's as-built mesh (asbuilt.stl) and its statement (asbuilt.json) with
+    :func:`perturbed_asbuilt`; an existing asbuilt.* is refused (never overwritten)."""
+    part_dir = Path(part_dir)
+    own = asbuilt_mesh_path(part_dir)
+    if own is not None:
+        raise InputError([(Location(str(own)), "the part already has an as-built mesh; remove it first")])
+    made, statement = perturbed_asbuilt(mesh, specs, features, seed, spread, out_of_tolerance)
+    if not made.is_watertight:
+        raise InputError([(Location(str(part_dir)), "the redrilled as-built mesh is not watertight (holes too "
+                                                    "close to each other or to an edge to redrill)")])
+    tmp = part_dir / f".{ASBUILT_STEM}-{seed}.stl"
+    made.export(tmp)
+    (part_dir / ASBUILT_STATEMENT).write_text(json.dumps(statement, indent=1, sort_keys=True))
+    os.replace(tmp, part_dir / f"{ASBUILT_STEM}.stl")
+    return part_dir / f"{ASBUILT_STEM}.stl"

@@ -11,24 +11,52 @@ from pathlib import Path
 from ita.scoring.compare import ScoredResult, Scoring, compare
 
 __all__ = ["ScoredResult", "Scoring", "compare", "diagnosis_score", "has_true_values", "injected_faults",
-           "true_values"]
+           "true_values", "truth_source"]
 
 
 def has_true_values(part_dir: Path | str | None) -> bool:
-    """Whether the part in `part_dir` carries an as-built truth (generated parts do)."""
+    """Whether the part in `part_dir` has true values to score against: a generated part's
+    as-built truth, or the mesh the simulator held (its asbuilt.stl or nominal mesh), whose
+    values exact rays find (:func:`ita.part.truth.mesh_values`)."""
     if part_dir is None:
         return False
     from ita.part import truth
 
     d = Path(part_dir) / truth.TRUTH_DIR
-    return all((d / n).is_file() for n in (truth.MESH_FILE, truth.FEATURES_FILE, truth.VALUES_FILE))
+    if all((d / n).is_file() for n in (truth.MESH_FILE, truth.FEATURES_FILE, truth.VALUES_FILE)):
+        return True
+    return Path(part_dir).is_dir() and (Path(part_dir) / "specs.csv").is_file()
 
 
 def true_values(part_dir: Path | str) -> dict[str, float]:
-    """Spec id -> true (as-built) value in mm of the part in `part_dir`; InputError without one."""
-    from ita.part.truth import load_truth
+    """Spec id -> true value in mm of the part in `part_dir`: its as-built truth's, else the
+    values of the mesh the simulator held (see :func:`has_true_values`); InputError when
+    there is no part there."""
+    from ita.part import truth
 
-    return dict(load_truth(Path(part_dir)).values)
+    d = Path(part_dir) / truth.TRUTH_DIR
+    if all((d / n).is_file() for n in (truth.MESH_FILE, truth.FEATURES_FILE, truth.VALUES_FILE)):
+        return dict(truth.load_truth(Path(part_dir)).values)
+    from ita.part.store import load_part
+    from ita.specs.io import read_specs
+
+    part = load_part(Path(part_dir))
+    held = truth.simulated_part(part.directory, part.mesh)
+    return truth.mesh_values(held.mesh, read_specs(part.specs_path), {f.id: f for f in part.features})
+
+
+def truth_source(part_dir: Path | str | None) -> str:
+    """Where the true values of the part in `part_dir` come from, in words."""
+    if not has_true_values(part_dir):
+        return "none"
+    from ita.part import truth
+
+    d = Path(part_dir) / truth.TRUTH_DIR
+    if all((d / n).is_file() for n in (truth.MESH_FILE, truth.FEATURES_FILE, truth.VALUES_FILE)):
+        return "the generated part's as-built truth"
+    own = truth.asbuilt_mesh_path(Path(part_dir))
+    return (f"the values of {own.name if own else 'the nominal mesh'}, the part the simulated cell held, "
+            "found with exact rays")
 
 
 def injected_faults(runs_dir: Path | str, run_id: str) -> list[dict]:

@@ -106,6 +106,11 @@ def class_of(kind: K, feature: Any, diagnostics: Mapping[str, Any]) -> str | Non
     return kind.value
 
 
+def spec_class(spec_id: str) -> str:
+    """The class of one spec of a part calibrated on its own master (ita.sim.master)."""
+    return f"spec/{spec_id}"
+
+
 @dataclass(frozen=True)
 class CalibrationClass:
     """One class of the study: frames measured and distinct features; bias (mm, mean
@@ -164,7 +169,8 @@ class SlraCalibration:
         """`result` corrected by its class's bias, its uncertainty the frame's random part
         and the class's u (see the module doc); unchanged when no class holds it."""
         diag = dict(result.diagnostics)
-        name = class_of(result.kind, feature, diag)
+        own = spec_class(result.spec_id)
+        name = own if own in self.classes and result.kind in CALIBRATED_KINDS else class_of(result.kind, feature, diag)
         if name is None:
             return result
         c = self.classes.get(name)

@@ -151,10 +151,7 @@ class VisionContext:
     reference workpieces (ita.vision.calibration.SlraCalibration; None: none, the
     measurers' type-B terms stand); floor: for a part without pockets among its features
     (one whose features were found on its mesh), the nominal mesh's height below a point
-    (:class:`MeshFloor`), the web a height is measured from; uncalibrated: ids of the
-    features the calibration's reference workpieces do not stand for (those found on a
-    user part's mesh: the study measured generated bulkheads' features), whose results
-    keep the measurers' type-B terms.
+    (:class:`MeshFloor`), the web a height is measured from.
     """
 
     features: Mapping[str, Feature]
@@ -169,7 +166,6 @@ class VisionContext:
     diameter_tolerances: Mapping[str, float] = field(default_factory=dict)
     calibration: Any = None
     floor: Any = None
-    uncalibrated: frozenset[str] = frozenset()
 
     @classmethod
     def from_part(cls, part: Any, workcell: Any, tool: str = "slra_1", specs: Any = None) -> VisionContext:
@@ -185,10 +181,13 @@ class VisionContext:
         diameters = {s.feature: (s.upper - s.lower) / 2 for s in specs if s.kind is K.HOLE_DIAMETER}
         features = {f.id: f for f in part.features}
         floor = None if any(isinstance(f, Pocket) for f in features.values()) else MeshFloor(part.mesh)
+        # the cell's calibration stands for generated bulkheads (its reference workpieces);
+        # another part has its own, on its master (ita part calibrate), or none
+        calibration = (SlraCalibration.load() if _like_the_references(part) else
+                       SlraCalibration.load(part_calibration_path(part.directory)))
         return cls(features, workcell.part, t.standoff_nominal, tuple(t.fov_deg),
                    max(web) if web else 0.127, zones, workcell.arm.repeatability_m / 3,
-                   diameter_tolerances=diameters, calibration=SlraCalibration.load(), floor=floor,
-                   uncalibrated=frozenset(getattr(part, "found", ())))
+                   diameter_tolerances=diameters, calibration=calibration, floor=floor)
 
     def pockets(self) -> list[Pocket]:
         return [f for f in self.features.values() if isinstance(f, Pocket)]
@@ -199,6 +198,19 @@ class VisionContext:
             if g2.points_in_polygon(np.atleast_2d(xy), p.outline_array)[0]:
                 return p.web_thickness
         return None if self.floor is None else self.floor.height(xy)
+
+
+def part_calibration_path(part_directory: Any) -> Any:
+    """A user part's own SLRA calibration, made on its master (`ita part calibrate`)."""
+    from pathlib import Path
+
+    return Path(part_directory) / "slra_calibration.json"
+
+
+def _like_the_references(part: Any) -> bool:
+    """Whether the part is of the kind the SLRA's calibration study measured: a bulkhead
+    from the generator (part.json says so), not a user's own mesh."""
+    return (getattr(part, "metadata", None) or {}).get("generator") == "ita.part.bulkhead"
 
 
 class MeshFloor:

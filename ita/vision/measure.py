@@ -103,16 +103,7 @@ def measure(frame: RangeFrame, spec: MeasurementSpec, ctx: VisionContext) -> Vis
         result = entry[1](View(frame, ctx.placement), spec, feature, ctx)
     except VisionFail as exc:
         return VisionException(spec.id, exc.reason, exc.detail)
-    if calibrated.id in ctx.uncalibrated:
-        return _outside_calibration(result)
     return (ctx.calibration or SlraCalibration()).apply(result, calibrated)
-
-
-def _outside_calibration(result: VisionResult) -> VisionResult:
-    diag = dict(result.diagnostics)
-    diag["calibration"] = ("none: the feature was found on the part's mesh, unlike the calibration's reference "
-                           "workpieces (type-B terms)")
-    return replace(result, diagnostics=diag)
 
 
 AXIS_UP_COS = 0.999999   # a hole whose axis is further than this from +Z is measured in its own frame

@@ -1,0 +1,130 @@
+"""Calibrating the SLRA on a part's master: the substitution method for a user's own part.
+
+The cell's SLRA calibration (ita.vision.calibration) was made on generated bulkheads and
+stands for their features only.  For another part, the part's own master stands in: a
+workpiece of the part's nominal geometry whose dimensions are known (its calibration
+certificate; in the simulated cell, the nominal mesh, whose values exact rays give,
+ita.part.truth.mesh_values).  Each size the SLRA measures on the part (the calibrated kinds:
+hole diameters, edge distances, flange and rib widths) is measured on the master `repeats`
+times, each frame after its own approach (a new draw of the arm's pose error), without any
+calibration.  Per spec: the bias (mean error), corrected in every later result of that
+spec; per kind, the residuals about each spec's bias give the scatter of one frame, and
+the u of a corrected result (see :func:`spec_classes`).  What the master cannot tell: how
+the bias changes between the master and an as-built part (their differences are within the
+tolerances, far smaller than the features; a perturbed as-built part measures it,
+`ita part asbuilt`).
+
+    calibration = calibrate_on_master(part, workcell, repeats=4, seed=0)
+    calibration.save(part.directory / "slra_calibration.json")
+"""
+
+from __future__ import annotations
+
+import math
+from collections import defaultdict
+from collections.abc import Callable, Sequence
+from datetime import datetime, timezone
+from typing import Any
+
+import numpy as np
+
+from ita.kinematics.tool_poses import measurement_poses
+from ita.sensors.slra_frame import ScanGeometry
+from ita.sim.slra import SlraParams, SlraScene, pose_error, simulate_frame
+from ita.specs.io import read_specs
+from ita.specs.model import MeasurementSpec
+from ita.vision.calibration import (
+    CALIBRATED_KINDS,
+    RANDOM_TERMS,
+    REFERENCE_U_MM,
+    CalibrationClass,
+    SlraCalibration,
+    coverage_level,
+    spec_class,
+)
+from ita.vision.context import VisionContext
+from ita.vision.measure import measure_frames
+from ita.vision.scan import frames_for, scan_for
+
+ROTATION_SIGMA = 0.05e-3   # rad: the pose error's rotation part (as bench/vision.py draws it)
+
+
+def master_errors(part: Any, workcell: Any, specs: Sequence[MeasurementSpec], repeats: int, seed: int,
+                  progress: Callable[[str], None] = lambda _m: None) -> dict[str, list[tuple[float, float]]]:
+    """Spec id -> [(error, u_frame)] of `repeats` uncalibrated measurements on the master
+    (the part's nominal mesh in the cell), error = measured - the master's value."""
+    from dataclasses import replace
+
+    from ita.part.truth import mesh_values
+
+    features = {f.id: f for f in part.features}
+    certificate = mesh_values(part.mesh, specs, features)
+    scene = SlraScene(part.mesh, workcell.part, tuple(workcell.static_boxes()))
+    ctx = replace(VisionContext.from_part(part, workcell, specs=list(specs)), calibration=SlraCalibration())
+    tool = next(t for t in workcell.tools if t.tool_class.value == "slra_tool")
+    params = SlraParams()
+    rng = np.random.default_rng([seed, 7])
+    out: dict[str, list[tuple[float, float]]] = defaultdict(list)
+    todo = [s for s in specs if s.kind in CALIBRATED_KINDS and s.id in certificate and s.feature in features]
+    for i, spec in enumerate(todo):
+        geometry = scan_for(spec, ctx)
+        plan = frames_for(spec, ctx)
+        shapes = [geometry] + [ScanGeometry(plan.shape, geometry.fov_deg)] * (plan.count - 1)
+        pose = measurement_poses(workcell.part, [spec.point], [spec.normal], tool, rolls=[0.0])[0, 0]
+        for _ in range(repeats):
+            frames = [simulate_frame(scene, pose_error(pose, rng, workcell.arm.repeatability_m / 3, ROTATION_SIGMA),
+                                     g, params, rng, reported_pose=pose, timestamp=0.0) for g in shapes]
+            reply = measure_frames(frames, spec, ctx)
+            if reply.ok:
+                budget = reply.diagnostics.get("budget", {})
+                u_frame = math.sqrt(sum(float(budget[t]) ** 2 for t in RANDOM_TERMS if t in budget))
+                out[spec.id].append((reply.value - certificate[spec.id], u_frame))
+        if (i + 1) % 25 == 0 or i + 1 == len(todo):
+            progress(f"{i + 1}/{len(todo)} specs measured on the master")
+    return dict(out)
+
+
+def spec_classes(errors: dict[str, list[tuple[float, float]]], kind_of: dict[str, str]) -> dict[str, CalibrationClass]:
+    """One class per spec measured at least twice: its bias, and u = the pooled scatter of
+    its kind's frames about their specs' biases, taken as the tolerance bound that covers
+    95 % of them with 90 % confidence (ita.vision.calibration.coverage_level, over the
+    kind's specs), combined with the bias's own uncertainty (scatter / sqrt(repeats)) and
+    the master's certificate."""
+    residuals: dict[str, list[float]] = defaultdict(list)
+    dof: dict[str, int] = defaultdict(int)
+    count: dict[str, int] = defaultdict(int)
+    for sid, rows in errors.items():
+        if len(rows) < 2:
+            continue
+        e = np.array([r[0] for r in rows])
+        residuals[kind_of[sid]] += list(e - e.mean())
+        dof[kind_of[sid]] += len(e) - 1
+        count[kind_of[sid]] += 1
+    out: dict[str, CalibrationClass] = {}
+    for sid, rows in errors.items():
+        if len(rows) < 2:
+            continue
+        kind = kind_of[sid]
+        e = np.array([r[0] for r in rows])
+        r = np.abs(np.asarray(residuals[kind]))
+        scatter = math.sqrt(float((r ** 2).sum()) / max(dof[kind], 1))
+        # residuals about a mean of n are sqrt((n - 1) / n) of the errors' own scatter
+        q95 = float(np.quantile(r, coverage_level(count[kind]))) * math.sqrt(len(e) / (len(e) - 1))
+        u = math.sqrt((q95 / 2) ** 2 + scatter ** 2 / len(e) + REFERENCE_U_MM ** 2)
+        rms = math.sqrt(float(np.mean([x[1] ** 2 for x in rows])))
+        out[spec_class(sid)] = CalibrationClass(spec_class(sid), len(e), 1, float(e.mean()), scatter, rms, u)
+    return out
+
+
+def calibrate_on_master(part: Any, workcell: Any, repeats: int = 4, seed: int = 0,
+                        progress: Callable[[str], None] = lambda _m: None) -> SlraCalibration:
+    """The SLRA calibration of `part` on its master (see the module doc)."""
+    specs = read_specs(part.specs_path)
+    errors = master_errors(part, workcell, specs, repeats, seed, progress)
+    classes = spec_classes(errors, {s.id: s.kind.value for s in specs})
+    provenance = {"what": "SLRA calibration on the part's master (ita.sim.master): per spec, the bias measured "
+                          "on the nominal part, corrected",
+                  "made_by": f"ita part calibrate --repeats {repeats} --seed {seed}", "part": part.name,
+                  "made": datetime.now(timezone.utc).isoformat(timespec="seconds"),
+                  "specs_measured": len(errors), "failed_frames": sum(repeats - len(v) for v in errors.values())}
+    return SlraCalibration(classes, provenance)
