@@ -286,3 +286,23 @@ def test_bad_urdf_limit_names_the_joint(tmp_path: Path) -> None:
 def test_missing_file_is_an_input_error(tmp_path: Path) -> None:
     with pytest.raises(InputError):
         load_workcell(tmp_path / "nope.toml")
+
+
+def test_a_part_s_envelope_comes_from_its_mesh_unless_its_cell_states_one(tmp_path: Path) -> None:
+    from ita.workcell import workcell_for
+
+    bounds = np.array([[-200.0, -150.0, 0.0], [200.0, 150.0, 30.0]])
+    user = tmp_path / "user"
+    user.mkdir()
+    # a user part in the built-in cell: never the bulkhead's envelope
+    cell = workcell_for(user, bounds)
+    assert cell.part.envelope_min_mm == (-200.0, -150.0, 0.0) and cell.part.envelope_max_mm == (200.0, 150.0, 30.0)
+    # its own cell without an envelope: the mesh's; with one: as stated
+    text = _write_variant(tmp_path, "envelope_max_mm = [1250.0, 750.0, 60.0]", "").read_text()
+    (user / "workcell.toml").write_text(text.replace("envelope_min_mm = [-1250.0, -750.0, 0.0]", ""))
+    assert workcell_for(user, bounds).part.envelope_max_mm == (200.0, 150.0, 30.0)
+    with pytest.raises(InputError, match="no envelope"):
+        workcell_for(user)
+    (user / "workcell.toml").write_text(_write_variant(tmp_path, "scale = 0.001", "scale = 0.001").read_text())
+    assert workcell_for(user, bounds).part.envelope_max_mm == (1250.0, 750.0, 60.0)
+    assert workcell_for(None, bounds).part.envelope_max_mm == (1250.0, 750.0, 60.0)   # the built-in part

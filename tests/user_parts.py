@@ -86,12 +86,15 @@ def plate_specs() -> list[str]:
 
 
 def own_workcell(translation=(1.75, 0.0, 1.35)) -> str:
-    """The built-in workcell.toml with the part placed at `translation` and its envelope
-    left to the part's mesh (the URDF named where it lies)."""
+    """The built-in workcell.toml with the part placed at `translation`, turned 30 degrees
+    about the vertical so that its +X side faces the robot a little (the SLRA sees the side
+    holes along their axes from there), and its envelope left to the part's mesh (the URDF
+    named where it lies)."""
     text = (resource_dir("bulkhead") / "workcell.toml").read_text()
     urdf = (resource_dir("bulkhead") / "t3_arm.urdf").resolve()
     text = re.sub(r'urdf = "t3_arm.urdf"', f'urdf = "{urdf}"', text)
     text = re.sub(r"translation = \[2\.0, 0\.0, 1\.45\]", f"translation = [{', '.join(map(str, translation))}]", text)
+    text = re.sub(r"x_axis = \[0\.0, -1\.0, 0\.0\]", "x_axis = [-0.5, -0.8660254, 0.0]", text)
     text = re.sub(r"envelope_m(in|ax)_mm = .*\n", "", text)
     return text
 

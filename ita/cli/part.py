@@ -121,7 +121,7 @@ def calibrate(part_dir: Path | None, repeats: int, seed: int) -> None:
     For a user's own part: the cell's calibration stands for generated bulkheads only, and
     without this the part's results carry the measurers' own (type-B) terms."""
     from ita.files.atomic import write_atomic
-    from ita.part.store import load_part
+    from ita.part.store import load_part, part_key
     from ita.sim.master import calibrate_on_master
     from ita.vision.context import part_calibration_path
     from ita.workcell import workcell_for
@@ -132,8 +132,8 @@ def calibrate(part_dir: Path | None, repeats: int, seed: int) -> None:
                                                           "(bench/slra_calibration.py); calibrate a part of your own")])
     cell = workcell_for(part.directory, part.mesh.bounds)
     calibration = calibrate_on_master(part, cell, repeats, seed, progress=lambda m: click.echo(m, err=True))
-    out = write_atomic(part_calibration_path(part.directory), json.dumps(calibration.to_dict(), indent=1) + "\n",
-                       what="calibration")
+    data = {**calibration.to_dict(), "part_key": part_key(part)}
+    out = write_atomic(part_calibration_path(part.directory), json.dumps(data, indent=1) + "\n", what="calibration")
     click.echo(f"wrote {out}: {len(calibration.classes)} specs calibrated on the master "
                f"({calibration.provenance.get('failed_frames', 0)} frames failed)")
 

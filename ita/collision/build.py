@@ -187,9 +187,10 @@ def mesh_regions(mesh: Any, margin_mm: float = PART_MARGIN_MM, cell_mm: float = 
 
 
 def part_regions(part: Any, margin_mm: float = PART_MARGIN_MM) -> Regions:
-    """Solid regions (part frame, mm) of a loaded Part: from its features when it has
-    any, else from its mesh."""
-    if any(isinstance(f, FlangeSegment) for f in part.features):
+    """Solid regions (part frame, mm) of a loaded Part: from its features when they describe
+    the whole part (a features.json of the generator's), else from its mesh (features found
+    on the mesh are only the ones the specs name)."""
+    if any(isinstance(f, FlangeSegment) for f in part.features) and not getattr(part, "found", ()):
         return feature_regions(part.features, margin_mm)
     return mesh_regions(part.mesh, margin_mm)
 

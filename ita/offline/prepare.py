@@ -75,6 +75,7 @@ class InspectionPrep:
     cannot: tuple[tuple[str, str], ...]
     macrops: dict[str, int]
     plan_total_s: float
+    calibration: str = "the cell's (generated bulkheads)"
 
     def to_dict(self) -> dict[str, Any]:
         reasons: dict[str, int] = {}
@@ -86,7 +87,7 @@ class InspectionPrep:
                         "frames": self.frames},
                 "cannot_be_done": {"count": len(self.cannot), "reasons": reasons,
                                    "specs": [{"id": i, "reason": r} for i, r in self.cannot]},
-                "macrops": dict(self.macrops)}
+                "macrops": dict(self.macrops), "slra_calibration": self.calibration}
 
     def text(self) -> str:
         made = {True: "made now", False: "stored and current"}
@@ -97,6 +98,7 @@ class InspectionPrep:
              f"(MKB {made[self.mkb_rebuilt]})"),
             (f"macrops     {self.macrops.get('planned', 0)} plans: {self.macrops.get('hits', 0)} MACROP hits, "
              f"{self.macrops.get('learned', 0)} learned"),
+            f"slra cal    {self.calibration}",
         ]
         lines.append(f"cannot      {len(self.cannot)} measurements cannot be done" + (":" if self.cannot else ""))
         lines += cannot_lines(self.cannot)
@@ -194,6 +196,9 @@ def prepare_inspection(ctx: Any, part: Any, *, progress: Callable[[str], None] =
         save_plan(plan)
         mkb = make_mkb(plan, reuse=mkb)
     cannot = list(plan.cannot) + [(e.spec_id, e.status) for e in mkb.problems()]
+    from ita.sim.master import ensure_master_calibration
+
+    calibration = ensure_master_calibration(part, ctx.workcell, ctx.part_name, progress, force)
     macrops = {"planned": 0, "lookups": 0, "hits": 0, "learned": 0, "no_plan": 0}
     if warm:
         progress("warming the MACROP store")
@@ -204,7 +209,7 @@ def prepare_inspection(ctx: Any, part: Any, *, progress: Callable[[str], None] =
         plan_path=str(plan_path(ctx.part_name)), plan_rebuilt=plan_rebuilt, mkb_path=str(mkb_path(ctx.part_name)),
         mkb_rebuilt=mkb_rebuilt, groups=tuple((g.tool, len(g.order)) for g in plan.groups),
         slra_specs=len(slra), frames=mkb.frames_needed(), cannot=tuple(cannot), macrops=macrops,
-        plan_total_s=plan.total_s)
+        plan_total_s=plan.total_s, calibration=calibration)
     return plan, mkb, report
 
 

@@ -128,3 +128,32 @@ def calibrate_on_master(part: Any, workcell: Any, repeats: int = 4, seed: int = 
                   "made": datetime.now(timezone.utc).isoformat(timespec="seconds"),
                   "specs_measured": len(errors), "failed_frames": sum(repeats - len(v) for v in errors.values())}
     return SlraCalibration(classes, provenance)
+
+
+def ensure_master_calibration(part: Any, workcell: Any, key: str, progress: Callable[[str], None] = lambda _m: None,
+                              force: bool = False, repeats: int = 4) -> str:
+    """Calibrate a user part on its master when its calibration is missing or was made for
+    other content (`key`: ita.part.store.part_key: mesh, specs, features, workcell); what
+    was done, in words.  A generated bulkhead has the cell's calibration."""
+    import json
+
+    from ita.files.atomic import write_atomic
+    from ita.vision.context import _like_the_references, part_calibration_path
+
+    if _like_the_references(part):
+        return "the cell's (made on generated bulkheads)"
+    path = part_calibration_path(part.directory)
+    if not force and path.is_file():
+        try:
+            made_for = json.loads(path.read_text(encoding="utf-8")).get("part_key")
+        except (OSError, ValueError):
+            made_for = None
+        if made_for == key:
+            return f"the part's own, on its master ({path.name}, stored and current)"
+    if not any(s.kind in CALIBRATED_KINDS for s in read_specs(part.specs_path)):
+        return "none needed (no hole diameter, edge distance or width among the specs)"
+    progress("calibrating the SLRA on the part's master")
+    calibration = calibrate_on_master(part, workcell, repeats, 0, progress)
+    data = {**calibration.to_dict(), "part_key": key}
+    write_atomic(path, json.dumps(data, indent=1) + "\n", what="calibration")
+    return f"the part's own, on its master ({len(calibration.classes)} specs, made now)"
