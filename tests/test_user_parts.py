@@ -135,3 +135,23 @@ def test_an_asbuilt_plate_calibrated_on_its_master_is_scored_without_false_accep
         assert not (r["decision"] == "does_not_conform" and conforms), r      # no false reject
     covered = sum(abs(r["value"] - truth[r["spec_id"]]) <= r["U"] for r in measured)
     assert covered >= len(measured) - 2
+
+
+@pytest.mark.parametrize("specs, message, line", [
+    ("", "empty specs file", None),
+    (None, "no specs: the file has its header row", 2),
+    ("HD-X,hole_diameter,X,0,0,3.0,0,0,1,8.0,-0.076,0.076,A,,,,", "no hole at (0.0, 0.0, 3.0)", 2),
+    ("WT-X,web_thickness,P,-150,0,3.0,0,0,-1,3.0,-0.127,0.127,A,,,,", "no face at (-150.0, 0.0, 3.0)", 2),
+])
+def test_a_bad_user_part_is_refused_before_any_work_naming_file_and_line(plate, tmp_path, specs, message, line):
+    from user_parts import HEADER
+
+    part = tmp_path / "bad"
+    part.mkdir()
+    shutil.copy(plate / "plate.stl", part)
+    (part / "specs.csv").write_text("" if specs == "" else HEADER + "\n" + (specs + "\n" if specs else ""))
+    for command in (["spec", "validate"], ["prepare"], ["inspect", "--runs-dir", str(tmp_path / "runs")]):
+        result = run(*command, "--part", str(part))
+        assert result.exit_code == 2, (command, result.output)
+        assert message in result.output and f"specs.csv{':' + str(line) if line else ''}" in result.output
+    assert not (tmp_path / "runs").exists() and sorted(p.name for p in part.iterdir()) == ["plate.stl", "specs.csv"]

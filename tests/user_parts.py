@@ -4,7 +4,8 @@
 - `make_plate(dir)`: a 400 x 300 mm pocketed plate: two pockets on a 3 mm web, a 4 mm rib
   between them, holes through the web (+Z), blind holes in a wall's top with their edge
   distances, and holes through the side wall (+X): holes in two directions.
-- `make_scaled_mesh_part(dir)`: see its docstring.
+- `make_scaled_mesh_part(dir)`: a mesh from an installed package (pybullet's shape-sorter
+  box, in metres), scaled to millimetres, with the specs a user would write on it.
 """
 
 from __future__ import annotations
@@ -104,5 +105,57 @@ def make_plate(directory: Path) -> Path:
     directory.mkdir(parents=True, exist_ok=True)
     plate_mesh().export(directory / "plate.stl")
     (directory / "specs.csv").write_text("\n".join([HEADER, *plate_specs()]) + "\n")
+    (directory / "workcell.toml").write_text(own_workcell())
+    return directory
+
+
+def scaled_package_mesh() -> trimesh.Trimesh:
+    """pybullet's shape-sorter box (pybullet_data/toys/shape_sorter.obj, installed with
+    pybullet; metres), scaled to millimetres: an open box 400 mm a side with 20 mm walls,
+    turned so its opening faces +Z (the robot) and set on z = 0, centred in XY."""
+    import pybullet_data
+
+    mesh = trimesh.load(Path(pybullet_data.getDataPath()) / "toys" / "shape_sorter.obj", force="mesh")
+    mesh.apply_scale(1000.0)
+    mesh.apply_transform(trimesh.transformations.rotation_matrix(np.pi / 2, [1.0, 0.0, 0.0]))
+    lo, hi = mesh.bounds
+    mesh.apply_translation([-(lo[0] + hi[0]) / 2, -(lo[1] + hi[1]) / 2, -lo[2]])
+    return mesh
+
+
+def box_specs(mesh: trimesh.Trimesh) -> list[str]:
+    """What a user would spec on the box, nominals read off its mesh: each wall's thickness at
+    its top (the laser, across the wall) and its height above the bottom (datum A), and the
+    floor's thickness from inside (the gauge; 385 mm down a 360 mm opening, out of reach)."""
+    lo, hi = mesh.bounds
+    top = float(hi[2])
+    rows = []
+    for k, (point, across) in enumerate((((0.0, float(lo[1]) + 10.0), (0.0, 1.0)),
+                                          ((0.0, float(hi[1]) - 10.0), (0.0, -1.0)),
+                                          ((float(lo[0]) + 10.0, 0.0), (1.0, 0.0)),
+                                          ((float(hi[0]) - 10.0, 0.0), (-1.0, 0.0)))):
+        o = np.array([[point[0], point[1], top - 0.3]] * 2)
+        d = np.array([[across[0], across[1], 0.0], [-across[0], -across[1], 0.0]])
+        locations, index, _ = mesh.ray.intersects_location(o, d, multiple_hits=False)
+        width = float(sum(np.linalg.norm(locations[index == i] - o[i], axis=1).min() for i in (0, 1)))
+        p = (point[0], point[1], top)
+        rows.append(_row(f"SW-W{k + 1}", "stiffener_width", f"W{k + 1}", p, (0, 0, 1), round(width, 3), -0.2, 0.2,
+                         d=(across[0], across[1], 0), note="wall thickness at its top"))
+        rows.append(_row(f"SH-W{k + 1}", "stiffener_height", f"W{k + 1}", p, (0, 0, 1), round(top, 3), -0.5, 0.5,
+                         note="wall top above the bottom"))
+    locations, _, _ = mesh.ray.intersects_location([[0.0, 0.0, top + 10]], [[0.0, 0.0, -1.0]], multiple_hits=False)
+    floor = float(locations[0, 2])
+    rows.append(_row("WT-F1", "web_thickness", "F1", (0.0, 0.0, round(floor, 4)), (0, 0, 1), round(floor - float(lo[2]), 3),
+                     -0.2, 0.2, note="floor thickness from inside"))
+    return rows
+
+
+def make_scaled_mesh_part(directory: Path) -> Path:
+    """A part of a mesh from an installed package (see :func:`scaled_package_mesh`) with the
+    specs of :func:`box_specs` and the plate's cell."""
+    directory.mkdir(parents=True, exist_ok=True)
+    mesh = scaled_package_mesh()
+    mesh.export(directory / "box.stl")
+    (directory / "specs.csv").write_text("\n".join([HEADER, *box_specs(mesh)]) + "\n")
     (directory / "workcell.toml").write_text(own_workcell())
     return directory

@@ -118,24 +118,26 @@ def calibrate(part_dir: Path | None, repeats: int, seed: int) -> None:
     geometry, whose values are known, REPEATS times; write the biases and uncertainties
     to the part's slra_calibration.json, which Vision then applies to this part's results.
 
-    For a user's own part: the cell's calibration stands for generated bulkheads only, and
-    without this the part's results carry the measurers' own (type-B) terms."""
-    from ita.files.atomic import write_atomic
-    from ita.part.store import load_part, part_key
-    from ita.sim.master import calibrate_on_master
+    `ita prepare` (and `ita inspect`) make it when it is missing or stale, with 4 repeats;
+    this makes it again now.  The cell's calibration stands for generated bulkheads only:
+    a generated bulkhead is refused here.  The master is measured the way a run measures
+    (the MKB's views), so the part is prepared first when it needs to be."""
+    from ita.offline.prepare import prepare_inspection
+    from ita.part.store import load_part
+    from ita.sequence.plan import planning_context
+    from ita.sim.master import ensure_master_calibration
     from ita.vision.context import part_calibration_path
-    from ita.workcell import workcell_for
 
     part = load_part(part_dir)
     if part_dir is None or part.metadata.get("generator") == "ita.part.bulkhead":
         raise InputError([(Location(str(part.directory)), "a generated bulkhead uses the cell's calibration "
                                                           "(bench/slra_calibration.py); calibrate a part of your own")])
-    cell = workcell_for(part.directory, part.mesh.bounds)
-    calibration = calibrate_on_master(part, cell, repeats, seed, progress=lambda m: click.echo(m, err=True))
-    data = {**calibration.to_dict(), "part_key": part_key(part)}
-    out = write_atomic(part_calibration_path(part.directory), json.dumps(data, indent=1) + "\n", what="calibration")
-    click.echo(f"wrote {out}: {len(calibration.classes)} specs calibrated on the master "
-               f"({calibration.provenance.get('failed_frames', 0)} frames failed)")
+    ctx = planning_context(part_dir, part=part)
+    say = lambda m: click.echo(f"{m} ...", err=True)  # noqa: E731
+    _, mkb, _ = prepare_inspection(ctx, part, progress=say, warm=False, calibrate=False)
+    done = ensure_master_calibration(part, ctx.workcell, ctx.part_name, say, force=True, repeats=repeats, mkb=mkb,
+                                     seed=seed)
+    click.echo(f"wrote {part_calibration_path(part.directory)}: {done}")
 
 
 @part.command()

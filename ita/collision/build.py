@@ -38,7 +38,9 @@ from ita.workcell.model import Box, PartPlacement, ToolSpec, Workcell
 PART_MARGIN_MM = 2.0      # growth of every part region, mm
 WEB_TILE_MM = 100.0       # web tiles' grid
 CHAIN_SLACK_MM = 1.0      # how much wider than the strip a flange chain box may be
-MESH_CELL_MM = 40.0       # cubes of a user part's mesh cover
+MESH_CELL_MM = 40.0       # largest cubes of a user part's mesh cover
+MESH_CELLS_ACROSS = 50    # a smaller part's cubes: its largest extent over this (a curved surface's boxes
+MIN_MESH_CELL_MM = 4.0    # bulge by their sagitta), down to this
 
 
 def _boxes_2d(centres: list, axes: list, lengths: list, widths: list, z0: list, z1: list,
@@ -141,7 +143,13 @@ def mesh_regions(mesh: Any, margin_mm: float = PART_MARGIN_MM, cell_mm: float = 
     """Solid boxes (mesh frame and units) covering a triangle mesh's solid (see the module
     docstring), each grown by margin_mm."""
     verts = np.asarray(mesh.vertices, dtype=float)
-    tri = verts[np.asarray(mesh.faces)]
+    faces = np.asarray(mesh.faces)
+    edges = np.linalg.norm(verts[faces] - verts[np.roll(faces, 1, axis=1)], axis=2)
+    if len(faces) and float(edges.max()) > cell_mm:   # a triangle's box spans no more than a cube
+        import trimesh
+
+        verts, faces = trimesh.remesh.subdivide_to_size(verts, faces, max_edge=cell_mm)
+    tri = verts[np.asarray(faces)]
     tlo, thi = tri.min(axis=1), tri.max(axis=1)
     # grid origin off any round coordinate, so that grid corners avoid axis-aligned faces
     origin = verts.min(axis=0) - 0.2718281828 * cell_mm
@@ -192,7 +200,14 @@ def part_regions(part: Any, margin_mm: float = PART_MARGIN_MM) -> Regions:
     on the mesh are only the ones the specs name)."""
     if any(isinstance(f, FlangeSegment) for f in part.features) and not getattr(part, "found", ()):
         return feature_regions(part.features, margin_mm)
-    return mesh_regions(part.mesh, margin_mm)
+    return mesh_regions(part.mesh, margin_mm, mesh_cell(part.mesh))
+
+
+def mesh_cell(mesh: Any) -> float:
+    """The cube size (mm) of a part mesh's cover: MESH_CELL_MM for a large part, finer for a
+    small one (at least MESH_CELLS_ACROSS cubes across it, at most MIN_MESH_CELL_MM)."""
+    size = float(np.max(np.asarray(mesh.extents, dtype=float)))
+    return float(np.clip(size / MESH_CELLS_ACROSS, MIN_MESH_CELL_MM, MESH_CELL_MM))
 
 
 def placement_pose(placement: PartPlacement) -> np.ndarray:

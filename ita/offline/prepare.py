@@ -135,12 +135,14 @@ def stored_cannot(plan: Any, part_name: str) -> list[tuple[str, str]]:
 
 
 def prepare_inspection(ctx: Any, part: Any, *, progress: Callable[[str], None] = lambda _m: None,
-                       force: bool = False, warm: bool = True) -> tuple[Any, Any, InspectionPrep]:
+                       force: bool = False, warm: bool = True, calibrate: bool = True
+                       ) -> tuple[Any, Any, InspectionPrep]:
     """Make (or reuse, when current) the sequence plan and the MKB of the part of
     planning context `ctx`, and warm the MACROP store.  Returns (plan, mkb, report).
 
     The plan is reused when its specs digest is current; the MKB when its digest (specs
-    and workcell) is.  `force` remakes both.
+    and workcell) is.  `force` remakes both.  `calibrate`: a user part's SLRA calibration
+    on its master is made when missing or stale (ita.sim.master).
     """
     from dataclasses import replace as _replace
 
@@ -198,7 +200,8 @@ def prepare_inspection(ctx: Any, part: Any, *, progress: Callable[[str], None] =
     cannot = list(plan.cannot) + [(e.spec_id, e.status) for e in mkb.problems()]
     from ita.sim.master import ensure_master_calibration
 
-    calibration = ensure_master_calibration(part, ctx.workcell, ctx.part_name, progress, force)
+    calibration = ensure_master_calibration(part, ctx.workcell, ctx.part_name, progress, force, mkb=mkb) \
+        if calibrate else "not checked"
     macrops = {"planned": 0, "lookups": 0, "hits": 0, "learned": 0, "no_plan": 0}
     if warm:
         progress("warming the MACROP store")

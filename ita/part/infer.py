@@ -14,6 +14,9 @@ is there.  Rays cast from the spec point find it:
   direction across the cap toward its free edge): the cap's width, its thickness and the
   wall's thickness under it, as a short straight segment.
 
+A part without features.json has its thickness specs checked too: a face at the point, a
+back wall within the gauge's range, parallel to the face.
+
 Whatever cannot be found is a problem naming the spec and the reason, for `ita spec
 validate` and `ita prepare` to refuse (nothing is planned that cannot be measured).  Only
 the nominal mesh is read: the as-built part (the simulator's) is never seen here.
@@ -42,6 +45,9 @@ RIB_KINDS = (K.STIFFENER_HEIGHT, K.STIFFENER_WIDTH)
 FLANGE_KINDS = (K.FLANGE_HEIGHT, K.FLANGE_WIDTH)
 #: kinds whose measurement (the SLRA's) needs the feature's geometry
 GEOMETRY_KINDS = HOLE_KINDS + RIB_KINDS + FLANGE_KINDS
+THICKNESS_KINDS = (K.WEB_THICKNESS, K.FLANGE_THICKNESS)
+GAUGE_RANGE_MM = 100.0        # the ultrasonic gauge's range
+MAX_BACK_WALL_TILT_DEG = 3.0  # a thickness's back wall within this of parallel to its face
 
 RAYS = 24                 # rays across a bore or around a ring
 INSIDE_MM = 0.3           # rays start this far inside a face
@@ -56,11 +62,20 @@ SEGMENT_HALF_MM = 20.0    # a found flange segment reaches this far along the ca
 
 @dataclass(frozen=True)
 class NotFound:
-    """A spec whose feature the mesh does not show, and why."""
+    """A spec whose feature the mesh does not show (or, a thickness, that the gauge cannot
+    measure there), and why."""
 
     spec_id: str
     feature: str
     reason: str
+    thickness: bool = False
+
+    @property
+    def message(self) -> str:
+        """The problem in a sentence, naming the spec."""
+        if self.thickness:
+            return f"{self.spec_id}: the gauge cannot measure this thickness on the part's mesh: {self.reason}"
+        return f"{self.spec_id}: feature {self.feature!r} not found on the part's mesh: {self.reason}"
 
 
 class _Rays:
@@ -232,6 +247,31 @@ def _find_flange(rays: _Rays, fid: str, specs: Sequence[MeasurementSpec]) -> Fla
                          round(wall, 6), round(float(cap_width), 6), round(cap_thickness, 6))
 
 
+def _thickness_problem(rays: _Rays, s: MeasurementSpec) -> str:
+    """Why a thickness spec cannot be measured by the gauge along its normal ("" when it
+    can): no face at the point, no back wall within the gauge's range, or a back wall not
+    parallel to the face (the gauge reads the nearest back wall in its beam, not the
+    thickness along the normal)."""
+    p, n = np.asarray(s.point, dtype=float), np.asarray(s.normal, dtype=float)
+    n = n / np.linalg.norm(n)
+    o = (p + 2.0 * n)[None]
+    face = rays.intersector.intersects_first(o, (-n)[None])[0]
+    to_face = rays.first(o, (-n)[None])[0]
+    if face < 0 or abs(to_face - 2.0) > 1.0 or float(np.dot(rays.normals[face], n)) < 0.5:
+        return f"no face at {_xyz(p)} facing {_xyz(n, 3)} (the point must be on the face, the normal out of it)"
+    start = (p + (2.0 - to_face - 0.01) * n)[None]
+    back = int(rays.intersector.intersects_first(start, (-n)[None])[0])
+    depth = rays.first(start, (-n)[None])[0] + 0.01
+    if back < 0 or depth > GAUGE_RANGE_MM:
+        return f"no back wall within the gauge's {GAUGE_RANGE_MM:g} mm under {_xyz(p)}"
+    tilt = math.degrees(math.acos(float(np.clip(-np.dot(rays.normals[back], n), -1.0, 1.0))))
+    if tilt > MAX_BACK_WALL_TILT_DEG:
+        return (f"the back wall under {_xyz(p)} ({depth:.2f} mm down) is {tilt:.0f} deg off parallel to the face: the "
+                f"gauge reads the nearest back wall in its beam, not the thickness along the normal "
+                f"(at most {MAX_BACK_WALL_TILT_DEG:g} deg)")
+    return ""
+
+
 def _xyz(v: FloatArray, digits: int = 1) -> str:
     return "(" + ", ".join(f"{x:.{digits}f}" for x in v) + ")"
 
@@ -245,11 +285,13 @@ def infer_features(mesh: trimesh.Trimesh, specs: Sequence[MeasurementSpec],
     for s in specs:
         if s.kind in GEOMETRY_KINDS and s.feature not in known:
             by_feature.setdefault(s.feature, []).append(s)
-    if not by_feature:
+    thickness = [s for s in specs if s.kind in THICKNESS_KINDS] if not known else []
+    if not by_feature and not thickness:
         return (), ()
     rays = _Rays(mesh)
     found: list[Feature] = []
-    missing: list[NotFound] = []
+    missing: list[NotFound] = [NotFound(s.id, s.feature, why, thickness=True) for s in thickness
+                               if (why := _thickness_problem(rays, s))]
     for fid, group in by_feature.items():
         kinds = {s.kind for s in group}
         if kinds <= set(HOLE_KINDS):

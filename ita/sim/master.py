@@ -6,8 +6,9 @@ workpiece of the part's nominal geometry whose dimensions are known (its calibra
 certificate; in the simulated cell, the nominal mesh, whose values exact rays give,
 ita.part.truth.mesh_values).  Each size the SLRA measures on the part (the calibrated kinds:
 hole diameters, edge distances, flange and rib widths) is measured on the master `repeats`
-times, each frame after its own approach (a new draw of the arm's pose error), without any
-calibration.  Per spec: the bias (mean error), corrected in every later result of that
+times the way a run measures it (from its view group's frame, the MKB's viewing pose,
+window and pixels), each frame after its own approach (a new draw of the arm's pose error),
+without any calibration.  Per spec: the bias (mean error), corrected in every later result of that
 spec; per kind, the residuals about each spec's bias give the scatter of one frame, and
 the u of a corrected result (see :func:`spec_classes`).  What the master cannot tell: how
 the bias changes between the master and an as-built part (their differences are within the
@@ -44,15 +45,19 @@ from ita.vision.calibration import (
 )
 from ita.vision.context import VisionContext
 from ita.vision.measure import measure_frames
-from ita.vision.scan import frames_for, scan_for
+from ita.vision.scan import scan_for
 
 ROTATION_SIGMA = 0.05e-3   # rad: the pose error's rotation part (as bench/vision.py draws it)
 
 
 def master_errors(part: Any, workcell: Any, specs: Sequence[MeasurementSpec], repeats: int, seed: int,
-                  progress: Callable[[str], None] = lambda _m: None) -> dict[str, list[tuple[float, float]]]:
+                  progress: Callable[[str], None] = lambda _m: None, mkb: Any = None
+                  ) -> dict[str, list[tuple[float, float]]]:
     """Spec id -> [(error, u_frame)] of `repeats` uncalibrated measurements on the master
-    (the part's nominal mesh in the cell), error = measured - the master's value."""
+    (the part's nominal mesh in the cell), error = measured - the master's value.  With the
+    part's MKB, each from its view group's frame as a run takes it (the anchor's viewing
+    pose, the group's window and pixels: one frame serves every member); without, a frame
+    of the spec's own window square on to it."""
     from dataclasses import replace
 
     from ita.part.truth import mesh_values
@@ -66,21 +71,29 @@ def master_errors(part: Any, workcell: Any, specs: Sequence[MeasurementSpec], re
     rng = np.random.default_rng([seed, 7])
     out: dict[str, list[tuple[float, float]]] = defaultdict(list)
     todo = [s for s in specs if s.kind in CALIBRATED_KINDS and s.id in certificate and s.feature in features]
-    for i, spec in enumerate(todo):
-        geometry = scan_for(spec, ctx)
-        plan = frames_for(spec, ctx)
-        shapes = [geometry] + [ScanGeometry(plan.shape, geometry.fov_deg)] * (plan.count - 1)
-        pose = measurement_poses(workcell.part, [spec.point], [spec.normal], tool, rolls=[0.0])[0, 0]
+    views: dict[str, tuple[Any, ScanGeometry, list[MeasurementSpec]]] = {}
+    for spec in todo:
+        group = mkb.group_of(spec.id) if mkb is not None else None
+        anchor = mkb.entries.get(group.anchor) if group is not None else None
+        if group is not None and anchor is not None and anchor.pose is not None:
+            key, pose, geometry = group.id, np.asarray(anchor.pose), ScanGeometry(tuple(group.pixels),
+                                                                                  tuple(group.fov_deg))
+        else:
+            key, geometry = spec.id, scan_for(spec, ctx)
+            pose = measurement_poses(workcell.part, [spec.point], [spec.normal], tool, rolls=[0.0])[0, 0]
+        views.setdefault(key, (pose, geometry, []))[2].append(spec)
+    for i, (pose, geometry, members) in enumerate(views.values()):
         for _ in range(repeats):
-            frames = [simulate_frame(scene, pose_error(pose, rng, workcell.arm.repeatability_m / 3, ROTATION_SIGMA),
-                                     g, params, rng, reported_pose=pose, timestamp=0.0) for g in shapes]
-            reply = measure_frames(frames, spec, ctx)
-            if reply.ok:
-                budget = reply.diagnostics.get("budget", {})
-                u_frame = math.sqrt(sum(float(budget[t]) ** 2 for t in RANDOM_TERMS if t in budget))
-                out[spec.id].append((reply.value - certificate[spec.id], u_frame))
-        if (i + 1) % 25 == 0 or i + 1 == len(todo):
-            progress(f"{i + 1}/{len(todo)} specs measured on the master")
+            true_pose = pose_error(pose, rng, workcell.arm.repeatability_m / 3, ROTATION_SIGMA)
+            frame = simulate_frame(scene, true_pose, geometry, params, rng, reported_pose=pose, timestamp=0.0)
+            for spec in members:
+                reply = measure_frames([frame], spec, ctx)
+                if reply.ok:
+                    budget = reply.diagnostics.get("budget", {})
+                    u_frame = math.sqrt(sum(float(budget[t]) ** 2 for t in RANDOM_TERMS if t in budget))
+                    out[spec.id].append((reply.value - certificate[spec.id], u_frame))
+        if (i + 1) % 25 == 0 or i + 1 == len(views):
+            progress(f"{i + 1}/{len(views)} views of the master measured")
     return dict(out)
 
 
@@ -117,10 +130,11 @@ def spec_classes(errors: dict[str, list[tuple[float, float]]], kind_of: dict[str
 
 
 def calibrate_on_master(part: Any, workcell: Any, repeats: int = 4, seed: int = 0,
-                        progress: Callable[[str], None] = lambda _m: None) -> SlraCalibration:
-    """The SLRA calibration of `part` on its master (see the module doc)."""
+                        progress: Callable[[str], None] = lambda _m: None, mkb: Any = None) -> SlraCalibration:
+    """The SLRA calibration of `part` on its master (see the module doc; mkb: the part's
+    measurement knowledge base, whose views the master is measured from)."""
     specs = read_specs(part.specs_path)
-    errors = master_errors(part, workcell, specs, repeats, seed, progress)
+    errors = master_errors(part, workcell, specs, repeats, seed, progress, mkb)
     classes = spec_classes(errors, {s.id: s.kind.value for s in specs})
     provenance = {"what": "SLRA calibration on the part's master (ita.sim.master): per spec, the bias measured "
                           "on the nominal part, corrected",
@@ -131,7 +145,7 @@ def calibrate_on_master(part: Any, workcell: Any, repeats: int = 4, seed: int = 
 
 
 def ensure_master_calibration(part: Any, workcell: Any, key: str, progress: Callable[[str], None] = lambda _m: None,
-                              force: bool = False, repeats: int = 4) -> str:
+                              force: bool = False, repeats: int = 4, mkb: Any = None, seed: int = 0) -> str:
     """Calibrate a user part on its master when its calibration is missing or was made for
     other content (`key`: ita.part.store.part_key: mesh, specs, features, workcell); what
     was done, in words.  A generated bulkhead has the cell's calibration."""
@@ -145,15 +159,18 @@ def ensure_master_calibration(part: Any, workcell: Any, key: str, progress: Call
     path = part_calibration_path(part.directory)
     if not force and path.is_file():
         try:
-            made_for = json.loads(path.read_text(encoding="utf-8")).get("part_key")
-        except (OSError, ValueError):
-            made_for = None
-        if made_for == key:
+            stored = json.loads(path.read_text(encoding="utf-8"))
+            made_for, stored_mkb = stored.get("part_key"), stored.get("mkb_digest")
+        except (OSError, ValueError, AttributeError):
+            made_for = stored_mkb = None
+        if made_for == key and (mkb is None or stored_mkb == getattr(mkb, "digest", None)):
             return f"the part's own, on its master ({path.name}, stored and current)"
     if not any(s.kind in CALIBRATED_KINDS for s in read_specs(part.specs_path)):
         return "none needed (no hole diameter, edge distance or width among the specs)"
     progress("calibrating the SLRA on the part's master")
-    calibration = calibrate_on_master(part, workcell, repeats, 0, progress)
-    data = {**calibration.to_dict(), "part_key": key}
+    calibration = calibrate_on_master(part, workcell, repeats, seed, progress, mkb)
+    data = {**calibration.to_dict(), "part_key": key, "mkb_digest": getattr(mkb, "digest", None)}
     write_atomic(path, json.dumps(data, indent=1) + "\n", what="calibration")
-    return f"the part's own, on its master ({len(calibration.classes)} specs, made now)"
+    failed = calibration.provenance.get("failed_frames", 0)
+    return (f"the part's own, on its master ({len(calibration.classes)} specs, made now"
+            + (f"; {failed} frames failed" if failed else "") + ")")

@@ -33,6 +33,9 @@ def validate_file(part: PartLike, path: Path | None = None,
                   max_distance: float = DEFAULT_MAX_DISTANCE_MM) -> int:
     """Validate a specs file (default: the part's own) against the part; returns the count."""
     table = read_spec_table(Path(path) if path is not None else part.specs_path)
+    if not table.specs:
+        raise InputError([(Location(str(table.path), 2), "no specs: the file has its header row and nothing to "
+                                                         "measure (add rows, or `ita spec add`)")])
     problems = check_on_surface(table.specs, part.mesh, str(table.path), table.lines, max_distance)
     if not problems:
         problems = feature_problems(part, table.specs, str(table.path), table.lines)
@@ -51,8 +54,23 @@ def feature_problems(part: PartLike, specs: Sequence[MeasurementSpec], file: str
     known = {f.id: f for f in getattr(part, "features", ()) if f.id not in found}
     _, unfound = infer_features(part.mesh, specs, known)
     line_of = {s.id: (lines[i] if lines is not None else 0) for i, s in enumerate(specs)}
-    return [(Location(file, line_of.get(n.spec_id, 0), field="feature"),
-             f"{n.spec_id}: feature {n.feature!r} not found on the part's mesh: {n.reason}") for n in unfound]
+    return [(Location(file, line_of.get(n.spec_id, 0), field="x" if n.thickness else "feature"), n.message)
+            for n in unfound]
+
+
+def check_measurable(part: PartLike) -> None:
+    """InputError (file, line, field) when the part's specs file has no specs, or names
+    features its mesh does not show (the part's `unfound`, ita.part.infer): the quick checks
+    a run makes before any work (`validate_file` makes them all)."""
+    table = read_spec_table(part.specs_path)
+    if not table.specs:
+        raise InputError([(Location(str(table.path), 2), "no specs: the file has its header row and nothing to "
+                                                         "measure (add rows, or `ita spec add`)")])
+    unfound = getattr(part, "unfound", ())
+    if unfound:
+        line_of = {s.id: table.lines[i] for i, s in enumerate(table.specs)}
+        raise InputError([(Location(str(table.path), line_of.get(n.spec_id, 0), field="x" if n.thickness else "feature"),
+                           n.message) for n in unfound])
 
 
 def _save(part: PartLike, specs: Sequence[MeasurementSpec], changed: Sequence[MeasurementSpec],

@@ -18,7 +18,6 @@ import numpy as np
 
 from ita.devices import ArmDevice, GaugeCommands, SlraDevice
 from ita.devices.stations import StationCommands
-from ita.errors import InputError, Location
 from ita.executive import PlanExecutive
 from ita.geometry import GeometricReasoner
 from ita.logic.bridge import KnowledgeBase
@@ -32,6 +31,7 @@ from ita.sequence.store import apply_tool_marks, load_tool_marks
 from ita.sim.slra import SlraScene
 from ita.sim.ultrasonic import UltrasonicSim
 from ita.sim.world import SimWorld, simulated_part
+from ita.specs.service import check_measurable
 from ita.vision.context import VisionContext
 
 if TYPE_CHECKING:
@@ -100,9 +100,7 @@ def open_session(part_dir: Path | None = None, *, seed: int = 0,
     kb = KnowledgeBase()
     apply_tool_marks(kb, load_tool_marks())
     part = load_part(part_dir)
-    if part.unfound:
-        raise InputError([(Location(str(part.specs_path)), f"{n.spec_id}: feature {n.feature!r} not found on the "
-                                                           f"part's mesh: {n.reason}") for n in part.unfound])
+    check_measurable(part)                # no specs, or features the mesh does not show: say so first
     simulated = simulated_part(part.directory, part.mesh)  # a bad as-built mesh is named before preparing
     ctx = planning_context(part_dir, kb=kb, part=part)
     plan, mkb, _ = prepare_inspection(ctx, part, progress=progress, warm=False)

@@ -241,6 +241,11 @@ class MeshFloor:
 def fastener_neighbours(hole: Hole, ctx: VisionContext, within: float) -> list[Hole]:
     """The fastener holes drilled into the same face as `hole` (same axis, entry within
     1 mm along it) within `within` mm across the axis, nearest first."""
+    if hole.axis[2] > 0.999999:       # along +Z: the faces are heights, the distances in XY
+        out = [h for h in ctx.features.values() if isinstance(h, Hole) and h.role is HoleRole.FASTENER
+               and h.id != hole.id and h.axis[2] > 0.999999 and abs(h.center[2] - hole.center[2]) < 1.0
+               and math.dist(h.center[:2], hole.center[:2]) < within]
+        return sorted(out, key=lambda h: math.dist(h.center[:2], hole.center[:2]))
     axis = np.asarray(hole.axis, dtype=float)
     c = np.asarray(hole.center, dtype=float)
 
