@@ -181,7 +181,42 @@ def test_continue_is_sent_when_the_predecessor_on_the_other_stream_completes(kno
     assert events(report, LogKind.WAIT) == [(0.0, str(SLRA), 4, (3,))]
     assert events(report, LogKind.CONTINUE) == [(5.0, str(SLRA), 4, (3,))]
     assert vision.started == [(5.0, 4), (8.0, 5)]
-    assert report.makespan == pytest.approx(8.5)
+    # the measure (8-8.5) is the vision stream's trailing command: the plan holds the arm
+    # until the scan's end only, and the measure's reply is its step's
+    assert report.makespan == pytest.approx(8.0)
+    assert report.outcomes[-1].step == 5 and report.outcomes[-1].finished_s == pytest.approx(8.5)
+
+
+def test_a_plan_without_overlap_waits_for_every_reply(knowledge_base, slra_plan):
+    arm, vision = devices()
+    report = executive(knowledge_base, arm, vision, overlap=False).execute(slra_plan)
+    assert report.ok and report.makespan == pytest.approx(8.5)
+
+
+def test_vision_measures_while_the_next_plan_moves_the_arm(knowledge_base, slra_plan):
+    """The trailing measure of one plan overlaps the next plan's arm moves; the next scan
+    waits for the vision stream to be free as well as for the arm at the view."""
+    arm = FakeDevice(lookahead=True, durations={"MOVE": 2.0, "RETRACT": 0.1})
+    vision = FakeDevice(durations={"SCAN": 3.0, "MEASURE": 4.0})
+    ex = executive(knowledge_base, arm, vision)
+    first = ex.execute(slra_plan, start_s=0.0)
+    assert first.finished_s == pytest.approx(7.1) and ex.settled() == pytest.approx(11.1)
+    second = ex.execute(slra_plan, start_s=first.finished_s)
+    # arm: retract 7.1-7.2, moves to 11.2; the scan: the arm is at the view at 11.2, vision free at 11.1
+    assert arm.started[3][0] == pytest.approx(7.1)
+    assert vision.started[2][0] == pytest.approx(11.2) and second.ok
+    slow = FakeDevice(durations={"SCAN": 3.0, "MEASURE": 9.0})
+    ex = executive(knowledge_base, FakeDevice(lookahead=True, durations={"MOVE": 2.0, "RETRACT": 0.1}), slow)
+    first = ex.execute(slra_plan, start_s=0.0)
+    ex.execute(slra_plan, start_s=first.finished_s)
+    assert slow.started[2][0] == pytest.approx(16.1)      # waits for the vision stream (7.1 + 9)
+
+
+def test_a_failing_measure_is_no_trailing_command(knowledge_base, slra_plan):
+    arm, vision = devices(exceptions={5: Term("VISION", ("out_of_view",))})
+    ex = executive(knowledge_base, arm, vision)
+    report = ex.execute(slra_plan)
+    assert not report.ok and report.failure.at_s == pytest.approx(8.5) and ex.settled() == -float("inf")
 
 
 def test_waits_on_both_streams_continue_at_the_right_times(knowledge_base):
@@ -229,7 +264,7 @@ def test_same_seed_same_log(knowledge_base):
 def test_the_simulated_clock_follows_the_events(knowledge_base, slra_plan):
     clock = SimClock()
     clock.advance(100.0)
-    report = executive(knowledge_base, *devices(), clock=clock).execute(slra_plan)
+    report = executive(knowledge_base, *devices(), clock=clock, overlap=False).execute(slra_plan)
     assert report.started_s == 100.0 and clock.now == pytest.approx(108.5) == report.finished_s
 
 

@@ -155,3 +155,57 @@ def test_a_bad_user_part_is_refused_before_any_work_naming_file_and_line(plate, 
         assert result.exit_code == 2, (command, result.output)
         assert message in result.output and f"specs.csv{':' + str(line) if line else ''}" in result.output
     assert not (tmp_path / "runs").exists() and sorted(p.name for p in part.iterdir()) == ["plate.stl", "specs.csv"]
+
+
+def test_a_package_mesh_scaled_to_millimetres_is_inspected_and_reported(tmp_path, ita_home):
+    from user_parts import make_scaled_mesh_part
+
+    from ita.scoring import true_values
+
+    part = make_scaled_mesh_part(tmp_path / "box")
+    runs = tmp_path / "runs"
+    result = run("inspect", "--part", str(part), "--runs-dir", str(runs))
+    assert result.exit_code == 0, result.output
+    rows = json.loads(run("results", "--runs-dir", str(runs), "last", "--json").output)["results"]
+    assert len(rows) == 9 and all(r["value"] is not None or r["reason"] for r in rows)
+    by_id = {r["spec_id"]: r for r in rows}
+    assert by_id["WT-F1"]["decision"] == "cannot_be_done"          # 385 mm down the box: out of reach
+    truth = true_values(part)
+    widths = [r for r in rows if r["kind"] == "stiffener_width"]
+    assert len(widths) == 4 and all(r["decision"] == "conforms" for r in widths)
+    assert sum(abs(r["value"] - truth[r["spec_id"]]) <= r["U"] for r in widths) >= 3
+    report = tmp_path / "box.html"
+    assert run("report", "--runs-dir", str(runs), "last", "-o", str(report)).exit_code == 0
+    assert "Scoring against" in report.read_text()
+
+
+@pytest.mark.slow
+def test_a_smaller_bulkhead_from_its_mesh_and_specs_only(tmp_path, ita_home):
+    """`ita part new` with another seed and size, given as a user would: its mesh and specs
+    only (no features.json, part.json or truth); an as-built made by `ita part asbuilt`.
+    The first 150 measurements of the sequence: no false accept, coverage of U."""
+    from test_cli_part import small_bulkhead_params
+
+    from ita.paths import resource_dir
+    from ita.scoring import true_values
+
+    params = tmp_path / "small.toml"
+    params.write_text(small_bulkhead_params((resource_dir("bulkhead") / "part.toml").read_text()))
+    assert run("part", "new", str(tmp_path / "made"), "--params", str(params), "--seed", "5").exit_code == 0
+    part = tmp_path / "user"
+    part.mkdir()
+    for name in ("nominal.stl", "specs.csv"):
+        shutil.copy(tmp_path / "made" / name, part / name)
+    assert run("part", "asbuilt", "--part", str(part), "--seed", "11").exit_code == 0
+    runs = tmp_path / "runs"
+    result = run("inspect", "--part", str(part), "--runs-dir", str(runs), "--limit", "150")
+    assert result.exit_code == 0, result.output
+    rows = json.loads(run("results", "--runs-dir", str(runs), "last", "--json").output)["results"]
+    truth = true_values(part)
+    measured = [r for r in rows if r["value"] is not None]
+    assert len(measured) >= 140
+    for r in measured:
+        conforms = r["low_limit"] <= truth[r["spec_id"]] <= r["high_limit"]
+        assert not (r["decision"] == "conforms" and not conforms), r
+    covered = sum(abs(r["value"] - truth[r["spec_id"]]) <= r["U"] for r in measured) / len(measured)
+    assert 0.9 <= covered

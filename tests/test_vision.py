@@ -216,3 +216,19 @@ def test_the_free_edge_window_follows_the_edge_where_the_hole_is_not_at_the_near
     assert pts is not None and pts.shape == (25, 2)
     assert np.allclose(pts[:, 1], 20.0, atol=1e-9)                 # straight along the edge, no bend
     assert np.allclose(pts[12], (60.0, 20.0)) and np.ptp(pts[:, 0]) == pytest.approx(24.0)
+
+
+def test_a_flange_s_inward_normal_is_taken_on_the_segment_nearest_the_point():
+    """Not the nearest vertex's: on a sparse corner arc that one can be far along it."""
+    from ita.part.model import FlangeSegment
+    from ita.specs.model import MeasurementKind, MeasurementSpec
+    from ita.vision.kinds import _inward
+
+    s2 = 2 ** -0.5
+    seg = FlangeSegment("F", "outer", (0.0, 20.0), ((0.0, 0.0), (10.0, 0.0), (20.0, 10.0)),
+                        ((0.0, 1.0), (-s2, s2), (-1.0, 0.0)), 40.0, 4.0, 30.0, 3.0)
+    spec = MeasurementSpec("FH", MeasurementKind.FLANGE_HEIGHT, "F", (4.0, 1.0, 40.0), (0.0, 0.0, 1.0), 40.0, -0.2, 0.2)
+    n = _inward(seg, spec)                # 40 % along the first segment: between its ends' normals
+    assert np.linalg.norm(n) == pytest.approx(1.0)
+    expected = 0.6 * np.array([0.0, 1.0]) + 0.4 * np.array([-s2, s2])
+    assert np.allclose(n, expected / np.linalg.norm(expected))

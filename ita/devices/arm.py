@@ -8,9 +8,10 @@ Commands (the operators' messages) and their handlers:
   the queue (no WAIT, no other command between them) are planned together
   (``PathPlanner.plan_queue``) and flown as one blended trajectory; each MOVE's reply
   comes when the arm passes (nearest) its goal.
-- RETRACT, CONTACT: straight, slow joint moves between the approach point and the
-  contact pose, guarded (the controller stops at a bump); CONTACT replies the force of
-  the probe's spring (``CONTACT(F)``).
+- RETRACT, CONTACT: straight joint moves between the approach point and the contact
+  pose at the arm's own acceleration, CONTACT with its speed overridden (CONTACT_SPEED),
+  guarded (the controller stops at a bump); CONTACT replies the force of the probe's
+  spring (``CONTACT(F)``).
 - PICKUP, PUTDOWN: the tool changer.
 - `extra` handlers (the gauge's COUPLANT and MEASURE) ride on the same stream.
 
@@ -38,10 +39,9 @@ from ita.robot import RobotController, ToolChanger, from_waypoints
 
 __all__ = ["CONTACT_SPEED", "RECOVER_SECONDS", "RETRACT_SPEED", "SPRING_N_PER_M", "ArmDevice", "exception_reply"]
 
-#: speed scale of the guarded contact move and of the retract (of the joints' limits)
+#: speed override of the guarded contact move (of the joints' velocity limits; the drives'
+#: acceleration as it is: the probe slows at the arm's own rate into the contact)
 CONTACT_SPEED = 0.5
-#: the last stretch (m) before the surface a CONTACT flies at CONTACT_SPEED (the rest at full speed)
-GUARDED_M = 0.008
 #: how far (m) a recovery backs the tool straight out when its last free configuration is not
 BACK_OFF_M = (0.01, 0.02, 0.04, 0.06)
 RETRACT_SPEED = 1.0
@@ -256,17 +256,10 @@ class ArmDevice:
         except (KeyError, AttributeError) as exc:
             return exception_reply("NO_POSE", str(exc), str(exc))
         before = np.array(world.q)
-        if command.name == "CONTACT":
-            # at the arm's own speed through the free approach (the MKB checked the straight
-            # move), at the guarded contact speed for the last GUARDED_M before the surface
-            length = float(np.linalg.norm(world.tcp_pose(goal)[:3, 3] - world.tcp_pose(before)[:3, 3]))
-            share = 0.0 if length <= 0.0 else max(0.0, 1.0 - GUARDED_M / length)
-            legs = [(before, before + share * (goal - before), 1.0), (before + share * (goal - before), goal,
-                                                                      CONTACT_SPEED)]
-            legs = [leg for leg in legs if np.max(np.abs(leg[1] - leg[0])) > 0.0]
-        else:
-            legs = [(before, goal, RETRACT_SPEED)]
-        trajs = [from_waypoints(world.model, [a, b], speed_scale=v) for a, b, v in legs]
+        # one straight rest-to-rest move at the arm's own acceleration: CONTACT with its speed
+        # overridden to CONTACT_SPEED (the MKB checked the straight move), RETRACT at full speed
+        speed = CONTACT_SPEED if command.name == "CONTACT" else RETRACT_SPEED
+        trajs = [from_waypoints(world.model, [before, goal], speed_scale=speed, accel_scale=1.0)]
         flown = self._path(*trajs)
         for traj in trajs:
             reply = self.controller.execute(traj, command=command.name.lower())

@@ -25,6 +25,7 @@ function of the plan and of what the adapters answer: the same seed, the same lo
 from __future__ import annotations
 
 import heapq
+import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from enum import Enum
@@ -257,6 +258,7 @@ class _Stream:
 
 
 _Pending = tuple[float, int, int, Command, Reply | None]   # a reply (None: a time-out) due
+_BUSY: Any = object()     # a stream still running a trailing command of a plan before
 _Failed = tuple[FailureKind, _Stream, Command, Reply]      # why, where, what, the reply
 _Log = Callable[..., None]
 
@@ -275,6 +277,7 @@ def run_streams(
     plan: Any = None,
     start_s: float | None = None,
     clock: Clock | None = None,
+    busy_until: dict[str, float] | None = None,
 ) -> ExecutionReport:
     """Run the streams of a split plan on their devices.
 
@@ -283,6 +286,15 @@ def run_streams(
     clock's time, else 0).  clock: advanced to each event (never back; a clock already
     past an event is left alone).  plan: what the failure reports as the plan (default
     the steps).  Raises :class:`ExecutiveError` if a stream has no adapter.
+
+    busy_until: stream text -> simulated time it is busy until, carried from plan to plan
+    (updated here).  With it, a stream sends nothing before its time, and trailing
+    commands (the last of a stream without lookahead, which no WAIT waits for) do not hold
+    the plan: once they are all that runs, each answered normally within its time-out,
+    their steps are done with those replies, the plan ends, and their streams stay busy
+    until its reply's time (when the plan stops before, it stops as ever).  Vision
+    processing a frame while the arm flies to the next view, as the seed's separate
+    streams allow.
     """
     runs = [_Stream(i, s, _adapter_for(adapters, s.stream)) for i, s in enumerate(streams.streams)]
     steps = {s.number: s for s in streams.steps}
@@ -302,17 +314,58 @@ def run_streams(
         if run.adapter.lookahead:
             run.adapter.begin(run.items, now)
             log(LogKind.QUEUED, run, payload=run.commands.steps)
+    trailing: set[int] = set()
+    if busy_until is not None:
+        waited = {n for r in runs for item in r.items if isinstance(item, Wait) for n in item.waits_for}
+        for run in runs:
+            free_at = busy_until.get(str(run.commands.stream), -math.inf)
+            if free_at > now:                       # still busy with the last plan's trailing command
+                run.running = _BUSY
+                heapq.heappush(pending, (free_at, run.index, -1, _BUSY, None))
+            commands = [i for i in run.items if isinstance(i, Command)]
+            if commands and not run.adapter.lookahead and commands[-1].step not in waited:
+                trailing.add(commands[-1].step)
+
+    def settle_trailing() -> bool:
+        """When only trailing commands are left running, each answered normally in time: take
+        their replies as their steps' and end the plan now; whether it did (see the docstring)."""
+        if busy_until is None or not pending:
+            return False
+        live = [p for p in pending if p[3] is not _BUSY]
+        if not live or any(p[2] not in trailing or p[4] is None or p[4].kind is not ReplyKind.NORMAL
+                           or p[3].result_of(p[4].payload) is None for p in live):
+            return False
+        if any(r.next_item < len(r.items) or (r.running is not None and r.running is not _BUSY
+                                               and r.running.step not in trailing) for r in runs):
+            return False
+        for at, index, step, command, reply in sorted(live):
+            run = runs[index]
+            result = command.result_of(reply.payload)
+            events.append(LogEvent(at, LogKind.REPLY, run.commands.stream, step, (reply.payload, result)))
+            outcomes.append(StepOutcome(step, command, run.started_s, at, reply, result))
+            completed.add(step)
+            run.done.append(step)
+            run.running = None
+            busy_until[str(run.commands.stream)] = at
+        for run in runs:
+            if run.running is _BUSY:
+                run.running = None
+        pending.clear()
+        return True
 
     while True:
         for run in runs:
             _advance(run, now, completed, pending, log)
-        if not pending:
+        if not pending or settle_trailing():
             break
         now = pending[0][0]
         if clock is not None and clock.now < now:
             clock.advance(now - clock.now)
         while pending and pending[0][0] == now:  # simultaneous replies are all taken
             _, index, _, command, reply = heapq.heappop(pending)
+            if command is _BUSY:                 # the stream's trailing command of a plan before is over
+                runs[index].running = None
+                continue
             found = _receive(runs[index], command, reply, now, completed, outcomes, log)
             failure_info = failure_info or found  # the first failure, in stream order, stops the plan
         if failure_info is not None:
@@ -331,6 +384,8 @@ def run_streams(
     cancelled: list[int] = []
     for run in runs:
         run.adapter.stop(now)
+        if run.running is _BUSY:
+            run.running = None
         if run.running is not None and run is not failed:
             log(LogKind.CANCELLED, run, run.running.step, "aborted")
             cancelled.append(run.running.step)
@@ -414,7 +469,9 @@ class PlanExecutive:
         if not report.ok: record_not_done(report.failure.reason)
 
     adapters: as for :func:`run_streams`; timeouts: message name -> seconds (see
-    :data:`~ita.executive.commands.DEFAULT_TIMEOUTS`).
+    :data:`~ita.executive.commands.DEFAULT_TIMEOUTS`).  busy_until: each stream's end of
+    its last trailing command, carried from plan to plan (`overlap` False: none, every plan
+    waits for all its replies).
     """
 
     def __init__(
@@ -424,11 +481,14 @@ class PlanExecutive:
         *,
         timeouts: Mapping[str, float] = DEFAULT_TIMEOUTS,
         clock: Clock | None = None,
+        overlap: bool = True,
     ) -> None:
         self.kb = kb
         self.adapters = adapters
         self.timeouts = timeouts
         self.clock = clock
+        self.overlap = overlap
+        self.busy_until: dict[str, float] = {}
 
     def prepare(self, plan: OperationPlan | Sequence[PlanStep]) -> StreamPlan:
         """The plan's streams, WAITs inserted (one bridge call)."""
@@ -437,7 +497,12 @@ class PlanExecutive:
 
     def execute(self, plan: OperationPlan | Sequence[PlanStep], *, start_s: float | None = None) -> ExecutionReport:
         """Run `plan`; the report holds its results, its log and, if it stopped, the failure."""
-        return run_streams(self.prepare(plan), self.adapters, plan=plan, start_s=start_s, clock=self.clock)
+        return run_streams(self.prepare(plan), self.adapters, plan=plan, start_s=start_s, clock=self.clock,
+                           busy_until=self.busy_until if self.overlap else None)
+
+    def settled(self) -> float:
+        """When the last trailing command of any stream ends (-inf: none): a run ends then."""
+        return max(self.busy_until.values(), default=-math.inf)
 
 
 def _steps(plan: OperationPlan | Sequence[PlanStep]) -> tuple[PlanStep, ...]:

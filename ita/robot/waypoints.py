@@ -58,19 +58,24 @@ def profile_position(t: ArrayLike, duration: float, peak: float, accel: float) -
 
 
 def from_waypoints(model: ArmModel, waypoints: ArrayLike, knot_period: float = KNOT_PERIOD,
-                   speed_scale: float = 1.0) -> TimedTrajectory:
+                   speed_scale: float = 1.0, accel_scale: float | None = None) -> TimedTrajectory:
     """A rest-to-rest trajectory through joint waypoints (k, 6), k >= 1 (see module doc).
 
-    speed_scale in (0, 1] slows every segment (velocity x s, acceleration x s^2).
+    speed_scale in (0, 1] slows every segment (velocity x s, acceleration x s^2, as a
+    time-scaled trajectory; accel_scale in (0, 1] instead: the acceleration x that, as a
+    speed override that leaves the drives' acceleration alone).
     A single waypoint (or all equal) gives a one-knot trajectory of duration 0.
     """
     w = np.asarray(waypoints, dtype=float).reshape(-1, model.dof)
     if not 0.0 < speed_scale <= 1.0:
         raise ValueError(f"speed_scale must be in (0, 1], got {speed_scale}")
+    a_scale = speed_scale ** 2 if accel_scale is None else accel_scale
+    if not 0.0 < a_scale <= 1.0:
+        raise ValueError(f"accel_scale must be in (0, 1], got {accel_scale}")
     times, qs = [0.0], [w[0]]
     for a, b in pairwise(w):
         total, peak, accel = profile_time(b - a, model.velocity * speed_scale,
-                                          model.acceleration * speed_scale**2)
+                                          model.acceleration * a_scale)
         if total <= 0.0:
             continue
         n = max(2, int(np.ceil(total / knot_period)))

@@ -295,7 +295,7 @@ class TopLevel:
                     break
         except StopNow:
             status = RunStatus.STOPPED
-        end_t = s.world.clock.now
+        end_t = max(s.world.clock.now, s.executive.settled())     # the last trailing Vision reply too
         if status is RunStatus.COMPLETED:
             self._solve_networks(final=True)
         remaining = [i for i in self.todo if i not in self.done and i not in self.pending]

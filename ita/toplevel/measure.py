@@ -140,9 +140,11 @@ def execute_measurement(session: Session, spec_id: str, tool: str, plan: Operati
     clock = session.world.clock
     t0 = clock.now if t0 is None else t0
     report = session.executive.execute(plan, start_s=t0)
-    t1 = max(clock.now, report.finished_s)
-    if clock.now < t1:
-        clock.advance(t1 - clock.now)
+    if clock.now < report.finished_s:
+        clock.advance(report.finished_s - clock.now)
+    # the result's end: its last reply, which a trailing command (Vision's processing, on
+    # while the arm flies on: ita.executive.run_streams) gives after the plan's end
+    t1 = max([clock.now] + [o.finished_s for o in report.outcomes])
     values = measured_values(report)
     others = tuple(v for k, v in values.items() if k != spec_id)
     if not report.ok:

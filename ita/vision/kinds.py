@@ -159,9 +159,18 @@ def _width(spec: MeasurementSpec, p: FloatArray, a: LineFit, b: LineFit, da: dic
 
 
 def _inward(seg: FlangeSegment, spec: MeasurementSpec) -> FloatArray:
-    path = seg.path_array
-    i = int(np.argmin(np.linalg.norm(path - np.asarray(spec.point[:2]), axis=1)))
-    return seg.normals_array[i]
+    """The segment's normal into the flange at the point of its path nearest the spec's:
+    on a segment, interpolated between its ends' normals (not the nearest vertex's, which
+    on a sparse path can lie far along a corner arc)."""
+    path, normals = seg.path_array, seg.normals_array
+    if len(path) < 2:
+        return normals[0]
+    a, d = path[:-1], np.diff(path, axis=0)
+    length2 = np.einsum("ij,ij->i", d, d)
+    t = np.clip(np.einsum("ij,ij->i", np.asarray(spec.point[:2]) - a, d) / np.where(length2 > 0, length2, 1.0), 0, 1)
+    k = int(np.argmin(np.linalg.norm(a + t[:, None] * d - np.asarray(spec.point[:2]), axis=1)))
+    n = (1 - t[k]) * normals[k] + t[k] * normals[k + 1]
+    return n / np.linalg.norm(n)
 
 
 def _stiffener(view: View, spec: MeasurementSpec, rib: Stiffener, ctx: VisionContext) -> VisionResult:
