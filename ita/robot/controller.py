@@ -72,6 +72,11 @@ class MotionReply:
         return self.status is MotionStatus.DONE
 
 
+#: how far (m) beyond the contact margin a check measures the gap, to skip the control
+#: periods that cannot close it
+LOOKAHEAD_M = 0.05
+
+
 class RobotController:
     """The simulated arm's controller (see the module docstring).
 
@@ -117,11 +122,22 @@ class RobotController:
         times = np.minimum(np.arange(1, steps + 1) * self.period, trajectory.duration)
         fade = 1.0 - times / trajectory.duration if trajectory.duration > 0 else np.zeros(steps)
         configs = trajectory.sample(times) + fade[:, None] * offset
-        for t, q in zip(times, configs):
-            world.set_q(q)
-            hits = world.contacts(self.contact_margin, skip)
+        flanges = flange_poses(world.model, configs)      # forward kinematics of the whole move at once
+        # every control period is checked unless no contact is possible there: a point of the
+        # arm or tool moves at most SWEEP * sum |dq| from where the last check found the
+        # nearest gap, so the checks skip the periods that cannot close it (the same first
+        # contact as checking them all)
+        sweep = 2.0 * self._sweep_radius()
+        i = 0
+        while i < steps:
+            world.set_q(configs[i], flanges[i])
+            hits, gap = world.contacts_and_clearance(self.contact_margin, skip, self.contact_margin + LOOKAHEAD_M)
             if hits:
-                return self._bump(command, float(t), hits)
+                return self._bump(command, float(times[i]), hits)
+            room = gap - self.contact_margin
+            moved = sweep * np.abs(configs[i + 1:] - configs[i]).sum(axis=1)
+            close = np.flatnonzero(moved >= room)
+            i = i + 1 + (int(close[0]) if len(close) else steps)
         # the arm settles off its goal by its repeatability, but never past a joint's limit
         world.set_q(np.clip(trajectory.end + self._settle_error(trajectory.end), world.model.lower, world.model.upper))
         hits = world.contacts(self.contact_margin, skip)
@@ -129,6 +145,19 @@ class RobotController:
             return self._bump(command, trajectory.duration, hits)
         world.clock.advance(trajectory.duration)
         return MotionReply(MotionStatus.DONE, command, trajectory.duration, tuple(map(float, world.q)))
+
+    def _sweep_radius(self) -> float:
+        """An upper bound (m) on how far any point of the arm or the held tool lies from any
+        joint's axis: the chain's lengths from the base to the flange and the links' widest
+        radius, plus the tool's reach."""
+        model = self.world.model
+        chain = float(np.linalg.norm(model.origins[:, :3, 3], axis=1).sum() + np.linalg.norm(model.flange_offset[:3, 3])
+                      + np.max(model.tube_radii))           # a link's surface about its axis segment
+        tool = self.world.held_tool
+        if tool is not None:
+            chain += float(np.linalg.norm(tool.body_center) + 0.5 * np.linalg.norm(tool.body_size)
+                           + np.linalg.norm(tool.tcp.position))
+        return chain
 
     def _bump(self, command: str, t: float, hits: list[Contact]) -> MotionReply:
         self.world.clock.advance(t)

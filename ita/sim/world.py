@@ -217,14 +217,16 @@ class SimWorld:
         """The arm's joint angles (6,) rad (a copy)."""
         return self._q.copy()
 
-    def set_q(self, q: Iterable[float]) -> None:
-        """Place the arm at joint angles q (6,) (kinematically); a held tool follows."""
+    def set_q(self, q: Iterable[float], flange: FloatArray | None = None) -> None:
+        """Place the arm at joint angles q (6,) (kinematically); a held tool follows.
+        flange: the flange's pose at q when the caller has it (forward kinematics of a
+        whole trajectory at once)."""
         q = np.asarray(list(q) if not isinstance(q, np.ndarray) else q, dtype=float).reshape(6)
         for j, value in zip(self.joint_indices, q):
             p.resetJointState(self.arm, j, float(value), physicsClientId=self.client)
         self._q = q.copy()
         if self.held is not None:
-            self._place_tool(self.held, self.flange_pose())
+            self._place_tool(self.held, self.flange_pose() if flange is None else flange)
 
     def flange_pose(self, q: Iterable[float] | None = None) -> FloatArray:
         """World pose (4, 4) of the flange at q (default: the current joints)."""
@@ -283,30 +285,44 @@ class SimWorld:
         against the arm's links except the last (which carries it).  Bodies named in
         `ignore` are left out (an intended contact, e.g. the tool being picked up).
         """
+        return self.contacts_and_clearance(margin, ignore, margin)[0]
+
+    def contacts_and_clearance(self, margin: float = 0.0, ignore: Iterable[str] = (),
+                               upto: float = 0.0) -> tuple[list[Contact], float]:
+        """:meth:`contacts`, and the smallest gap (m) of the same pairs, as far as `upto`
+        (>= margin; `upto` when every pair is farther): how far the arm may move before a
+        contact is possible."""
         c = self.client
         skip = set(ignore)
         found: list[Contact] = []
+        gap = upto = max(float(upto), float(margin))
         others = [b for b in self._static] + [b for n, b in self.tools.items() if n != self.held]
         others = [b for b in others if self.body_names[b] not in skip]
-        lo, hi = self._moving_aabb(margin)
+        lo, hi = self._moving_aabb(upto)
         for body in others:
             box = self._static_aabbs.get(body)
             if box is None:
                 box = np.array(p.getAABB(body, physicsClientId=c))
             if np.any(box[0] > hi) or np.any(box[1] < lo):
                 continue
-            for pt in p.getClosestPoints(self.arm, body, margin, physicsClientId=c):
+            for pt in p.getClosestPoints(self.arm, body, upto, physicsClientId=c):
                 if pt[3] >= 0:
-                    found.append(Contact(self.link_names[pt[3]], self.body_names[body], pt[5], pt[8]))
+                    gap = min(gap, pt[8])
+                    if pt[8] <= margin:
+                        found.append(Contact(self.link_names[pt[3]], self.body_names[body], pt[5], pt[8]))
             if self.held is not None:
-                for pt in p.getClosestPoints(self.tools[self.held], body, margin, physicsClientId=c):
-                    found.append(Contact(self.held, self.body_names[body], pt[5], pt[8]))
+                for pt in p.getClosestPoints(self.tools[self.held], body, upto, physicsClientId=c):
+                    gap = min(gap, pt[8])
+                    if pt[8] <= margin:
+                        found.append(Contact(self.held, self.body_names[body], pt[5], pt[8]))
         if self.held is not None:
             tool = self.tools[self.held]
             for link in self._arm_links[:-1]:
-                for pt in p.getClosestPoints(tool, self.arm, margin, linkIndexB=link, physicsClientId=c):
-                    found.append(Contact(self.held, self.link_names[link], pt[5], pt[8]))
-        return found
+                for pt in p.getClosestPoints(tool, self.arm, upto, linkIndexB=link, physicsClientId=c):
+                    gap = min(gap, pt[8])
+                    if pt[8] <= margin:
+                        found.append(Contact(self.held, self.link_names[link], pt[5], pt[8]))
+        return found, gap
 
     def _moving_aabb(self, margin: float) -> tuple[FloatArray, FloatArray]:
         c = self.client
