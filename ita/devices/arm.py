@@ -34,6 +34,7 @@ import numpy as np
 from ita.devices.data import ArmPath
 from ita.executive.adapters import Completion, PoseResolver
 from ita.executive.commands import Command, Reply, Wait
+from ita.kinematics import flange_poses
 from ita.logic.terms import Term
 from ita.robot import RobotController, ToolChanger, from_waypoints
 
@@ -234,8 +235,13 @@ class ArmDevice:
             times.append(np.asarray(traj.times, dtype=float) + t0)
             qs.append(np.asarray(traj.q, dtype=float))
             t0 = float(times[-1][-1])
-        return ArmPath.sampled(np.concatenate(times), np.concatenate(qs),
-                               lambda q: [self.world.tcp_pose(x) for x in q], self.world.held)
+        return ArmPath.sampled(np.concatenate(times), np.concatenate(qs), self._tcp_poses, self.world.held)
+
+    def _tcp_poses(self, q: Any) -> Any:
+        """World poses (k, 4, 4) of the held tool's TCP (the flange without one) at joints q (k, 6)."""
+        poses = flange_poses(self.world.model, np.asarray(q, dtype=float))
+        tool = self.world.held_tool
+        return poses @ tool.tcp.matrix() if tool is not None else poses
 
     @staticmethod
     def _motion_failure(reply: Any, command: Command) -> Reply:

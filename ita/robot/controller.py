@@ -74,7 +74,7 @@ class MotionReply:
 
 #: how far (m) beyond the contact margin a check measures the gap, to skip the control
 #: periods that cannot close it
-LOOKAHEAD_M = 0.05
+LOOKAHEAD_M = 0.02
 
 
 class RobotController:
@@ -124,10 +124,10 @@ class RobotController:
         configs = trajectory.sample(times) + fade[:, None] * offset
         flanges = flange_poses(world.model, configs)      # forward kinematics of the whole move at once
         # every control period is checked unless no contact is possible there: a point of the
-        # arm or tool moves at most SWEEP * sum |dq| from where the last check found the
-        # nearest gap, so the checks skip the periods that cannot close it (the same first
-        # contact as checking them all)
-        sweep = 2.0 * self._sweep_radius()
+        # arm or tool moves at most sum_j |dq_j| r_j (_sweep_radii) from where the last check
+        # found the nearest gap, so the checks skip the periods that cannot close it (the
+        # same first contact as checking them all)
+        radii = 2.0 * self._sweep_radii()
         i = 0
         while i < steps:
             world.set_q(configs[i], flanges[i])
@@ -135,7 +135,7 @@ class RobotController:
             if hits:
                 return self._bump(command, float(times[i]), hits)
             room = gap - self.contact_margin
-            moved = sweep * np.abs(configs[i + 1:] - configs[i]).sum(axis=1)
+            moved = np.abs(configs[i + 1:] - configs[i]) @ radii
             close = np.flatnonzero(moved >= room)
             i = i + 1 + (int(close[0]) if len(close) else steps)
         # the arm settles off its goal by its repeatability, but never past a joint's limit
@@ -146,18 +146,18 @@ class RobotController:
         world.clock.advance(trajectory.duration)
         return MotionReply(MotionStatus.DONE, command, trajectory.duration, tuple(map(float, world.q)))
 
-    def _sweep_radius(self) -> float:
-        """An upper bound (m) on how far any point of the arm or the held tool lies from any
-        joint's axis: the chain's lengths from the base to the flange and the links' widest
-        radius, plus the tool's reach."""
+    def _sweep_radii(self) -> FloatArray:
+        """Per joint, an upper bound (m) on how far a point the joint moves (the links after
+        it and the held tool) lies from its axis: the chain's lengths from the joint to the
+        flange and the links' widest radius, plus the tool's reach.  A joint change dq then
+        moves no point farther than sum |dq_j| r_j (twice that between two moving parts)."""
         model = self.world.model
-        chain = float(np.linalg.norm(model.origins[:, :3, 3], axis=1).sum() + np.linalg.norm(model.flange_offset[:3, 3])
-                      + np.max(model.tube_radii))           # a link's surface about its axis segment
+        lengths = np.append(np.linalg.norm(model.origins[:, :3, 3], axis=1), np.linalg.norm(model.flange_offset[:3, 3]))
+        beyond = np.cumsum(lengths[::-1])[::-1][1:]              # from joint j's origin to the flange
         tool = self.world.held_tool
-        if tool is not None:
-            chain += float(np.linalg.norm(tool.body_center) + 0.5 * np.linalg.norm(tool.body_size)
-                           + np.linalg.norm(tool.tcp.position))
-        return chain
+        reach = 0.0 if tool is None else float(np.linalg.norm(tool.body_center) + 0.5 * np.linalg.norm(tool.body_size)
+                                                + np.linalg.norm(tool.tcp.position))
+        return beyond + float(np.max(model.tube_radii)) + reach
 
     def _bump(self, command: str, t: float, hits: list[Contact]) -> MotionReply:
         self.world.clock.advance(t)
