@@ -125,8 +125,8 @@ def scaled_package_mesh() -> trimesh.Trimesh:
 
 def box_specs(mesh: trimesh.Trimesh) -> list[str]:
     """What a user would spec on the box, nominals read off its mesh: each wall's thickness at
-    its top (the laser, across the wall) and its height above the bottom (datum A), and the
-    floor's thickness from inside (the gauge; 385 mm down a 360 mm opening, out of reach)."""
+    its top (the laser, across the wall), two walls' height above the bottom (datum A), and
+    the floor's thickness from inside (the gauge; 385 mm down a 360 mm opening, out of reach)."""
     lo, hi = mesh.bounds
     top = float(hi[2])
     rows = []
@@ -141,8 +141,9 @@ def box_specs(mesh: trimesh.Trimesh) -> list[str]:
         p = (point[0], point[1], top)
         rows.append(_row(f"SW-W{k + 1}", "stiffener_width", f"W{k + 1}", p, (0, 0, 1), round(width, 3), -0.2, 0.2,
                          d=(across[0], across[1], 0), note="wall thickness at its top"))
-        rows.append(_row(f"SH-W{k + 1}", "stiffener_height", f"W{k + 1}", p, (0, 0, 1), round(top, 3), -0.5, 0.5,
-                         note="wall top above the bottom"))
+        if k < 2:
+            rows.append(_row(f"SH-W{k + 1}", "stiffener_height", f"W{k + 1}", p, (0, 0, 1), round(top, 3), -0.5, 0.5,
+                             note="wall top above the bottom"))
     locations, _, _ = mesh.ray.intersects_location([[0.0, 0.0, top + 10]], [[0.0, 0.0, -1.0]], multiple_hits=False)
     floor = float(locations[0, 2])
     rows.append(_row("WT-F1", "web_thickness", "F1", (0.0, 0.0, round(floor, 4)), (0, 0, 1), round(floor - float(lo[2]), 3),

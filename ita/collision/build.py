@@ -39,7 +39,7 @@ PART_MARGIN_MM = 2.0      # growth of every part region, mm
 WEB_TILE_MM = 100.0       # web tiles' grid
 CHAIN_SLACK_MM = 1.0      # how much wider than the strip a flange chain box may be
 MESH_CELL_MM = 40.0       # largest cubes of a user part's mesh cover
-MESH_CELLS_ACROSS = 50    # a smaller part's cubes: its largest extent over this (a curved surface's boxes
+MESH_CELLS_ACROSS = 20    # a smaller part's cubes: its largest extent over this (a curved surface's boxes
 MIN_MESH_CELL_MM = 4.0    # bulge by their sagitta), down to this
 
 
