@@ -10,13 +10,17 @@ Every point of the real geometry lies inside some solid region:
   strip between its path and the path moved along its normals, each stiffener as a box;
   every box grown by `margin_mm` (default 2 mm) on every side.  Holes are not carved out
   (a lightening hole counts as solid web; conservative).
-- A user part without features, from its mesh (`mesh_regions`): the mesh's bounding box
-  is cut into cubes of `cell_mm`; a cube that any triangle's bounding box touches becomes
-  the box bounding that cube's share of the triangles' boxes and of its corners that lie
-  inside the solid; a cube with no triangle becomes a whole box if it lies inside the
-  solid (a watertight mesh; without one, touched cubes are kept whole).  Grown by
-  `margin_mm`.  Soundness: the part of the solid inside a cube is bounded by its surface
-  pieces and its inside corners.
+- A user part without features (or with features found on its mesh, which are only the
+  specs'), from its mesh (`mesh_regions`): the mesh's bounding box is cut into cubes of
+  `cell_mm` (`mesh_cell`: 40 mm, finer for a small part); a cube that any triangle's
+  bounding box touches becomes the box bounding that cube's share of the triangles'
+  boxes and of its corners that lie inside the solid; a cube with no triangle becomes a
+  whole box if it lies inside the solid (a watertight mesh; without one, touched cubes
+  are kept whole).  A cube whose surface pieces face different ways is covered again by
+  its eight halves (`REFINE_LEVELS` times at most).  Grown by `margin_mm`.  Soundness:
+  the part of the solid inside a cube is bounded by its surface pieces and its inside
+  corners.  Looseness: up to a cube's width where a slanted or curved edge crosses it
+  (a probe beside a flange cap's rounded corner can find its contact blocked).
 
 Parts are placed with the workcell's PartPlacement (mm to world metres).
 """
