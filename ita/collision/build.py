@@ -189,10 +189,9 @@ def _cover_level(mesh: Any, tri: FloatArray, normals: FloatArray, origin: FloatA
                  ) -> tuple[FloatArray, FloatArray, NDArray[np.bool_], NDArray[np.int64]]:
     """One level of the mesh's cover: the boxes (lo, hi) of the cubes of `cell_mm` (the
     touched ones and the whole ones inside), whether each is loose (its surface pieces'
-    normals differ by more than LOOSE_COS), and each cube's grid index (n, 3).  parents:
+    normals spread more than LOOSE_SPREAD), and each cube's grid index (n, 3).  parents:
     only the cubes inside these cubes of twice the size (grid indices at that level)."""
-    verts_lo, verts_hi = tri.min(axis=(0, 1)), tri.max(axis=(0, 1))
-    shape = np.floor((verts_hi - origin) / cell_mm).astype(np.int64) + 1
+    shape = np.floor((tri.max(axis=(0, 1)) - origin) / cell_mm).astype(np.int64) + 1
     tlo, thi = tri.min(axis=1), tri.max(axis=1)
     i0 = np.floor((tlo - origin) / cell_mm).astype(np.int64)
     i1 = np.floor((thi - origin) / cell_mm).astype(np.int64)

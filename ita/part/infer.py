@@ -78,7 +78,7 @@ class NotFound:
         return f"{self.spec_id}: feature {self.feature!r} not found on the part's mesh: {self.reason}"
 
 
-class _Rays:
+class MeshRays:
     """First hits on a mesh (both faces), distances in mm."""
 
     def __init__(self, mesh: trimesh.Trimesh):
@@ -92,6 +92,10 @@ class _Rays:
 
     def first(self, origins: FloatArray, dirs: FloatArray) -> FloatArray:
         """(n,) distance along unit `dirs` (n, 3) from `origins` (n, 3) to the first face; inf: none."""
+        return self.hits(origins, dirs)[0]
+
+    def hits(self, origins: FloatArray, dirs: FloatArray) -> tuple[FloatArray, NDArray[np.int64]]:
+        """(n,) distances as :meth:`first`, and (n,) the faces hit (-1: none)."""
         origins = np.atleast_2d(np.asarray(origins, dtype=float))
         dirs = np.atleast_2d(np.asarray(dirs, dtype=float))
         origins = np.broadcast_to(origins, dirs.shape).copy() if len(origins) == 1 else origins
@@ -103,10 +107,10 @@ class _Rays:
         with np.errstate(divide="ignore", invalid="ignore"):
             out[hit] = np.abs(np.einsum("ij,ij->i", nf, self.anchor[face[hit]] - origins[hit])
                               / np.einsum("ij,ij->i", nf, dirs[hit]))
-        return out
+        return out, face
 
 
-def _basis(n: FloatArray) -> tuple[FloatArray, FloatArray]:
+def basis(n: FloatArray) -> tuple[FloatArray, FloatArray]:
     """Two unit vectors across unit `n`, with `n` a right-handed frame."""
     a = np.array([1.0, 0.0, 0.0]) if abs(n[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
     u = np.cross(n, a)
@@ -114,13 +118,13 @@ def _basis(n: FloatArray) -> tuple[FloatArray, FloatArray]:
     return u, np.cross(n, u)
 
 
-def _ring(n: FloatArray, count: int = RAYS) -> FloatArray:
-    u, v = _basis(n)
+def ring(n: FloatArray, count: int = RAYS) -> FloatArray:
+    u, v = basis(n)
     t = np.linspace(0.0, 2 * math.pi, count, endpoint=False)
     return np.cos(t)[:, None] * u + np.sin(t)[:, None] * v
 
 
-def _find_hole(rays: _Rays, fid: str, specs: Sequence[MeasurementSpec]) -> Hole | str:
+def _find_hole(rays: MeshRays, fid: str, specs: Sequence[MeasurementSpec]) -> Hole | str:
     centred = [s for s in specs if s.kind in (K.HOLE_DIAMETER, K.HOLE_POSITION)]
     if not centred:
         return ("an edge distance needs its hole's diameter or position spec: their point is the hole's "
@@ -128,7 +132,7 @@ def _find_hole(rays: _Rays, fid: str, specs: Sequence[MeasurementSpec]) -> Hole 
     s = centred[0]
     c, n = np.asarray(s.point, dtype=float), np.asarray(s.normal, dtype=float)
     n = n / np.linalg.norm(n)
-    radial = _ring(n)
+    radial = ring(n)
     size = float(np.max(rays.mesh.extents))
     radii = rays.first(c - INSIDE_MM * n, radial)
     if not np.all(np.isfinite(radii)) or float(radii.max()) > size / 2:
@@ -144,13 +148,13 @@ def _find_hole(rays: _Rays, fid: str, specs: Sequence[MeasurementSpec]) -> Hole 
     if nominal is not None and abs(2 * r_circle - nominal) > max(0.1, DIAMETER_SHARE * nominal):
         return (f"the mesh's hole at {_xyz(c)} is {2 * r_circle:.3f} mm across; its diameter spec says "
                 f"{nominal:.3f} mm")
-    ring = c + (r_circle + 1.0) * radial
-    to_face = rays.first(ring + 2.0 * n, np.broadcast_to(-n, ring.shape))
+    around = c + (r_circle + 1.0) * radial
+    to_face = rays.first(around + 2.0 * n, np.broadcast_to(-n, around.shape))
     on_face = np.abs(to_face - 2.0) < FACE_MM
     if on_face.mean() < 0.5:
         return (f"no entry face around the hole at {_xyz(c)}: the point must be the hole's centre on the face "
                 f"it is drilled from (normal out of that face)")
-    through = rays.first(ring[on_face] - 0.01 * n, np.broadcast_to(-n, ring[on_face].shape))
+    through = rays.first(around[on_face] - 0.01 * n, np.broadcast_to(-n, around[on_face].shape))
     bore = rays.first((c + n)[None], (-n)[None])[0] - 1.0
     depth = float(min(np.median(through[np.isfinite(through)]) + 0.01 if np.isfinite(through).any() else bore, bore))
     if not math.isfinite(depth) or depth <= 0:
@@ -159,9 +163,9 @@ def _find_hole(rays: _Rays, fid: str, specs: Sequence[MeasurementSpec]) -> Hole 
                 round(depth, 6), parent="")
 
 
-def _polygon_sides(rays: _Rays, p: FloatArray, n: FloatArray, r: float) -> int:
+def _polygon_sides(rays: MeshRays, p: FloatArray, n: FloatArray, r: float) -> int:
     """Sides of a polygonal bore (its radii dip between corners); a large count for a true circle."""
-    d = rays.first(p, _ring(n, 360))
+    d = rays.first(p, ring(n, 360))
     if not np.all(np.isfinite(d)):
         return 10_000
     x = d - d.mean()
@@ -171,7 +175,7 @@ def _polygon_sides(rays: _Rays, p: FloatArray, n: FloatArray, r: float) -> int:
     return int(np.argmax(spectrum[3:]) + 3)
 
 
-def _across(rays: _Rays, p: FloatArray, given: FloatArray | None, limit: float) -> tuple[FloatArray, float, float] | str:
+def _across(rays: MeshRays, p: FloatArray, given: FloatArray | None, limit: float) -> tuple[FloatArray, float, float] | str:
     """The direction across a wall-like feature at top point p (n = +Z) and the distances to its
     two side faces (+u, -u) from just inside the top; the narrowest direction when none is given."""
     start = p - np.array([0.0, 0.0, INSIDE_MM])
@@ -190,7 +194,7 @@ def _across(rays: _Rays, p: FloatArray, given: FloatArray | None, limit: float) 
     return dirs[k], float(d[k]), float(d[len(t) + k])
 
 
-def _find_rib(rays: _Rays, fid: str, specs: Sequence[MeasurementSpec]) -> Stiffener | str:
+def _find_rib(rays: MeshRays, fid: str, specs: Sequence[MeasurementSpec]) -> Stiffener | str:
     s = specs[0]
     p, n = np.asarray(s.point, dtype=float), np.asarray(s.normal, dtype=float)
     if n[2] < UP_COS:
@@ -214,7 +218,7 @@ def _find_rib(rays: _Rays, fid: str, specs: Sequence[MeasurementSpec]) -> Stiffe
                      round(float(p[2]), 6))
 
 
-def _find_flange(rays: _Rays, fid: str, specs: Sequence[MeasurementSpec]) -> FlangeSegment | str:
+def _find_flange(rays: MeshRays, fid: str, specs: Sequence[MeasurementSpec]) -> FlangeSegment | str:
     s = next((x for x in specs if x.direction is not None), specs[0])
     p, n = np.asarray(s.point, dtype=float), np.asarray(s.normal, dtype=float)
     if n[2] < UP_COS:
@@ -247,7 +251,7 @@ def _find_flange(rays: _Rays, fid: str, specs: Sequence[MeasurementSpec]) -> Fla
                          round(wall, 6), round(float(cap_width), 6), round(cap_thickness, 6))
 
 
-def _thickness_problem(rays: _Rays, s: MeasurementSpec) -> str:
+def _thickness_problem(rays: MeshRays, s: MeasurementSpec) -> str:
     """Why a thickness spec cannot be measured by the gauge along its normal ("" when it
     can): no face at the point, no back wall within the gauge's range, or a back wall not
     parallel to the face (the gauge reads the nearest back wall in its beam, not the
@@ -288,7 +292,7 @@ def infer_features(mesh: trimesh.Trimesh, specs: Sequence[MeasurementSpec],
     thickness = [s for s in specs if s.kind in THICKNESS_KINDS] if not known else []
     if not by_feature and not thickness:
         return (), ()
-    rays = _Rays(mesh)
+    rays = MeshRays(mesh)
     found: list[Feature] = []
     missing: list[NotFound] = [NotFound(s.id, s.feature, why, thickness=True) for s in thickness
                                if (why := _thickness_problem(rays, s))]

@@ -258,9 +258,9 @@ def mesh_values(mesh: trimesh.Trimesh, specs: Sequence[MeasurementSpec], feature
     to the face's edge along the spec's direction, a height from the top face under the
     point, a width across it, a thickness through it.  Specs whose geometry the rays do not
     find are left out (scored as having no truth)."""
-    from ita.part.infer import INSIDE_MM, _Rays, _ring
+    from ita.part.infer import INSIDE_MM, MeshRays, ring
 
-    rays = _Rays(mesh)
+    rays = MeshRays(mesh)
     out: dict[str, float] = {}
     circles: dict[str, tuple[np.ndarray, float, np.ndarray]] = {}
 
@@ -268,7 +268,7 @@ def mesh_values(mesh: trimesh.Trimesh, specs: Sequence[MeasurementSpec], feature
         if h.id not in circles:
             n = np.asarray(h.axis, dtype=float)
             c = np.asarray(h.center, dtype=float) - min(INSIDE_MM, h.depth / 2) * n
-            radial = _ring(n, 720)
+            radial = ring(n, 720)
             d = rays.first(c, radial)
             if not np.all(np.isfinite(d)):
                 return None
@@ -363,14 +363,14 @@ def perturbed_asbuilt(mesh: trimesh.Trimesh, specs: Sequence[MeasurementSpec], f
             ang = float(rng.uniform(0, 2 * math.pi))
             r = size * mine[K.HOLE_POSITION].upper / 2
             devs[hid]["du"], devs[hid]["dv"] = r * math.cos(ang), r * math.sin(ang)
-    from ita.part.infer import _basis, _Rays
+    from ita.part.infer import MeshRays, basis
 
-    rays = _Rays(mesh)
+    rays = MeshRays(mesh)
     plugs, cutters, statement = [], [], {}
     for h in holes:
         n = np.asarray(h.axis, dtype=float)
         c = np.asarray(h.center, dtype=float)
-        u, v = _basis(n)
+        u, v = basis(n)
         d = devs[h.id]
         r = h.diameter / 2
         through = float(rays.first((c + n)[None], (-n)[None])[0]) > h.depth + 1.5

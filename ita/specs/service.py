@@ -33,9 +33,7 @@ def validate_file(part: PartLike, path: Path | None = None,
                   max_distance: float = DEFAULT_MAX_DISTANCE_MM) -> int:
     """Validate a specs file (default: the part's own) against the part; returns the count."""
     table = read_spec_table(Path(path) if path is not None else part.specs_path)
-    if not table.specs:
-        raise InputError([(Location(str(table.path), 2), "no specs: the file has its header row and nothing to "
-                                                         "measure (add rows, or `ita spec add`)")])
+    _require_specs(table)
     problems = check_on_surface(table.specs, part.mesh, str(table.path), table.lines, max_distance)
     if not problems:
         problems = feature_problems(part, table.specs, str(table.path), table.lines)
@@ -48,14 +46,30 @@ def feature_problems(part: PartLike, specs: Sequence[MeasurementSpec], file: str
                      lines: Sequence[int] | None = None) -> list[tuple[Location, str]]:
     """Problems for the SLRA's specs whose feature neither the part's features.json has nor
     its mesh shows at the spec's point (ita.part.infer), naming the feature field."""
+    return _unfound_problems(_unfound(part, specs), specs, file, lines)
+
+
+def _unfound(part: PartLike, specs: Sequence[MeasurementSpec]) -> tuple:
+    """ita.part.infer.NotFound of `specs` against the part's features.json and its mesh."""
     from ita.part.infer import infer_features
 
     found = set(getattr(part, "found", ()))
     known = {f.id: f for f in getattr(part, "features", ()) if f.id not in found}
-    _, unfound = infer_features(part.mesh, specs, known)
+    return infer_features(part.mesh, specs, known)[1]
+
+
+def _unfound_problems(unfound, specs: Sequence[MeasurementSpec], file: str,
+                      lines: Sequence[int] | None) -> list[tuple[Location, str]]:
+    """The problems of ita.part.infer.NotFound records, at their specs' lines."""
     line_of = {s.id: (lines[i] if lines is not None else 0) for i, s in enumerate(specs)}
     return [(Location(file, line_of.get(n.spec_id, 0), field="x" if n.thickness else "feature"), n.message)
             for n in unfound]
+
+
+def _require_specs(table) -> None:
+    if not table.specs:
+        raise InputError([(Location(str(table.path), 2), "no specs: the file has its header row and nothing to "
+                                                         "measure (add rows, or `ita spec add`)")])
 
 
 def check_measurable(part: PartLike) -> None:
@@ -63,24 +77,18 @@ def check_measurable(part: PartLike) -> None:
     features its mesh does not show (the part's `unfound`, ita.part.infer): the quick checks
     a run makes before any work (`validate_file` makes them all)."""
     table = read_spec_table(part.specs_path)
-    if not table.specs:
-        raise InputError([(Location(str(table.path), 2), "no specs: the file has its header row and nothing to "
-                                                         "measure (add rows, or `ita spec add`)")])
+    _require_specs(table)
     unfound = getattr(part, "unfound", ())
     if unfound:
-        line_of = {s.id: table.lines[i] for i, s in enumerate(table.specs)}
-        raise InputError([(Location(str(table.path), line_of.get(n.spec_id, 0), field="x" if n.thickness else "feature"),
-                           n.message) for n in unfound])
+        raise InputError(_unfound_problems(unfound, table.specs, str(table.path), table.lines))
 
 
 def _save(part: PartLike, specs: Sequence[MeasurementSpec], changed: Sequence[MeasurementSpec],
           origin: str, lines: Sequence[int] | None, max_distance: float) -> None:
     problems = check_on_surface(changed, part.mesh, origin, lines, max_distance, context=specs)
     if not problems:
-        ids = {s.id for s in changed}
-        at = {s.id: i for i, s in enumerate(changed)}
-        problems = [(Location(origin, lines[at[p.split(":")[0]]] if lines is not None else 0, field="feature"), p)
-                    for _, p in feature_problems(part, specs, origin) if p.split(":")[0] in ids]
+        ids = {s.id for s in changed}               # a feature is found from all its specs
+        problems = _unfound_problems([n for n in _unfound(part, specs) if n.spec_id in ids], changed, origin, lines)
     if problems:
         raise InputError(problems)
     write_specs(part.specs_path, specs)

@@ -217,25 +217,17 @@ class MeshFloor:
     """Heights of a nominal mesh's upward faces seen from above (mm, part frame)."""
 
     def __init__(self, mesh: Any):
-        import trimesh
+        from ita.part.infer import MeshRays
 
         self.top = float(np.asarray(mesh.bounds)[1, 2]) + 10.0
-        self.normals = np.asarray(mesh.face_normals, dtype=float)
-        try:
-            self.rays = trimesh.ray.ray_pyembree.RayMeshIntersector(mesh)
-        except Exception:  # no embree
-            self.rays = trimesh.ray.ray_triangle.RayMeshIntersector(mesh)
-        self.mesh = mesh
+        self.rays = MeshRays(mesh)
 
     def height(self, xy: FloatArray) -> float | None:
         """Height (mm) of the first face met straight down at part point (2,), if it faces up."""
-        o = np.array([[float(xy[0]), float(xy[1]), self.top]])
-        face = int(self.rays.intersects_first(o, np.array([[0.0, 0.0, -1.0]]))[0])
-        if face < 0 or self.normals[face, 2] < 0.99:
+        dist, face = self.rays.hits(np.array([[float(xy[0]), float(xy[1]), self.top]]), np.array([[0.0, 0.0, -1.0]]))
+        if face[0] < 0 or self.rays.normals[face[0], 2] < 0.99:
             return None
-        tri = np.asarray(self.mesh.triangles[face], dtype=float)
-        n = self.normals[face]
-        return float(tri[0, 2] - (n[0] * (xy[0] - tri[0, 0]) + n[1] * (xy[1] - tri[0, 1])) / n[2])
+        return self.top - float(dist[0])
 
 
 def fastener_neighbours(hole: Hole, ctx: VisionContext, within: float) -> list[Hole]:

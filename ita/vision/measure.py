@@ -77,6 +77,7 @@ from dataclasses import replace
 import numpy as np
 from numpy.typing import NDArray
 
+from ita.part.infer import basis
 from ita.part.model import Hole
 from ita.sensors.slra_frame import RangeFrame
 from ita.specs.model import MeasurementKind as K
@@ -114,10 +115,7 @@ def along_axis(ctx: VisionContext, spec: MeasurementSpec, hole: Hole) -> tuple[V
     measurers see every face along +Z): the part frame turned by R (columns: two axes
     across the hole's, then its axis), with the holes drilled into the same face."""
     n = np.asarray(hole.axis, dtype=float)
-    a = np.array([1.0, 0.0, 0.0]) if abs(n[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-    u = np.cross(n, a)
-    u /= np.linalg.norm(u)
-    rot = np.column_stack([u, np.cross(n, u), n])            # local -> part
+    rot = np.column_stack([*basis(n), n])                    # local -> part
 
     def local(p: Sequence[float]) -> tuple[float, float, float]:
         x = rot.T @ np.asarray(p, dtype=float)
