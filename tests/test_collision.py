@@ -169,6 +169,40 @@ def test_part_cover_is_conservative(cell, part, source):
         assert len(probe) > 100 and t.points_hit(probe).all()
 
 
+def _flanged_channel(turn_deg: float) -> trimesh.Trimesh:
+    """A web 2.5 mm thick, a wall 4 mm thick and 45 mm tall on its edge and a cap 3.2 mm
+    thick overhanging the web by 28 mm at the wall's top, turned about z (slanted faces)."""
+    web = trimesh.creation.box([200.0, 200.0, 2.5], trimesh.transformations.translation_matrix([0, 0, 1.25]))
+    wall = trimesh.creation.box([4.0, 200.0, 45.0], trimesh.transformations.translation_matrix([-98.0, 0, 22.5]))
+    cap = trimesh.creation.box([32.0, 200.0, 3.2], trimesh.transformations.translation_matrix([-84.0, 0, 43.4]))
+    solid = trimesh.boolean.union([web, wall, cap], engine="manifold")
+    solid.apply_transform(trimesh.transformations.rotation_matrix(np.radians(turn_deg), [0, 0, 1]))
+    return solid
+
+
+@pytest.mark.parametrize("turn_deg", [0.0, 30.0])
+def test_mesh_cover_is_sound_and_leaves_room_beside_an_overhang(turn_deg):
+    """The cover holds every point of the solid, and a probe's shaft (radius 8 mm) going
+    down to the web 10 mm beside the cap's edge (its surface 18 mm away) is free of it,
+    margin included: no box fills the empty corner under the cap or where the web meets
+    the wall, and boxes over slanted faces lie along them."""
+    solid = _flanged_channel(turn_deg)
+    t = RegionTree()
+    t.add("part", mesh_regions(solid, 2.0, cell_mm=40.0))
+    rng = np.random.default_rng(3)
+    surface, _ = trimesh.sample.sample_surface(solid, 20000, seed=4)
+    interior = rng.uniform(*solid.bounds, (40000, 3))
+    interior = interior[solid.contains(interior)]
+    assert len(interior) > 1000
+    assert t.points_hit(np.vstack([surface, interior, solid.vertices])).all()
+    turn = trimesh.transformations.rotation_matrix(np.radians(turn_deg), [0, 0, 1])[:3, :3]
+    ys = np.linspace(-80.0, 80.0, 9)
+    for x in (-68.0 + 10.0 + 8.0, 0.0):          # 10 mm beside the cap's edge; mid-web
+        a = np.column_stack([np.full(9, x), ys, np.full(9, 2.5 + 2.0 + 8.0 + 0.5)]) @ turn.T
+        b = np.column_stack([np.full(9, x), ys, np.full(9, 120.0)]) @ turn.T
+        assert not t.tubes_hit(a, b, np.full(9, 8.0)).any()
+
+
 def test_updates_move_add_and_remove_without_rebuild(cell, part, tree):
     t = build_tree(cell, part)
     tool = cell.tool("us_probe_1")

@@ -11,16 +11,8 @@ Every point of the real geometry lies inside some solid region:
   every box grown by `margin_mm` (default 2 mm) on every side.  Holes are not carved out
   (a lightening hole counts as solid web; conservative).
 - A user part without features (or with features found on its mesh, which are only the
-  specs'), from its mesh (`mesh_regions`): the mesh's bounding box is cut into cubes of
-  `cell_mm` (`mesh_cell`: 40 mm, finer for a small part); a cube that any triangle's
-  bounding box touches becomes the box bounding that cube's share of the triangles'
-  boxes and of its corners that lie inside the solid; a cube with no triangle becomes a
-  whole box if it lies inside the solid (a watertight mesh; without one, touched cubes
-  are kept whole).  A cube whose surface pieces face different ways is covered again by
-  its eight halves (`REFINE_LEVELS` times at most).  Grown by `margin_mm`.  Soundness:
-  the part of the solid inside a cube is bounded by its surface pieces and its inside
-  corners.  Looseness: up to a cube's width where a slanted or curved edge crosses it
-  (a probe beside a flange cap's rounded corner can find its contact blocked).
+  specs'), from its mesh: `mesh_cover.mesh_regions`, boxes around the mesh's surface
+  pieces cube by cube, grown by `margin_mm`.
 
 Parts are placed with the workcell's PartPlacement (mm to world metres).
 """
@@ -34,6 +26,7 @@ import manifold3d as m3d
 import numpy as np
 from numpy.typing import NDArray
 
+from ita.collision.mesh_cover import mesh_cell, mesh_regions
 from ita.collision.tree import Regions, RegionTree
 from ita.part import geometry2d as g2
 from ita.part.model import FlangeSegment, Pocket, Stiffener
@@ -45,11 +38,6 @@ FloatArray = NDArray[np.float64]
 PART_MARGIN_MM = 2.0      # growth of every part region, mm
 WEB_TILE_MM = 100.0       # web tiles' grid
 CHAIN_SLACK_MM = 1.0      # how much wider than the strip a flange chain box may be
-MESH_CELL_MM = 40.0       # largest cubes of a user part's mesh cover
-MESH_CELLS_ACROSS = 20    # a smaller part's cubes: its largest extent over this (a curved surface's boxes
-MIN_MESH_CELL_MM = 4.0    # bulge by their sagitta), down to this
-REFINE_LEVELS = 2         # a loose cube is covered again by its eight halves this many times at most
-LOOSE_SPREAD = 0.5        # a cube's surface normals spreading this much (|max - min|) make it loose
 
 
 def _boxes_2d(centres: list, axes: list, lengths: list, widths: list, z0: list, z1: list,
@@ -148,119 +136,6 @@ def feature_regions(features: Sequence[Any], margin_mm: float = PART_MARGIN_MM, 
     return Regions.concat([web_tiles(features, tile_mm, margin_mm), walls])
 
 
-def mesh_regions(mesh: Any, margin_mm: float = PART_MARGIN_MM, cell_mm: float = MESH_CELL_MM,
-                 refine: int = REFINE_LEVELS) -> Regions:
-    """Solid boxes (mesh frame and units) covering a triangle mesh's solid (see the module
-    docstring), each grown by margin_mm.  A cube whose surface pieces face different ways
-    (a floor meeting a wall: its box would fill the empty corner between them) is covered
-    again by its eight sub-cubes, `refine` times at most."""
-    verts = np.asarray(mesh.vertices, dtype=float)
-    faces = np.asarray(mesh.faces)
-    edges = np.linalg.norm(verts[faces] - verts[np.roll(faces, 1, axis=1)], axis=2)
-    if len(faces) and float(edges.max()) > cell_mm:   # a triangle's box spans no more than a cube
-        import trimesh
-
-        verts, faces = trimesh.remesh.subdivide_to_size(verts, faces, max_edge=cell_mm)
-    tri = verts[np.asarray(faces)]
-    normals = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
-    normals /= np.maximum(np.linalg.norm(normals, axis=1, keepdims=True), 1e-12)
-    # grid origin off any round coordinate, so that grid corners avoid axis-aligned faces
-    origin = verts.min(axis=0) - 0.2718281828 * cell_mm
-    watertight = bool(getattr(mesh, "is_watertight", False))
-    los, his = [], []
-    parents: NDArray[np.int64] | None = None            # the loose cubes of the level above (their index there)
-    cell = cell_mm
-    for level in range(refine + 1):
-        lo, hi, loose, idx = _cover_level(mesh, tri, normals, origin, cell, watertight, parents)
-        last = level == refine
-        keep = np.ones(len(lo), dtype=bool) if last else ~loose
-        los.append(lo[keep])
-        his.append(hi[keep])
-        if last or not loose.any():
-            break
-        parents = idx[loose]
-        cell /= 2.0
-    lo, hi = np.vstack(los), np.vstack(his)
-    return Regions.boxes((lo + hi) / 2, np.eye(3), hi - lo, margin_mm)
-
-
-def _cover_level(mesh: Any, tri: FloatArray, normals: FloatArray, origin: FloatArray, cell_mm: float,
-                 watertight: bool, parents: NDArray[np.int64] | None
-                 ) -> tuple[FloatArray, FloatArray, NDArray[np.bool_], NDArray[np.int64]]:
-    """One level of the mesh's cover: the boxes (lo, hi) of the cubes of `cell_mm` (the
-    touched ones and the whole ones inside), whether each is loose (its surface pieces'
-    normals spread more than LOOSE_SPREAD), and each cube's grid index (n, 3).  parents:
-    only the cubes inside these cubes of twice the size (grid indices at that level)."""
-    shape = np.floor((tri.max(axis=(0, 1)) - origin) / cell_mm).astype(np.int64) + 1
-    tlo, thi = tri.min(axis=1), tri.max(axis=1)
-    i0 = np.floor((tlo - origin) / cell_mm).astype(np.int64)
-    i1 = np.floor((thi - origin) / cell_mm).astype(np.int64)
-    allowed = None
-    if parents is not None:
-        allowed = np.zeros(tuple((shape + 1) // 2 + 1), dtype=bool)
-        allowed[parents[:, 0], parents[:, 1], parents[:, 2]] = True
-        near = allowed[tuple((np.clip(i0 // 2, 0, None)).T)] | allowed[tuple((np.clip(i1 // 2, 0, None)).T)]
-        span_parent = (i1 // 2 - i0 // 2).max(axis=1) > 0
-        use = near | span_parent
-        tri, normals, tlo, thi, i0, i1 = tri[use], normals[use], tlo[use], thi[use], i0[use], i1[use]
-    span = i1 - i0 + 1
-    counts = span.prod(axis=1)
-    tri_of = np.repeat(np.arange(len(tri)), counts)
-    k = np.arange(counts.sum()) - np.repeat(np.cumsum(counts) - counts, counts)
-    sy, sz = span[tri_of, 1], span[tri_of, 2]
-    cells = i0[tri_of] + np.column_stack([k // (sy * sz), (k // sz) % sy, k % sz])
-    if allowed is not None:
-        inside_parent = allowed[cells[:, 0] // 2, cells[:, 1] // 2, cells[:, 2] // 2]
-        cells, tri_of = cells[inside_parent], tri_of[inside_parent]
-    key = np.ravel_multi_index(cells.T, shape)
-    keys, inv = np.unique(key, return_inverse=True)
-    lo = np.full((len(keys), 3), np.inf)
-    hi = np.full((len(keys), 3), -np.inf)
-    np.minimum.at(lo, inv, tlo[tri_of])
-    np.maximum.at(hi, inv, thi[tri_of])
-    n_lo = np.full((len(keys), 3), np.inf)
-    n_hi = np.full((len(keys), 3), -np.inf)
-    np.minimum.at(n_lo, inv, normals[tri_of])
-    np.maximum.at(n_hi, inv, normals[tri_of])
-    loose = np.linalg.norm(n_hi - n_lo, axis=1) > LOOSE_SPREAD
-    idx = np.column_stack(np.unravel_index(keys, shape))
-    cell_lo = origin + idx * cell_mm
-    cell_hi = cell_lo + cell_mm
-    if not watertight:
-        return cell_lo, cell_hi, loose, idx
-    gshape = shape + 1
-    octants = np.stack(np.meshgrid([0, 1], [0, 1], [0, 1], indexing="ij"), axis=-1).reshape(-1, 3)
-    if allowed is None:
-        grid = np.stack(np.meshgrid(*(np.arange(s) for s in gshape), indexing="ij"), axis=-1).reshape(-1, 3)
-    else:                        # only the corners of the cubes inside the loose parents
-        children = (parents[:, None, :] * 2 + octants[None]).reshape(-1, 3)
-        children = children[np.all(children < shape, axis=1)]
-        grid = np.unique((children[:, None, :] + octants[None]).reshape(-1, 3), axis=0)
-    inside = np.zeros(tuple(gshape), dtype=bool)
-    if len(grid):
-        inside[grid[:, 0], grid[:, 1], grid[:, 2]] = np.asarray(mesh.contains(origin + grid * cell_mm), dtype=bool)
-    for corner in octants:
-        c = idx + corner
-        inn = inside[c[:, 0], c[:, 1], c[:, 2]]
-        p = origin + c * cell_mm
-        lo[inn] = np.minimum(lo[inn], p[inn])
-        hi[inn] = np.maximum(hi[inn], p[inn])
-    lo, hi = np.maximum(lo, cell_lo), np.minimum(hi, cell_hi)
-    # cubes with no triangle lie wholly inside or outside: whole boxes if inside
-    touched = np.zeros(tuple(shape), dtype=bool)
-    touched[idx[:, 0], idx[:, 1], idx[:, 2]] = True
-    whole = ~touched & inside[:-1, :-1, :-1]
-    if allowed is not None:
-        a = np.indices(tuple(shape)).reshape(3, -1).T
-        whole &= allowed[a[:, 0] // 2, a[:, 1] // 2, a[:, 2] // 2].reshape(tuple(shape))
-    full = np.argwhere(whole)
-    lo = np.vstack([lo, origin + full * cell_mm])
-    hi = np.vstack([hi, origin + (full + 1) * cell_mm])
-    idx = np.vstack([idx, full])
-    loose = np.concatenate([loose, np.zeros(len(full), dtype=bool)])
-    return lo, hi, loose, idx
-
-
 def part_regions(part: Any, margin_mm: float = PART_MARGIN_MM) -> Regions:
     """Solid regions (part frame, mm) of a loaded Part: from its features when they describe
     the whole part (a features.json of the generator's), else from its mesh (features found
@@ -268,13 +143,6 @@ def part_regions(part: Any, margin_mm: float = PART_MARGIN_MM) -> Regions:
     if any(isinstance(f, FlangeSegment) for f in part.features) and not getattr(part, "found", ()):
         return feature_regions(part.features, margin_mm)
     return mesh_regions(part.mesh, margin_mm, mesh_cell(part.mesh))
-
-
-def mesh_cell(mesh: Any) -> float:
-    """The cube size (mm) of a part mesh's cover: MESH_CELL_MM for a large part, finer for a
-    small one (at least MESH_CELLS_ACROSS cubes across it, at most MIN_MESH_CELL_MM)."""
-    size = float(np.max(np.asarray(mesh.extents, dtype=float)))
-    return float(np.clip(size / MESH_CELLS_ACROSS, MIN_MESH_CELL_MM, MESH_CELL_MM))
 
 
 def placement_pose(placement: PartPlacement) -> np.ndarray:

@@ -90,17 +90,18 @@ def mkb_digest(specs_digest: str, cell: Workcell) -> str:
     """Digest of what an MKB depends on: the specs (their file's digest), the workcell,
     Vision's rules for a frame's window and pixels (the source of ita.vision.scan and of
     the context it asks, ita.vision.context) and the part's collision model's rules
-    (ita.collision.build), so a changed rule never meets a stored MKB made with the old one.
+    (ita.collision.build and its mesh cover, ita.collision.mesh_cover), so a changed rule never meets a stored MKB made with the old one.
     (The part's mesh is in the store's key, ita.part.store.part_key.)"""
     from pathlib import Path
 
     import ita.collision.build as collision_rules
+    import ita.collision.mesh_cover as cover_rules
     import ita.vision.context as context_rules
     import ita.vision.scan as scan_rules
 
     raster = f"{MIN_HOLE_PIXELS},{RASTER_STEP},{MAX_RASTER},{SHORT_APPROACH_M},{COUPLANT_OFFSET_M},{APPROACH_MARGIN_M}"
     rules = hashlib.sha256(b"".join(Path(m.__file__).read_bytes()
-                                    for m in (scan_rules, context_rules, collision_rules))).hexdigest()
+                                    for m in (scan_rules, context_rules, collision_rules, cover_rules))).hexdigest()
     text = f"{MKB_VERSION}|{PRESS_M}|{GROUP_GROWTH}|{raster}|{rules}|{specs_digest}|{cell!r}"
     return hashlib.sha256(text.encode()).hexdigest()
 
