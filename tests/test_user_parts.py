@@ -16,6 +16,7 @@ from user_parts import make_plate
 from ita.cli import main
 from ita.part.model import Hole, HoleRole
 from ita.part.store import load_part, part_key
+from ita.specs.io import read_specs
 from ita.vision.measure import along_axis
 
 
@@ -116,6 +117,11 @@ def test_an_asbuilt_plate_calibrated_on_its_master_is_scored_without_false_accep
         assert truth[f"HD-{hid}"] == pytest.approx((8.0 if hid[0] == "W" else 4.0 if hid[0] == "T" else 6.0)
                                                    + dev["diameter_change_mm"], abs=0.002)
     assert len(statement["pushed_out_of_tolerance"]) == 2
+    nominal = {s.id: s.nominal for s in read_specs(part / "specs.csv")}
+    moved = {sid: face["offset_mm"] for face in statement["faces"].values() for sid in face["specs"]}
+    assert {"WT-1", "WT-3", "SH-R1-1", "SW-R1-1"} <= set(moved)   # the web, the rib's top and side
+    for sid in ("WT-1", "WT-3", "SH-R1-1", "SW-R1-1"):
+        assert moved[sid] != 0.0 and truth[sid] == pytest.approx(nominal[sid] + moved[sid], abs=1e-4)
     again = run("part", "asbuilt", "--part", str(part), "--seed", "4")
     assert again.exit_code == 2 and "already has an as-built mesh" in again.output
     result = run("part", "calibrate", "--part", str(part), "--repeats", "3")
@@ -183,7 +189,8 @@ def test_a_package_mesh_scaled_to_millimetres_is_inspected_and_reported(tmp_path
 def test_a_smaller_bulkhead_from_its_mesh_and_specs_only(tmp_path, ita_home):
     """`ita part new` with another seed and size, given as a user would: its mesh and specs
     only (no features.json, part.json or truth); an as-built made by `ita part asbuilt`.
-    The first 150 measurements of the sequence: no false accept, coverage of U."""
+    The first 150 measurements of the sequence: none cannot be done, no false accept,
+    coverage of U."""
     from test_cli_part import small_bulkhead_params
 
     from ita.paths import resource_dir
@@ -202,6 +209,8 @@ def test_a_smaller_bulkhead_from_its_mesh_and_specs_only(tmp_path, ita_home):
     assert result.exit_code == 0, result.output
     rows = json.loads(run("results", "--runs-dir", str(runs), "last", "--json").output)["results"]
     truth = true_values(part)
+    # its path planner's model is the mesh's cover: nothing beside a wall or under a cap is blocked
+    assert [r["spec_id"] for r in rows if r["decision"] == "cannot_be_done"] == []
     measured = [r for r in rows if r["value"] is not None]
     assert len(measured) >= 140
     for r in measured:

@@ -146,11 +146,12 @@ def calibrate(part_dir: Path | None, repeats: int, seed: int) -> None:
 @click.option("--spread", type=float, default=0.25, show_default=True,
               help="One sigma of a deviation as a share of its tolerance.")
 @click.option("--out-of-tolerance", type=float, default=0.05, show_default=True,
-              help="Share of the holes pushed 1.15 to 1.6 tolerances off.")
+              help="Share of the holes, and of the faces, pushed 1.15 to 1.6 tolerances off.")
 @reports_errors
 def asbuilt(part_dir: Path | None, seed: int, spread: float, out_of_tolerance: float) -> None:
     """Make an as-built part of your own part for the simulated cell: every hole its specs
-    name redrilled off nominal (diameter and position, seeded draws), written as
+    name redrilled off nominal (diameter and position, seeded draws) and every flat face
+    its thicknesses, heights and widths end on moved along its normal, written as
     asbuilt.stl beside the nominal mesh with the statement of what was done in
     asbuilt.json.  Runs then inspect the as-built part, and reports score the results
     against its own values.  An existing asbuilt.* is never overwritten."""

@@ -336,8 +336,10 @@ def perturbed_asbuilt(mesh: trimesh.Trimesh, specs: Sequence[MeasurementSpec], f
     spec's tolerance: the diameter's half band, the position zone's radius / sqrt 2 per
     axis, clipped to 0.9 of it), and a seeded `out_of_tolerance` share of them pushed 1.15
     to 1.6 tolerances off, as the generator does for its bulkheads.  The hole is filled
-    (a plug a little wider than it, over its depth) and cut again.  Returns the mesh and
-    the statement of what was done (per hole: the diameter change and the shift, mm)."""
+    (a plug a little wider than it, over its depth) and cut again.  Then the flat faces the
+    thickness, height and width specs end on are moved off nominal the same way
+    (ita.part.faces.offset_faces).  Returns the mesh and the statement of what was done
+    (per hole: the diameter change and the shift, mm; per face: its specs and offset)."""
     rng = np.random.default_rng([seed, 3])
     by_feature: dict[str, dict[K, MeasurementSpec]] = {}
     for s in specs:
@@ -386,9 +388,13 @@ def perturbed_asbuilt(mesh: trimesh.Trimesh, specs: Sequence[MeasurementSpec], f
     made = mesh
     if holes:
         made = trimesh.boolean.union([mesh, *plugs]).difference(trimesh.boolean.union(cutters))
+    from ita.part.faces import offset_faces
+
+    made, faces = offset_faces(made, specs, np.random.default_rng([seed, 4]), spread, out_of_tolerance)
     return made, {"seed": seed, "spread": spread, "out_of_tolerance": out_of_tolerance,
-                  "pushed_out_of_tolerance": out, "holes": statement,
-                  "unchanged": "everything but the holes the specs name (their true values are the mesh's own)"}
+                  "pushed_out_of_tolerance": out, "holes": statement, "faces": faces,
+                  "unchanged": "everything but the holes the specs name and the flat faces their thicknesses, "
+                               "heights and widths end on (every true value is the mesh's own)"}
 
 
 def write_perturbed(part_dir: Path, mesh: trimesh.Trimesh, specs: Sequence[MeasurementSpec],
