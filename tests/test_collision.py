@@ -169,6 +169,37 @@ def test_part_cover_is_conservative(cell, part, source):
         assert len(probe) > 100 and t.points_hit(probe).all()
 
 
+def test_clipping_triangles_to_boxes_keeps_the_piece_inside():
+    """Clipped pieces lie in their box and their triangle's plane; a triangle inside its box
+    comes back whole, one beside it not at all; sampled points of a triangle inside the box
+    lie in the piece's hull (its box, here)."""
+    from ita.collision.mesh_cover import clip_to_boxes
+
+    rng = np.random.default_rng(5)
+    tri = rng.uniform(-1, 1, (400, 3, 3))
+    lo = rng.uniform(-1, 0, (400, 3))
+    hi = lo + rng.uniform(0.2, 1.0, (400, 3))
+    tri[0] = [[0.1, 0.1, 0.1], [0.2, 0.1, 0.1], [0.1, 0.2, 0.15]]
+    lo[0], hi[0] = np.zeros(3), np.ones(3)
+    tri[1] = tri[0] + 5.0
+    lo[1], hi[1] = np.zeros(3), np.ones(3)
+    pts, owner = clip_to_boxes(tri, lo, hi)
+    assert np.all(pts >= lo[owner] - 1e-9) and np.all(pts <= hi[owner] + 1e-9)
+    n = np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0])
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    assert np.allclose(np.einsum("ij,ij->i", n[owner], pts - tri[owner, 0]), 0.0, atol=1e-9)
+    assert np.allclose(pts[owner == 0], tri[0]) and not np.any(owner == 1)
+    w = rng.dirichlet(np.ones(3), (400, 200))
+    samples = np.einsum("tsk,tkj->tsj", w, tri)
+    for t in range(2, 400):
+        inside = np.all((samples[t] >= lo[t]) & (samples[t] <= hi[t]), axis=1)
+        if inside.any():
+            mine = pts[owner == t]
+            assert len(mine) >= 3
+            assert np.all(samples[t][inside] >= mine.min(axis=0) - 1e-9)
+            assert np.all(samples[t][inside] <= mine.max(axis=0) + 1e-9)
+
+
 def _flanged_channel(turn_deg: float) -> trimesh.Trimesh:
     """A web 2.5 mm thick, a wall 4 mm thick and 45 mm tall on its edge and a cap 3.2 mm
     thick overhanging the web by 28 mm at the wall's top, turned about z (slanted faces)."""
