@@ -1,6 +1,6 @@
 """Score one inspection run against the part's as-built truth, per measurement kind.
 
-    .venv/bin/python bench/verdicts.py RUNS_DIR[:RUN] [--part DIR] [--out FILE]
+    .venv/bin/python bench/verdicts.py RUNS_DIR[:RUN] [--part DIR] [--out FILE] [--all]
 
 For each kind (and over the whole run): counts by decision, the share uncertain and the
 share decided, false accepts and false rejects, the coverage of U (the share of results
@@ -9,7 +9,9 @@ standard deviation of the error, the standard deviation of error / U (0.5 for an
 k = 2 with normal errors) and the mean U over the tolerance zone.  The verdicts issue's
 targets are checked and printed: overall coverage 93..98 %, at least 90 % per kind, at
 most 99.5 % for a kind with 150 or more results, at most 2 % uncertain, at least 90 % of
-each kind decided, 0 false accepts.  Scoring: it reads the truth.  Figures, not
+each kind decided, 0 false accepts.  --all pools every run of the directory (a small
+part's few values per run settle no coverage; several simulator seeds do).  Scoring: it
+reads the truth.  Figures, not
 assertions; writes JSON (default bench/results/verdicts.json).
 """
 
@@ -70,17 +72,23 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("run", help="runs directory[:run] (default run: the last)")
     parser.add_argument("--part", type=Path, default=None, help="part directory (default: the run's own)")
     parser.add_argument("--out", type=Path, default=RESULTS / "verdicts.json")
+    parser.add_argument("--all", action="store_true", help="pool every run of the runs directory")
     args = parser.parse_args(argv)
     from ita.part.store import load_part
     from ita.scoring import true_values
 
     archive, run_id = _open(args.run)
+    rows, results = [], []
     with archive:
-        info = archive.run(run_id)
-        results = archive.results(run_id)
-    part_dir = args.part or (Path(info.part_dir) if info.part_dir else load_part(None).directory)
-    truth = true_values(part_dir)
-    rows = [(r, truth[r.spec_id]) for r in results if r.spec_id in truth]
+        for rid in [r.id for r in archive.runs()] if args.all else [run_id]:
+            info = archive.run(rid)
+            mine = archive.results(rid)
+            part_dir = args.part or (Path(info.part_dir) if info.part_dir else load_part(None).directory)
+            truth = true_values(part_dir)
+            rows += [(r, truth[r.spec_id]) for r in mine if r.spec_id in truth]
+            results += mine
+    if args.all:
+        run_id = f"{run_id} and every run before it in {args.run.partition(':')[0]}"
     by_kind: dict[str, list] = defaultdict(list)
     for r, t in rows:
         by_kind[r.kind or "?"].append((r, t))

@@ -6,7 +6,7 @@ workpiece of the part's nominal geometry whose dimensions are known (its calibra
 certificate; in the simulated cell, the nominal mesh, whose values exact rays give,
 ita.part.truth.mesh_values).  Each size the SLRA measures on the part (the calibrated kinds:
 hole diameters, edge distances, flange and rib widths) is measured on the master `repeats`
-times the way a run measures it (from its view group's frame, the MKB's viewing pose,
+times (more where a kind has few specs: `repeats_for`) the way a run measures it (from its view group's frame, the MKB's viewing pose,
 window and pixels), each frame after its own approach (a new draw of the arm's pose error),
 without any calibration.  Per spec: the bias (mean error), corrected in every later result of that
 spec; per kind, the residuals about each spec's bias give the scatter of one frame, and
@@ -22,7 +22,7 @@ tolerances, far smaller than the features; a perturbed as-built part measures it
 from __future__ import annotations
 
 import math
-from collections import defaultdict
+from collections import Counter, defaultdict
 from collections.abc import Callable, Sequence
 from datetime import datetime, timezone
 from typing import Any
@@ -48,6 +48,7 @@ from ita.vision.measure import measure_frames
 from ita.vision.scan import scan_for
 
 ROTATION_SIGMA = 0.05e-3   # rad: the pose error's rotation part (as bench/vision.py draws it)
+MIN_KIND_FRAMES = 32       # frames of the master per calibrated kind at least (more repeats where it has few specs)
 
 
 def master_errors(part: Any, workcell: Any, specs: Sequence[MeasurementSpec], repeats: int, seed: int,
@@ -82,8 +83,9 @@ def master_errors(part: Any, workcell: Any, specs: Sequence[MeasurementSpec], re
             key, geometry = spec.id, scan_for(spec, ctx)
             pose = measurement_poses(workcell.part, [spec.point], [spec.normal], tool, rolls=[0.0])[0, 0]
         views.setdefault(key, (pose, geometry, []))[2].append(spec)
+    per_kind = Counter(s.kind for s in todo)
     for i, (pose, geometry, members) in enumerate(views.values()):
-        for _ in range(repeats):
+        for _ in range(repeats_for(members, per_kind, repeats)):
             true_pose = pose_error(pose, rng, workcell.arm.repeatability_m / 3, ROTATION_SIGMA)
             frame = simulate_frame(scene, true_pose, geometry, params, rng, reported_pose=pose, timestamp=0.0)
             for spec in members:
@@ -95,6 +97,14 @@ def master_errors(part: Any, workcell: Any, specs: Sequence[MeasurementSpec], re
         if (i + 1) % 25 == 0 or i + 1 == len(views):
             progress(f"{i + 1}/{len(views)} views of the master measured")
     return dict(out)
+
+
+def repeats_for(members: Sequence[MeasurementSpec], per_kind: Counter, repeats: int) -> int:
+    """Frames to take of a view whose specs are `members`: `repeats`, or more where a kind
+    has few specs on the part, so that every kind's scatter and each spec's bias rest on at
+    least MIN_KIND_FRAMES frames (a few specs measured 4 times each give a scatter of 12
+    degrees of freedom and a U that falls short: the box's 4 wall widths read 3 of 4 inside)."""
+    return max([repeats] + [math.ceil(MIN_KIND_FRAMES / per_kind[s.kind]) for s in members if per_kind[s.kind]])
 
 
 def spec_classes(errors: dict[str, list[tuple[float, float]]], kind_of: dict[str, str]) -> dict[str, CalibrationClass]:
@@ -136,11 +146,13 @@ def calibrate_on_master(part: Any, workcell: Any, repeats: int = 4, seed: int = 
     specs = read_specs(part.specs_path)
     errors = master_errors(part, workcell, specs, repeats, seed, progress, mkb)
     classes = spec_classes(errors, {s.id: s.kind.value for s in specs})
+    per_kind = Counter(s.kind for s in specs if s.id in errors)
+    planned = {s.id: repeats_for([s], per_kind, repeats) for s in specs if s.id in errors}
     provenance = {"what": "SLRA calibration on the part's master (ita.sim.master): per spec, the bias measured "
                           "on the nominal part, corrected",
                   "made_by": f"ita part calibrate --repeats {repeats} --seed {seed}", "part": part.name,
                   "made": datetime.now(timezone.utc).isoformat(timespec="seconds"),
-                  "specs_measured": len(errors), "failed_frames": sum(repeats - len(v) for v in errors.values())}
+                  "specs_measured": len(errors), "failed_frames": sum(max(0, planned[k] - len(v)) for k, v in errors.items())}
     return SlraCalibration(classes, provenance)
 
 
