@@ -19,6 +19,7 @@ import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
 from ita.workcell.frames import homogeneous, rpy_to_matrix
@@ -135,17 +136,50 @@ def link_frames(model: ArmModel, q: ArrayLike) -> FloatArray:
 
     A single configuration (6,) gives (1, 8, 4, 4).
     """
-    q = _configs(q, model.dof)
-    n = len(q)
-    frames = np.empty((n, model.dof + 2, 4, 4))
-    current = np.broadcast_to(model.base, (n, 4, 4))
-    frames[:, 0] = current
-    for i in range(model.dof):
-        joint = np.broadcast_to(model.origins[i], (n, 4, 4)).copy()
-        joint[:, :3, :3] = model.origins[i][:3, :3] @ axis_rotations(model.axes[i], q[:, i])
-        current = current @ joint
-        frames[:, i + 1] = current
-    frames[:, -1] = current @ model.flange_offset
+    q = np.ascontiguousarray(_configs(q, model.dof))
+    return _link_frames_kernel(np.ascontiguousarray(model.base), np.ascontiguousarray(model.origins),
+                               np.ascontiguousarray(model.axes), np.ascontiguousarray(model.flange_offset), q)
+
+
+@njit(cache=True)
+def _link_frames_kernel(base, origins, axes, flange_offset, q):  # pragma: no cover - compiled
+    """link_frames, compiled: per configuration, the chain base @ (origin_i with its
+    rotation turned by Rodrigues about axis_i) ... @ flange_offset."""
+    n, dof = q.shape
+    frames = np.empty((n, dof + 2, 4, 4))
+    joint = np.empty((4, 4))
+    rot = np.empty((3, 3))
+    for c in range(n):
+        frames[c, 0] = base
+        for i in range(dof):
+            kx, ky, kz = axes[i, 0], axes[i, 1], axes[i, 2]
+            sa, ca = np.sin(q[c, i]), np.cos(q[c, i])
+            v = 1.0 - ca
+            # eye + s K + (1 - c) K K, K the axis's skew matrix
+            rot[0, 0] = 1.0 + v * (-kz * kz - ky * ky)
+            rot[0, 1] = -sa * kz + v * (kx * ky)
+            rot[0, 2] = sa * ky + v * (kx * kz)
+            rot[1, 0] = sa * kz + v * (kx * ky)
+            rot[1, 1] = 1.0 + v * (-kz * kz - kx * kx)
+            rot[1, 2] = -sa * kx + v * (ky * kz)
+            rot[2, 0] = -sa * ky + v * (kx * kz)
+            rot[2, 1] = sa * kx + v * (ky * kz)
+            rot[2, 2] = 1.0 + v * (-ky * ky - kx * kx)
+            for r in range(3):
+                for k in range(3):
+                    joint[r, k] = origins[i, r, 0] * rot[0, k] + origins[i, r, 1] * rot[1, k] \
+                        + origins[i, r, 2] * rot[2, k]
+                joint[r, 3] = origins[i, r, 3]
+            joint[3, 0], joint[3, 1], joint[3, 2], joint[3, 3] = 0.0, 0.0, 0.0, 1.0
+            for r in range(4):
+                for k in range(4):
+                    frames[c, i + 1, r, k] = frames[c, i, r, 0] * joint[0, k] + frames[c, i, r, 1] * joint[1, k] \
+                        + frames[c, i, r, 2] * joint[2, k] + frames[c, i, r, 3] * joint[3, k]
+        for r in range(4):
+            for k in range(4):
+                frames[c, dof + 1, r, k] = frames[c, dof, r, 0] * flange_offset[0, k] \
+                    + frames[c, dof, r, 1] * flange_offset[1, k] + frames[c, dof, r, 2] * flange_offset[2, k] \
+                    + frames[c, dof, r, 3] * flange_offset[3, k]
     return frames
 
 
