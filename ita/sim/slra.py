@@ -41,6 +41,7 @@ from typing import NamedTuple
 
 import numpy as np
 import trimesh
+from numba import njit
 from numpy.typing import NDArray
 from scipy import ndimage
 from scipy.spatial import cKDTree
@@ -137,14 +138,12 @@ class SlraScene:
         self.placement = placement
         self.n_part_faces = len(mesh_mm.faces)
         self.mesh = trimesh.util.concatenate(parts)
-        self.normals = np.asarray(self.mesh.face_normals, dtype=float)
-        self.anchor = np.asarray(self.mesh.triangles[:, 0], dtype=float)
+        self.normals = np.ascontiguousarray(self.mesh.face_normals, dtype=float)
+        self.anchor = np.ascontiguousarray(self.mesh.triangles[:, 0], dtype=float)
         self.intersector = trimesh.ray.ray_pyembree.RayMeshIntersector(self.mesh)
         up = [h for h in holes if h.axis[2] > 0.999]
-        self._hole_xy = np.array([h.center[:2] for h in up]).reshape(-1, 2)
-        self._hole = np.array([(h.center[2], h.diameter / 2, h.depth) for h in up]).reshape(-1, 3)
-        self._hole_tree = cKDTree(self._hole_xy) if up else None
-        self._max_radius = float(self._hole[:, 1].max()) if up else 0.0
+        self._hole_xy = np.ascontiguousarray(np.array([h.center[:2] for h in up], dtype=float).reshape(-1, 2))
+        self._hole = np.ascontiguousarray(np.array([(h.center[2], h.diameter / 2, h.depth) for h in up]).reshape(-1, 3))
         self._near_hole = _hole_raster(self._hole_xy, self._hole[:, 1]) if up else None
         self._directions: dict[ScanGeometry, FloatArray] = {}
 
@@ -175,86 +174,140 @@ class SlraScene:
         n = len(dirs)
         face = self.intersector.intersects_first(np.broadcast_to(origin, (n, 3)), dirs)
         hits = self._hits(np.broadcast_to(origin, (n, 3)), dirs, face)
-        if self._hole_tree is not None:
+        if self._near_hole is not None:
             self._into_holes(origin, dirs, hits)
         return hits
 
     def _hits(self, origins: FloatArray, dirs: FloatArray, face: NDArray[np.int64]) -> Hits:
-        n = len(dirs)
-        dist, normals, kind = np.full(n, np.inf), np.zeros((n, 3)), np.full(n, MISS)
-        hit = face >= 0
-        nf = self.normals[face[hit]]
-        dist[hit] = np.einsum("ij,ij->i", nf, self.anchor[face[hit]] - origins[hit]) / np.einsum("ij,ij->i", nf, dirs[hit])
-        normals[hit] = nf
-        kind[hit] = np.where(face[hit] < self.n_part_faces, PART, BOX)
-        return Hits(dist, normals, kind)
+        """The hits of rays (origins, dirs (n, 3)) on the faces embree found (-1: none): the
+        distance to each face's plane in float64 (embree's own is float32), its normal, kind."""
+        return Hits(*_hits_kernel(np.ascontiguousarray(origins), np.ascontiguousarray(dirs),
+                                  np.ascontiguousarray(face, dtype=np.int64), self.normals, self.anchor,
+                                  self.n_part_faces))
 
     def _into_holes(self, origin: FloatArray, dirs: FloatArray, hits: Hits) -> None:
         """Rays whose hit lies on or in a hole's true cylinder (entry face inside the
         circle, or the mesh's polygonal wall) go into the exact cylinder: they meet its wall
-        where they reach the radius within the drilled depth, else go on below it."""
-        idx = np.flatnonzero(hits.kind == PART)
-        p = origin + hits.dist[idx, None] * dirs[idx]
-        lo, cell, grid = self._near_hole
-        ij = np.floor((p[:, :2] - lo) / cell).astype(np.int64)
-        inside = np.all((ij >= 0) & (ij < grid.shape), axis=1)
-        near = np.zeros(len(idx), dtype=bool)
-        near[inside] = grid[ij[inside, 0], ij[inside, 1]]
-        idx, p = idx[near], p[near]
-        if not len(idx):
-            return
-        gap, k = self._hole_tree.query(p[:, :2], distance_upper_bound=self._max_radius + 0.1)
-        ok = np.isfinite(gap)
-        k = np.where(ok, k, 0)
-        cz, r, depth = self._hole[k, 0], self._hole[k, 1], self._hole[k, 2]
-        ok &= (gap < r + 0.05) & (p[:, 2] < cz + 1e-3) & (p[:, 2] > cz - depth - 1e-3) & (dirs[idx, 2] < -1e-9)
-        idx, k, cz, r, depth = idx[ok], k[ok], cz[ok], r[ok], depth[ok]
-        if not len(idx):
-            return
-        d = dirs[idx]
-        s0 = (cz - origin[2]) / d[:, 2]                                   # to the entry plane
-        c = origin[:2] + s0[:, None] * d[:, :2] - self._hole_xy[k]
-        inside = (c ** 2).sum(1) < r ** 2
-        idx, k, cz, r, depth, d, s0, c = (v[inside] for v in (idx, k, cz, r, depth, d, s0, c))
-        a = (d[:, :2] ** 2).sum(1)
-        b = (c * d[:, :2]).sum(1)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            s1 = (-b + np.sqrt(b * b - a * ((c ** 2).sum(1) - r ** 2))) / a  # out to the wall
-        radial = c + np.where(np.isfinite(s1), s1, 0.0)[:, None] * d[:, :2]
-        cos_wall = np.abs((radial * d[:, :2]).sum(1)) / r
+        where they reach the radius within the drilled depth, else go on below it (cast
+        again from below the drilled material, with room for its thickness deviation: a
+        hole's depth is nominal, and nothing lies within that of a cap's or web's back)."""
+        lo, cell, table = self._near_hole
+        below, step = _holes_kernel(np.ascontiguousarray(origin, dtype=float), np.ascontiguousarray(dirs),
+                                    hits.dist, hits.normals, hits.kind, lo, cell, table, self._hole_xy, self._hole,
+                                    GRAZING_WALL_COS, HOLE_EXIT_MARGIN_MM)
+        if len(below):
+            d = dirs[below]
+            start = origin + step[:, None] * d
+            more = self._hits(start, d, self.intersector.intersects_first(start, d))
+            hits.dist[below] = step + more.dist
+            hits.normals[below] = more.normals
+            hits.kind[below] = more.kind
+
+
+@njit(cache=True)
+def _holes_kernel(origin, dirs, dist, normals, kind, lo, cell, table, hole_xy, hole, grazing_cos,
+                  exit_margin):  # pragma: no cover - compiled
+    """SlraScene._into_holes per ray: the wall hits are written into dist and normals; the
+    rays that go on below a hole are returned (indices, and their distance to restart)."""
+    n = len(dirs)
+    below = np.empty(n, dtype=np.int64)
+    step = np.empty(n)
+    m = 0
+    gx, gy, slots = table.shape
+    for i in range(n):
+        if kind[i] != PART:
+            continue
+        px = origin[0] + dist[i] * dirs[i, 0]
+        py = origin[1] + dist[i] * dirs[i, 1]
+        pz = origin[2] + dist[i] * dirs[i, 2]
+        ci = np.int64(np.floor((px - lo[0]) / cell))
+        cj = np.int64(np.floor((py - lo[1]) / cell))
+        if ci < 0 or cj < 0 or ci >= gx or cj >= gy or table[ci, cj, 0] < 0:
+            continue
+        k = -1
+        gap = np.inf
+        for t in range(slots):          # the nearest of the holes near this cell
+            h = table[ci, cj, t]
+            if h < 0:
+                break
+            g = np.sqrt((px - hole_xy[h, 0]) ** 2 + (py - hole_xy[h, 1]) ** 2)
+            if g < gap:
+                gap, k = g, h
+        cz, r, depth = hole[k, 0], hole[k, 1], hole[k, 2]
+        d0, d1, d2 = dirs[i, 0], dirs[i, 1], dirs[i, 2]
+        if not (gap < r + 0.05 and pz < cz + 1e-3 and pz > cz - depth - 1e-3 and d2 < -1e-9):
+            continue
+        s0 = (cz - origin[2]) / d2                                   # to the entry plane
+        c0 = origin[0] + s0 * d0 - hole_xy[k, 0]
+        c1 = origin[1] + s0 * d1 - hole_xy[k, 1]
+        cc = c0 ** 2 + c1 ** 2
+        if not cc < r ** 2:
+            continue
+        a = d0 ** 2 + d1 ** 2
+        b = c0 * d0 + c1 * d1
+        s1 = (-b + np.sqrt(b * b - a * (cc - r ** 2))) / a            # out to the wall
+        finite = np.isfinite(s1)
+        f = s1 if finite else 0.0
+        r0 = c0 + f * d0
+        r1 = c1 + f * d1
+        cos_wall = abs(r0 * d0 + r1 * d1) / r
         # a wall seen within ~6 deg of grazing returns nothing: its share goes beyond it
-        wall = np.isfinite(s1) & (-s1 * d[:, 2] < depth) & (cos_wall > GRAZING_WALL_COS)
-        w_idx = idx[wall]
-        hits.dist[w_idx] = s0[wall] + s1[wall]
-        hits.normals[w_idx] = np.column_stack([-radial[wall] / r[wall, None], np.zeros(len(w_idx))])
-        below = ~wall
-        if below.any():
-            b_idx = idx[below]
-            # restart below the drilled material with room for its thickness deviation
-            # (a hole's depth is nominal); nothing lies within that of a cap's or web's back
-            step = s0[below] + (depth[below] + HOLE_EXIT_MARGIN_MM) / -d[below, 2]
-            start = origin + step[:, None] * d[below]
-            more = self._hits(start, d[below], self.intersector.intersects_first(start, d[below]))
-            hits.dist[b_idx] = step + more.dist
-            hits.normals[b_idx] = more.normals
-            hits.kind[b_idx] = more.kind
+        if finite and -s1 * d2 < depth and cos_wall > grazing_cos:
+            dist[i] = s0 + s1
+            normals[i, 0] = -r0 / r
+            normals[i, 1] = -r1 / r
+            normals[i, 2] = 0.0
+        else:
+            below[m] = i
+            step[m] = s0 + (depth + exit_margin) / -d2
+            m += 1
+    return below[:m].copy(), step[:m].copy()
 
 
-def _hole_raster(xy: FloatArray, radius: FloatArray, cell: float = 1.0) -> tuple[FloatArray, float, NDArray[np.bool_]]:
-    """A coarse boolean raster over the holes' XY box marking cells that may lie within
-    0.2 mm of a hole's circle (a cheap first test before the exact one)."""
+@njit(cache=True)
+def _hits_kernel(origins, dirs, face, face_normals, anchor, n_part_faces):  # pragma: no cover - compiled
+    n = len(dirs)
+    dist = np.full(n, np.inf)
+    normals = np.zeros((n, 3))
+    kind = np.full(n, MISS, dtype=np.int64)
+    for i in range(n):
+        f = face[i]
+        if f < 0:
+            continue
+        num = 0.0
+        den = 0.0
+        for j in range(3):
+            num += face_normals[f, j] * (anchor[f, j] - origins[i, j])
+            den += face_normals[f, j] * dirs[i, j]
+            normals[i, j] = face_normals[f, j]
+        dist[i] = num / den
+        kind[i] = PART if f < n_part_faces else BOX
+    return dist, normals, kind
+
+
+def _hole_raster(xy: FloatArray, radius: FloatArray, cell: float = 1.0) -> tuple[FloatArray, float, NDArray[np.int64]]:
+    """A coarse raster over the holes' XY box: for each cell, the holes (indices, -1 after
+    the last) it may lie within 0.2 mm of the circle of (a cheap first test before the
+    exact one)."""
     lo = (xy - radius[:, None]).min(axis=0) - 2 * cell
     hi = (xy + radius[:, None]).max(axis=0) + 2 * cell
     shape = np.ceil((hi - lo) / cell).astype(int)
-    grid = np.zeros(shape, dtype=bool)
-    for (x, y), r in zip(xy, radius):
+    count = np.zeros(shape, dtype=np.int64)
+    marks = []
+    for k, ((x, y), r) in enumerate(zip(xy, radius)):
         i0, j0 = np.floor((np.array([x, y]) - r - 1 - lo) / cell).astype(int)
         i1, j1 = np.ceil((np.array([x, y]) + r + 1 - lo) / cell).astype(int)
         ci = lo[0] + (np.arange(i0, i1) + 0.5) * cell
         cj = lo[1] + (np.arange(j0, j1) + 0.5) * cell
-        d = np.hypot(ci[:, None] - x, cj[None, :] - y)
-        grid[i0:i1, j0:j1] |= d < r + 0.2 + cell
-    return lo, cell, grid
+        ii, jj = np.nonzero(np.hypot(ci[:, None] - x, cj[None, :] - y) < r + 0.2 + cell)
+        marks.append((ii + i0, jj + j0, k))
+        count[ii + i0, jj + j0] += 1
+    table = np.full((*shape, max(int(count.max()), 1)), -1, dtype=np.int64)
+    filled = np.zeros(shape, dtype=np.int64)
+    for ii, jj, k in marks:
+        table[ii, jj, filled[ii, jj]] = k
+        filled[ii, jj] += 1
+    return lo, cell, table
 
 
 def pose_error(pose: FloatArray, rng: np.random.Generator, translation_sigma_m: float,
