@@ -124,3 +124,28 @@ def test_nothing_hit_is_a_dropout_with_no_intensity():
     frame = simulate_frame(scene, looking_down(), SMALL, SlraParams(), np.random.default_rng(0))
     assert np.isnan(frame.range_m[0, 0]) and frame.intensity[0, 0] == 0.0
     assert np.isfinite(frame.range_m[32, 32])
+
+
+def test_a_ray_into_a_large_hole_meets_its_exact_wall_beside_a_small_hole():
+    """A plate 10 mm thick with a 200 mm hole and a 6 mm hole whose centre is nearer the big
+    hole's rim than the big hole's own centre: rays into the big hole near that rim meet
+    its exact cylinder (r = 100 mm), not the mesh's polygon nor the small hole."""
+    from ita.part.model import Hole, HoleRole
+
+    big = Hole("L1", HoleRole.LIGHTENING, (0.0, 0.0, 0.0), (0.0, 0.0, 1.0), 200.0, 10.0, "P1")
+    small = Hole("F1", HoleRole.FASTENER, (140.0, 0.0, 0.0), (0.0, 0.0, 1.0), 6.0, 10.0, "P1")
+    solid = plate(size=600.0)
+    for h, sections in ((big, 24), (small, 16)):       # coarse polygons: their chords are far inside the circles
+        cutter = trimesh.creation.cylinder(radius=h.diameter / 2, height=30.0, sections=sections)
+        cutter.apply_translation(h.center)
+        solid = solid.difference(cutter)
+    scene = SlraScene(solid, PLACEMENT, holes=(big, small))
+    origin = np.array([0.0, 0.0, 450.0])
+    ang = np.radians([7.5, 22.5])                        # mid-chord: the polygon's wall lies 0.86 mm inside
+    target = np.column_stack([99.9 * np.cos(ang), 99.9 * np.sin(ang), [-4.0, -6.0]])
+    dirs = target - origin
+    dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
+    hits = scene.cast(origin, dirs)
+    ends = origin + hits.dist[:, None] * dirs
+    assert np.allclose(np.hypot(ends[:, 0], ends[:, 1]), 100.0, atol=1e-9)     # on the true circle
+    assert np.allclose(hits.normals[:, :2], -ends[:, :2] / 100.0, atol=1e-9)  # facing the axis
