@@ -6,11 +6,12 @@ workpiece of the part's nominal geometry whose dimensions are known (its calibra
 certificate; in the simulated cell, the nominal mesh, whose values exact rays give,
 ita.part.truth.mesh_values).  Each size the SLRA measures on the part (the calibrated kinds:
 hole diameters, edge distances, flange and rib widths) is measured on the master `repeats`
-times (more where a kind has few specs: `repeats_for`) the way a run measures it (from its view group's frame, the MKB's viewing pose,
-window and pixels), each frame after its own approach (a new draw of the arm's pose error),
-without any calibration.  Per spec: the bias (mean error), corrected in every later result of that
-spec; per kind, the residuals about each spec's bias give the scatter of one frame, and
-the u of a corrected result (see :func:`spec_classes`).  What the master cannot tell: how
+times (more where a pool has few specs: `repeats_for`) the way a run measures it (from its
+view group's frame, the MKB's viewing pose, window and pixels), each frame after its own
+approach (a new draw of the arm's pose error), without any calibration.  Per spec: the bias
+(mean error), corrected in every later result of that spec; per kind seen along one
+direction (`scatter_pools`), the residuals about each spec's bias give the scatter of one
+frame, and the u of a corrected result (see :func:`spec_classes`).  What the master cannot tell: how
 the bias changes between the master and an as-built part (their differences are within the
 tolerances, far smaller than the features; a perturbed as-built part measures it,
 `ita part asbuilt`).
@@ -48,7 +49,8 @@ from ita.vision.measure import measure_frames
 from ita.vision.scan import scan_for
 
 ROTATION_SIGMA = 0.05e-3   # rad: the pose error's rotation part (as bench/vision.py draws it)
-MIN_KIND_FRAMES = 32       # frames of the master per calibrated kind at least (more repeats where it has few specs)
+MIN_KIND_FRAMES = 32       # frames of the master per scatter pool at least (more repeats where it has few specs)
+SAME_DIRECTION_COS = math.cos(math.radians(10.0))   # specs seen along normals this close share a scatter pool
 
 
 def master_errors(part: Any, workcell: Any, specs: Sequence[MeasurementSpec], repeats: int, seed: int,
@@ -83,9 +85,10 @@ def master_errors(part: Any, workcell: Any, specs: Sequence[MeasurementSpec], re
             key, geometry = spec.id, scan_for(spec, ctx)
             pose = measurement_poses(workcell.part, [spec.point], [spec.normal], tool, rolls=[0.0])[0, 0]
         views.setdefault(key, (pose, geometry, []))[2].append(spec)
-    per_kind = Counter(s.kind for s in todo)
+    pools = scatter_pools(todo)
+    per_pool = Counter(pools.values())
     for i, (pose, geometry, members) in enumerate(views.values()):
-        for _ in range(repeats_for(members, per_kind, repeats)):
+        for _ in range(repeats_for([pools[s.id] for s in members], per_pool, repeats)):
             true_pose = pose_error(pose, rng, workcell.arm.repeatability_m / 3, ROTATION_SIGMA)
             frame = simulate_frame(scene, true_pose, geometry, params, rng, reported_pose=pose, timestamp=0.0)
             for spec in members:
@@ -99,20 +102,38 @@ def master_errors(part: Any, workcell: Any, specs: Sequence[MeasurementSpec], re
     return dict(out)
 
 
-def repeats_for(members: Sequence[MeasurementSpec], per_kind: Counter, repeats: int) -> int:
-    """Frames to take of a view whose specs are `members`: `repeats`, or more where a kind
-    has few specs on the part, so that every kind's scatter and each spec's bias rest on at
-    least MIN_KIND_FRAMES frames (a few specs measured 4 times each give a scatter of 12
-    degrees of freedom and a U that falls short: the box's 4 wall widths read 3 of 4 inside)."""
-    return max([repeats] + [math.ceil(MIN_KIND_FRAMES / per_kind[s.kind]) for s in members if per_kind[s.kind]])
+def scatter_pools(specs: Sequence[MeasurementSpec]) -> dict[str, str]:
+    """Spec id -> the pool its frames' scatter is estimated in: its kind, split by the
+    direction it is seen along (normals within 10 degrees together).  A hole seen from the
+    side scatters several times more than one seen square on; pooled, the side holes'
+    scatter made the U of every other hole of the plate about 3 times too large."""
+    reps: dict[str, list[np.ndarray]] = defaultdict(list)
+    out = {}
+    for s in specs:
+        n = np.asarray(s.normal, dtype=float)
+        n = n / max(float(np.linalg.norm(n)), 1e-12)
+        kind = s.kind.value
+        same = [i for i, r in enumerate(reps[kind]) if float(r @ n) > SAME_DIRECTION_COS]
+        if not same:
+            reps[kind].append(n)
+        out[s.id] = f"{kind}@{same[0] if same else len(reps[kind]) - 1}"
+    return out
 
 
-def spec_classes(errors: dict[str, list[tuple[float, float]]], kind_of: dict[str, str]) -> dict[str, CalibrationClass]:
+def repeats_for(pools: Sequence[str], per_pool: Counter, repeats: int) -> int:
+    """Frames to take of a view whose specs are in `pools` (`scatter_pools`): `repeats`,
+    or more where a pool has few specs, so that every pool's scatter and each spec's bias
+    rest on at least MIN_KIND_FRAMES frames (a few specs measured 4 times each give a
+    scatter of 12 degrees of freedom and a U that falls short)."""
+    return max([repeats] + [math.ceil(MIN_KIND_FRAMES / per_pool[p]) for p in pools if per_pool[p]])
+
+
+def spec_classes(errors: dict[str, list[tuple[float, float]]], pool_of: dict[str, str]) -> dict[str, CalibrationClass]:
     """One class per spec measured at least twice: its bias, and u = the pooled scatter of
-    its kind's frames about their specs' biases, taken as the tolerance bound that covers
-    95 % of them with 90 % confidence (ita.vision.calibration.coverage_level, over the
-    kind's specs), combined with the bias's own uncertainty (scatter / sqrt(repeats)) and
-    the master's certificate."""
+    its pool's frames (pool_of: `scatter_pools`, its kind seen along one direction) about
+    their specs' biases, taken as the tolerance bound that covers 95 % of them with 90 %
+    confidence (ita.vision.calibration.coverage_level, over the pool's specs), combined
+    with the bias's own uncertainty (scatter / sqrt(repeats)) and the master's certificate."""
     residuals: dict[str, list[float]] = defaultdict(list)
     dof: dict[str, int] = defaultdict(int)
     count: dict[str, int] = defaultdict(int)
@@ -120,19 +141,19 @@ def spec_classes(errors: dict[str, list[tuple[float, float]]], kind_of: dict[str
         if len(rows) < 2:
             continue
         e = np.array([r[0] for r in rows])
-        residuals[kind_of[sid]] += list(e - e.mean())
-        dof[kind_of[sid]] += len(e) - 1
-        count[kind_of[sid]] += 1
+        residuals[pool_of[sid]] += list(e - e.mean())
+        dof[pool_of[sid]] += len(e) - 1
+        count[pool_of[sid]] += 1
     out: dict[str, CalibrationClass] = {}
     for sid, rows in errors.items():
         if len(rows) < 2:
             continue
-        kind = kind_of[sid]
+        pool = pool_of[sid]
         e = np.array([r[0] for r in rows])
-        r = np.abs(np.asarray(residuals[kind]))
-        scatter = math.sqrt(float((r ** 2).sum()) / max(dof[kind], 1))
+        r = np.abs(np.asarray(residuals[pool]))
+        scatter = math.sqrt(float((r ** 2).sum()) / max(dof[pool], 1))
         # residuals about a mean of n are sqrt((n - 1) / n) of the errors' own scatter
-        q95 = float(np.quantile(r, coverage_level(count[kind]))) * math.sqrt(len(e) / (len(e) - 1))
+        q95 = float(np.quantile(r, coverage_level(count[pool]))) * math.sqrt(len(e) / (len(e) - 1))
         u = math.sqrt((q95 / 2) ** 2 + scatter ** 2 / len(e) + REFERENCE_U_MM ** 2)
         rms = math.sqrt(float(np.mean([x[1] ** 2 for x in rows])))
         out[spec_class(sid)] = CalibrationClass(spec_class(sid), len(e), 1, float(e.mean()), scatter, rms, u)
@@ -145,14 +166,17 @@ def calibrate_on_master(part: Any, workcell: Any, repeats: int = 4, seed: int = 
     measurement knowledge base, whose views the master is measured from)."""
     specs = read_specs(part.specs_path)
     errors = master_errors(part, workcell, specs, repeats, seed, progress, mkb)
-    classes = spec_classes(errors, {s.id: s.kind.value for s in specs})
-    per_kind = Counter(s.kind for s in specs if s.id in errors)
-    planned = {s.id: repeats_for([s], per_kind, repeats) for s in specs if s.id in errors}
+    measured = [s for s in specs if s.id in errors]
+    pools = scatter_pools(measured)
+    classes = spec_classes(errors, pools)
+    per_pool = Counter(pools.values())
+    planned = {s.id: repeats_for([pools[s.id]], per_pool, repeats) for s in measured}
     provenance = {"what": "SLRA calibration on the part's master (ita.sim.master): per spec, the bias measured "
                           "on the nominal part, corrected",
                   "made_by": f"ita part calibrate --repeats {repeats} --seed {seed}", "part": part.name,
                   "made": datetime.now(timezone.utc).isoformat(timespec="seconds"),
-                  "specs_measured": len(errors), "failed_frames": sum(max(0, planned[k] - len(v)) for k, v in errors.items())}
+                  "specs_measured": len(errors),
+                  "failed_frames": sum(max(0, planned[k] - len(v)) for k, v in errors.items())}
     return SlraCalibration(classes, provenance)
 
 
