@@ -163,18 +163,25 @@ def _group_extent(local, box_of, n):  # pragma: no cover - compiled
     return lo, hi
 
 
-def _pairs(tri: FloatArray, origin: FloatArray, cell_mm: float, shape: IntArray,
-           parents: IntArray | None) -> tuple[IntArray, IntArray]:
+def _parent_grid(parents: IntArray | None, shape: IntArray) -> NDArray[np.bool_] | None:
+    """The loose parents (grid indices at the level above) as a bool grid over that level;
+    None: no parents (the first level), every cube counts."""
+    if parents is None:
+        return None
+    allowed = np.zeros(tuple((shape + 1) // 2 + 1), dtype=bool)
+    allowed[parents[:, 0], parents[:, 1], parents[:, 2]] = True
+    return allowed
+
+
+def _pairs(tri: FloatArray, origin: FloatArray, cell_mm: float, allowed: NDArray[np.bool_] | None
+           ) -> tuple[IntArray, IntArray]:
     """The (triangle, cube) pairs whose boxes touch (cubes as grid indices (n, 3)); given
-    parents, only the cubes inside those cubes of twice the size."""
+    the parents' grid (`_parent_grid`), only the cubes inside them."""
     tlo, thi = tri.min(axis=1), tri.max(axis=1)
     i0 = np.floor((tlo - origin) / cell_mm).astype(np.int64)
     i1 = np.floor((thi - origin) / cell_mm).astype(np.int64)
-    allowed = None
     use = np.arange(len(tri))
-    if parents is not None:
-        allowed = np.zeros(tuple((shape + 1) // 2 + 1), dtype=bool)
-        allowed[parents[:, 0], parents[:, 1], parents[:, 2]] = True
+    if allowed is not None:
         near = allowed[tuple((np.clip(i0 // 2, 0, None)).T)] | allowed[tuple((np.clip(i1 // 2, 0, None)).T)]
         use = np.flatnonzero(near | ((i1 // 2 - i0 // 2).max(axis=1) > 0))
     span = i1[use] - i0[use] + 1
@@ -198,7 +205,8 @@ def _cover_level(mesh: Any, tri: FloatArray, normals: FloatArray, origin: FloatA
     solid), whether each is loose, and each cube's grid index (n, 3).  parents: only the
     cubes inside these cubes of twice the size (grid indices at that level)."""
     shape = np.floor((tri.max(axis=(0, 1)) - origin) / cell_mm).astype(np.int64) + 1
-    tri_of, cells = _pairs(tri, origin, cell_mm, shape, parents)
+    allowed = _parent_grid(parents, shape)
+    tri_of, cells = _pairs(tri, origin, cell_mm, allowed)
     points, pair = clip_to_boxes(tri[tri_of], origin + cells * cell_mm, origin + (cells + 1) * cell_mm)
     met = np.zeros(len(tri_of), dtype=bool)
     met[pair] = True
@@ -219,11 +227,11 @@ def _cover_level(mesh: Any, tri: FloatArray, normals: FloatArray, origin: FloatA
     lo, hi = _extent(rot, cube_of, everything, n)
     depth = surface.air_depth(rot, lo, hi)
     loose = np.flatnonzero(depth > LOOSE_MM)
+    at = np.full(n, -1, dtype=np.int64)          # each loose cube's place among them
+    at[loose] = np.arange(len(loose))
+    mine = at[cube_of] >= 0
     for axis in surface.axes(loose, rot, lo, hi):
         r = _frames(axis)
-        at = np.full(n, -1, dtype=np.int64)
-        at[loose] = np.arange(len(loose))
-        mine = at[cube_of] >= 0
         t_lo, t_hi = _extent(r, at[cube_of[mine]], everything[mine], len(loose))
         t_depth = surface.air_depth(r, t_lo, t_hi, at)
         better = t_depth < depth[loose]
@@ -235,11 +243,8 @@ def _cover_level(mesh: Any, tri: FloatArray, normals: FloatArray, origin: FloatA
     touched = np.zeros(tuple(shape), dtype=bool)
     touched[idx[:, 0], idx[:, 1], idx[:, 2]] = True
     whole = ~touched & inside[:-1, :-1, :-1]
-    if parents is not None:
-        a = np.indices(tuple(shape)).reshape(3, -1).T
-        allowed = np.zeros(tuple((shape + 1) // 2 + 1), dtype=bool)
-        allowed[parents[:, 0], parents[:, 1], parents[:, 2]] = True
-        whole &= allowed[a[:, 0] // 2, a[:, 1] // 2, a[:, 2] // 2].reshape(tuple(shape))
+    if allowed is not None:
+        whole &= allowed.repeat(2, 0).repeat(2, 1).repeat(2, 2)[:shape[0], :shape[1], :shape[2]]
     full = np.argwhere(whole)
     return (np.vstack([centre, origin + (full + 0.5) * cell_mm]),
             np.concatenate([rot, _upright(len(full))]),

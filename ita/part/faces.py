@@ -51,9 +51,10 @@ def spec_faces(mesh: trimesh.Trimesh, specs: Sequence[MeasurementSpec]) -> dict[
         ids.append(s.id)
     if not ids:
         return {}
-    tri, ray, _ = mesh.ray.intersects_id(np.asarray(origins), np.asarray(dirs), multiple_hits=False,
-                                          return_locations=True)
-    return {ids[r]: int(t) for t, r in zip(tri, ray)}
+    from ita.part.infer import MeshRays
+
+    _, face = MeshRays(mesh).hits(np.asarray(origins), np.asarray(dirs))
+    return {sid: int(f) for sid, f in zip(ids, face) if f >= 0}
 
 
 def offset_faces(mesh: trimesh.Trimesh, specs: Sequence[MeasurementSpec], rng: np.random.Generator,
