@@ -1,6 +1,6 @@
 """Where a run's wall-clock time goes: `ita inspect` under cProfile, per component.
 
-    .venv/bin/python bench/run.py [--limit 150] [--seed 31] [--whole] [--top 15]
+    .venv/bin/python bench/run.py [--limit 150] [--seed 31] [--whole] [--top 15] [--dump FILE]
 
 Runs one inspection in this process (a fresh runs directory; the stores of ITA_HOME, so
 prepare once first for a warm figure) under cProfile and gives every function's own time
@@ -89,6 +89,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--whole", action="store_true", help="every measurement of the part")
     parser.add_argument("--seed", type=int, default=31)
     parser.add_argument("--top", type=int, default=15, help="hottest project functions to list")
+    parser.add_argument("--dump", type=Path, help="also write the raw profile here (pstats format)")
     args = parser.parse_args(argv)
     from click.testing import CliRunner
 
@@ -108,6 +109,8 @@ def main(argv: list[str] | None = None) -> int:
         print(result.output, file=sys.stderr)
         return 1
     summary = json.loads(result.stdout[result.stdout.index("{"):])
+    if args.dump:
+        profile.dump_stats(str(args.dump))
     stats = pstats.Stats(profile).stats  # type: ignore[attr-defined]
     totals = attribute(stats)
     profiled = sum(totals.values())

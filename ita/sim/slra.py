@@ -480,16 +480,48 @@ def _edge_distance(edges: FloatArray, x: FloatArray, pitch: float
     to_e1 = e1 / np.maximum(np.linalg.norm(e1, axis=1, keepdims=True), 1e-15)
     if k < 2:
         return dd[:, 0], to_e1, ii[:, 0]
-    pts = edges[ii]                                         # (n, k, 2)
-    mean = pts.mean(axis=1)
-    c = pts - mean[:, None, :]
-    sxx, syy, sxy = (c[..., 0] ** 2).sum(1), (c[..., 1] ** 2).sum(1), (c[..., 0] * c[..., 1]).sum(1)
-    ang = 0.5 * np.arctan2(2 * sxy, sxx - syy)              # principal direction
-    u = np.column_stack([np.cos(ang), np.sin(ang)])
-    along = np.abs(np.einsum("nkj,nj->nk", c, u)).max(axis=1)
-    across = np.abs(np.einsum("nkj,nj->nk", c, u[:, ::-1] * [-1, 1])).max(axis=1)
-    line = (along > 0.3 * pitch) & (across < 0.25 * along)
-    nrm = u[:, ::-1] * [-1, 1]
-    off = np.einsum("nj,nj->n", mean - x, nrm)
-    toward = np.where(line[:, None], nrm * np.where(off < 0, -1.0, 1.0)[:, None], to_e1)
-    return np.where(line, np.abs(off), dd[:, 0]), toward, ii[:, 0]
+    d, toward = _edge_line_kernel(np.ascontiguousarray(edges, dtype=np.float64), np.ascontiguousarray(ii),
+                                  np.ascontiguousarray(dd[:, 0]), np.ascontiguousarray(x, dtype=np.float64),
+                                  float(pitch))
+    return d, toward, ii[:, 0]
+
+
+@njit(cache=True)
+def _edge_line_kernel(edges, ii, d1, x, pitch):  # pragma: no cover - compiled
+    """Per point of x (n, 2): the distance to the line through its k nearest edge points
+    (edges[ii[i]]; their principal direction) and the unit direction toward it, or, where
+    those points do not spread along a line, the distance d1 to the nearest one and the
+    direction toward it (see _edge_distance)."""
+    n, k = ii.shape
+    dist = np.empty(n)
+    toward = np.empty((n, 2))
+    for i in range(n):
+        x0, y0 = x[i, 0], x[i, 1]
+        ex, ey = edges[ii[i, 0], 0] - x0, edges[ii[i, 0], 1] - y0
+        norm = max(math.sqrt(ex * ex + ey * ey), 1e-15)
+        mx = my = 0.0
+        for j in range(k):
+            mx += edges[ii[i, j], 0]
+            my += edges[ii[i, j], 1]
+        mx /= k
+        my /= k
+        sxx = syy = sxy = 0.0
+        for j in range(k):
+            cx, cy = edges[ii[i, j], 0] - mx, edges[ii[i, j], 1] - my
+            sxx += cx * cx
+            syy += cy * cy
+            sxy += cx * cy
+        ang = 0.5 * math.atan2(2 * sxy, sxx - syy)            # principal direction
+        ux, uy = math.cos(ang), math.sin(ang)
+        along = across = 0.0
+        for j in range(k):
+            cx, cy = edges[ii[i, j], 0] - mx, edges[ii[i, j], 1] - my
+            along = max(along, abs(cx * ux + cy * uy))
+            across = max(across, abs(-cx * uy + cy * ux))
+        if along > 0.3 * pitch and across < 0.25 * along:
+            off = (mx - x0) * -uy + (my - y0) * ux
+            s = -1.0 if off < 0 else 1.0
+            dist[i], toward[i, 0], toward[i, 1] = abs(off), -uy * s, ux * s
+        else:
+            dist[i], toward[i, 0], toward[i, 1] = d1[i], ex / norm, ey / norm
+    return dist, toward

@@ -299,12 +299,12 @@ class SimWorld:
         others = [b for b in self._static] + [b for n, b in self.tools.items() if n != self.held]
         others = [b for b in others if self.body_names[b] not in skip]
         lo, hi = self._moving_aabb(upto)
+        if others:
+            boxes = np.array([self._static_aabbs[b] if b in self._static_aabbs else p.getAABB(b, physicsClientId=c)
+                              for b in others])
+            apart = (boxes[:, 0] > hi).any(axis=1) | (boxes[:, 1] < lo).any(axis=1)
+            others = [b for b, away in zip(others, apart.tolist()) if not away]
         for body in others:
-            box = self._static_aabbs.get(body)
-            if box is None:
-                box = np.array(p.getAABB(body, physicsClientId=c))
-            if np.any(box[0] > hi) or np.any(box[1] < lo):
-                continue
             for pt in p.getClosestPoints(self.arm, body, upto, physicsClientId=c):
                 if pt[3] >= 0:
                     gap = min(gap, pt[8])
