@@ -39,3 +39,30 @@ def test_a_quiet_pool_keeps_a_small_u_beside_a_noisy_one():
     assert apart["spec/T1"].u < 0.006 < together["spec/T1"].u
     assert apart["spec/S1"].u == pytest.approx(together["spec/S1"].u, rel=0.5)
     assert apart["spec/T1"].bias == pytest.approx(0.004, abs=0.002)
+
+
+def test_the_masters_frames_are_posed_as_the_controller_settles():
+    """A view with joints: the TCP lands off by the arm's repeatability (sigma r / 3 per
+    axis) through the controller's own least-norm joint change, which turns the tool too
+    (more than the drawn rotation the master used before, at such a pose)."""
+    from ita.kinematics import arm_model, flange_poses
+    from ita.robot.controller import settled
+    from ita.sim.master import ROTATION_SIGMA, _settled_pose
+    from ita.workcell import load_workcell
+
+    cell = load_workcell()
+    tool = next(t for t in cell.tools if t.tool_class.value == "slra_tool")
+    model, tcp = arm_model(cell.arm), tool.tcp.matrix()
+    q = np.array([0.53, 0.38, 0.78, -2.05, 1.37, -1.93])
+    pose = flange_poses(model, q[None])[0] @ tcp
+    draw = _settled_pose(cell, tool)
+    sigma = cell.arm.repeatability_m / 3
+    rng, same = np.random.default_rng(4), np.random.default_rng(4)
+    poses = [draw(pose, q, rng) for _ in range(400)]
+    offsets = np.array([p[:3, 3] - pose[:3, 3] for p in poses])
+    assert offsets.std(axis=0) == pytest.approx([sigma] * 3, rel=0.15)
+    turned = [np.linalg.norm(p[:3, :3] - pose[:3, :3]) / np.sqrt(2) for p in poses]
+    assert np.sqrt(np.mean(np.square(turned))) > np.sqrt(3) * ROTATION_SIGMA
+    controller = flange_poses(model, settled(model, q, tcp, same.normal(0.0, sigma, 3))[None])[0] @ tcp
+    assert np.allclose(controller, poses[0])
+    assert not np.allclose(draw(pose, None, rng), pose, atol=1e-9, rtol=0)   # no joints: a drawn error

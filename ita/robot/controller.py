@@ -139,7 +139,7 @@ class RobotController:
             close = np.flatnonzero(moved >= room)
             i = i + 1 + (int(close[0]) if len(close) else steps)
         # the arm settles off its goal by its repeatability, but never past a joint's limit
-        world.set_q(np.clip(trajectory.end + self._settle_error(trajectory.end), world.model.lower, world.model.upper))
+        world.set_q(settled(world.model, trajectory.end, self._settle_tcp(), self._settle_offset()))
         hits = world.contacts(self.contact_margin, skip)
         if hits:
             return self._bump(command, trajectory.duration, hits)
@@ -191,15 +191,27 @@ class RobotController:
                              message=f"{names[j]} speed {speed[j]:.3f} rad/s exceeds {model.velocity[j]:.3f}")
         return None
 
-    def _settle_error(self, q: FloatArray) -> FloatArray:
-        """Joint change (6,) that puts the TCP off by the repeatability draw plus drift."""
+    def _settle_offset(self) -> FloatArray:
+        """The world offset (3,) m the TCP settles off its goal: the repeatability draw plus drift."""
         world = self.world
         if world.faults.has(Fault.POSITION_DRIFT, CONTROLLER):
             world.drift_m = world.drift_m + world.faults.drift_per_move_m * self._drift_direction
         sigma = world.cell.arm.repeatability_m / 3.0
-        offset = world.rng.normal(0.0, sigma, 3) + world.drift_m
-        tcp = world.held_tool.tcp.matrix() if world.held_tool is not None else np.eye(4)
-        return joint_offset(world.model, q, tcp, offset)
+        return world.rng.normal(0.0, sigma, 3) + world.drift_m
+
+    def _settle_tcp(self) -> FloatArray:
+        """The held tool's TCP (4, 4) in the flange frame (the flange without a tool)."""
+        tool = self.world.held_tool
+        return tool.tcp.matrix() if tool is not None else np.eye(4)
+
+
+def settled(model: ArmModel, q: ArrayLike, tcp: ArrayLike, offset: ArrayLike) -> FloatArray:
+    """The joints (6,) an arm sent to q settles at when its TCP (4, 4 in the flange frame)
+    ends off by the world offset (3,) m: the least-norm joint change (joint_offset), which
+    turns the tool a little too, never past a joint's limit.  The SLRA's calibration on a
+    part's master draws its frames' pose errors through this too (ita.sim.master)."""
+    q = np.asarray(q, dtype=float)
+    return np.clip(q + joint_offset(model, q, tcp, offset), model.lower, model.upper)
 
 
 def joint_offset(model: ArmModel, q: ArrayLike, tcp: ArrayLike, offset: ArrayLike) -> FloatArray:
