@@ -14,6 +14,7 @@ elevation e = (row + 0.5 - H/2) * fov_v / H, i.e. along unit(tan a, -tan e, 1); 
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 
@@ -66,10 +67,9 @@ class ScanGeometry:
         return d / np.linalg.norm(d, axis=-1, keepdims=True)
 
     def directions(self) -> FloatArray:
-        """Unit view directions (H, W, 3) of every pixel centre, sensor frame."""
-        h, w = self.shape
-        rows, cols = np.meshgrid(np.arange(h, dtype=float), np.arange(w, dtype=float), indexing="ij")
-        return self.directions_at(rows, cols)
+        """Unit view directions (H, W, 3) of every pixel centre, sensor frame (read-only:
+        made once per geometry, as Vision views every frame of a group once per member)."""
+        return _directions(self)
 
     def pixel_of(self, points: ArrayLike) -> FloatArray:
         """Fractional (row, col) (n, 2) where sensor-frame points (n, 3) appear; nan behind."""
@@ -141,3 +141,13 @@ class RangeFrame:
         """(H, W, 3) float: the points in the world frame through the reported pose (m)."""
         p = self.points()
         return p @ self.pose[:3, :3].T + self.pose[:3, 3]
+
+
+@functools.lru_cache(maxsize=32)
+def _directions(geometry: ScanGeometry) -> FloatArray:
+    """:meth:`ScanGeometry.directions`, computed (a pure function of the geometry)."""
+    h, w = geometry.shape
+    rows, cols = np.meshgrid(np.arange(h, dtype=float), np.arange(w, dtype=float), indexing="ij")
+    d = geometry.directions_at(rows, cols)
+    d.setflags(write=False)
+    return d

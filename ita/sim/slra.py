@@ -145,7 +145,6 @@ class SlraScene:
         self._hole_xy = np.ascontiguousarray(np.array([h.center[:2] for h in up], dtype=float).reshape(-1, 2))
         self._hole = np.ascontiguousarray(np.array([(h.center[2], h.diameter / 2, h.depth) for h in up]).reshape(-1, 3))
         self._near_hole = _hole_raster(self._hole_xy, self._hole[:, 1]) if up else None
-        self._directions: dict[ScanGeometry, FloatArray] = {}
 
     @classmethod
     def from_simulated(cls, simulated, workcell: Workcell, extra_boxes: Sequence[Box] = ()) -> SlraScene:
@@ -164,10 +163,9 @@ class SlraScene:
         return cls.from_simulated(simulated_part(part.directory, part.mesh), workcell, extra_boxes)
 
     def directions(self, geometry: ScanGeometry) -> FloatArray:
-        """Sensor-frame pixel directions (H*W, 3) of `geometry` (cached)."""
-        if geometry not in self._directions:
-            self._directions[geometry] = geometry.directions().reshape(-1, 3)
-        return self._directions[geometry]
+        """Sensor-frame pixel directions (H*W, 3) of `geometry` (read-only; the geometry
+        keeps its last few: a run's views have hundreds of windows, each used a few times)."""
+        return geometry.directions().reshape(-1, 3)
 
     def cast(self, origin: FloatArray, dirs: FloatArray) -> Hits:
         """First hits of rays from part point `origin` (3,) mm along unit `dirs` (n, 3)."""
