@@ -29,6 +29,12 @@ once) and decided, with the other positions on its face, when the last of them h
 measured or given up; a run that completes decides every network left.  `ita continue`
 reads the pending frames back and does not measure them again.
 
+Heights with their webs' measured thickness (:mod:`ita.toplevel.heights`): a flange or
+rib height is referenced to the web face beside it; while a web thickness spec of that
+floor is still to be measured in the run, the height is PENDING (an archive event) and
+decided when the last of them is done (at the run's end at the latest), with the
+measured thickness in place of the web's nominal height.  `ita continue` reads them back.
+
 Between measurements the loop obeys INTERRUPT (leave after the current plan, status
 INTERRUPTED) and STOP (raised at once as StopNow, status STOPPED), from Ctrl-C or from
 the archive's control table (`ita monitor`).  A run is continued (`ita continue`) by
@@ -55,6 +61,8 @@ from ita.planning.state import WorldState
 from ita.sequence.next_step import next_step, the_arm
 from ita.toplevel.details import measurement_details
 from ita.toplevel.events import archive_events
+from ita.toplevel.heights import EVENT_KIND as HEIGHT_EVENT
+from ita.toplevel.heights import HEIGHT_KINDS, HeightPending, decide_height, web_specs
 from ita.toplevel.measure import MeasureOutcome, MeasureStatus, execute_goals, measure_one, placement_problem
 from ita.toplevel.network import EVENT_KIND, Pending, decide, network_key
 from ita.toplevel.signals import RunSignals, StopNow
@@ -207,6 +215,12 @@ class TopLevel:
                 p = Pending.from_event(event)
                 if p.spec_id not in self.done:
                     self.pending[p.spec_id] = p
+        self.heights: dict[str, HeightPending] = {}   # heights waiting for their webs' thicknesses
+        for event in archive.events(run_id, kinds=[HEIGHT_EVENT]):
+            h = HeightPending.from_event(event)
+            if h.spec_id not in self.done:
+                self.heights[h.spec_id] = h
+        self._floors: dict[str, tuple[str, ...]] | None = None
         self.calibrated: set[str] = set()        # probes whose velocity this process set (or tried to)
         self.handler = None
         if handle_exceptions:
@@ -257,7 +271,7 @@ class TopLevel:
         sim0 = s.world.clock.now
         n_done0 = len(self.done)
         plan = replace(s.plan, handed_out=tuple(i for g in s.plan.groups for i in g.order
-                                                  if i in self.done or i in self.pending
+                                                  if i in self.done or self._waiting(i)
                                                   or i not in self.todo_set))
         state = WorldState(arm=self._arm_name())
         status = RunStatus.COMPLETED
@@ -281,11 +295,12 @@ class TopLevel:
                 step = result.step
                 if step is None:
                     break
-                if step.spec_id in self.done or step.spec_id in self.pending or step.spec_id not in self.todo_set:
+                if step.spec_id in self.done or self._waiting(step.spec_id) or step.spec_id not in self.todo_set:
                     continue
                 current = (step.group, step.tool, step.spec_id)
                 state = self._measure(step, state)
                 self._solve_networks()
+                self._settle_heights()
                 if on_progress is not None:
                     on_progress(self._progress(current, wall0, sim0, n_done0, "measuring"))
                 if self.max_failures_in_a_row and len(self.failures_in_a_row) >= self.max_failures_in_a_row:
@@ -298,7 +313,8 @@ class TopLevel:
         end_t = max(s.world.clock.now, s.executive.settled())     # the last trailing Vision reply too
         if status is RunStatus.COMPLETED:
             self._solve_networks(final=True)
-        remaining = [i for i in self.todo if i not in self.done and i not in self.pending]
+            self._settle_heights(final=True)
+        remaining = [i for i in self.todo if i not in self.done and not self._waiting(i)]
         if status is RunStatus.COMPLETED and remaining:
             for spec_id in remaining:   # the sequence planner no longer hands them out
                 if spec_id in self.failed_in_others:
@@ -383,7 +399,8 @@ class TopLevel:
         if out.status is MeasureStatus.MEASURED:
             assert out.value is not None
             self.failures_in_a_row = []          # measured, even when its result waits for its network
-            if not self._hold(step.spec_id, out.value, tool, out.t0, out.t1, events, mine, extra.frames):
+            if not self._hold(step.spec_id, out.value, tool, out.t0, out.t1, events, mine, extra.frames) and \
+                    not self._hold_height(step.spec_id, out.value, tool, out.t0, out.t1, events, mine, extra.frames):
                 self._record(why_uncertain(Result.measured(spec, out.value.value, out.value.u, tool=tool,
                                                            sim_time_start=out.t0, sim_time_end=out.t1), out.value),
                              events, mine, extra.frames)
@@ -391,10 +408,12 @@ class TopLevel:
             self._unmeasured(step.spec_id, Outcome.NOT_DONE, out.reason or "", tool=tool, t0=out.t0,
                              t1=out.t1, events=events, details=mine, frames=extra.frames)
         for other in out.others:   # the rest of the frame's view group
-            if other.spec_id in self.done or other.spec_id in self.pending or other.spec_id not in self.todo_set:
+            if other.spec_id in self.done or self._waiting(other.spec_id) or other.spec_id not in self.todo_set:
                 continue
             theirs = extra.details.get(other.spec_id)
-            if other.ok and self._hold(other.spec_id, other, tool, out.t0, out.t1, [], theirs):
+            if other.ok and (self._hold(other.spec_id, other, tool, out.t0, out.t1, [], theirs)
+                             or self._hold_height(other.spec_id, other, tool, out.t0, out.t1, [], theirs,
+                                                  why=f"from the frame of {step.spec_id}")):
                 continue
             if other.ok:
                 self._record(why_uncertain(Result.measured(self.session.specs[other.spec_id], other.value, other.u,
@@ -453,6 +472,55 @@ class TopLevel:
         self.pending[spec_id] = p
         self.kept[spec_id] = (details, tuple(frames))
         return True
+
+    def _waiting(self, spec_id: str) -> bool:
+        """Whether the spec's result waits: for its network, or for its webs' thicknesses."""
+        return spec_id in self.pending or spec_id in self.heights
+
+    def _hold_height(self, spec_id: str, value: Any, tool: str | None, t0: float | None, t1: float | None,
+                     events: list[Event], details: dict | None = None, frames: tuple = (), why: str = "") -> bool:
+        """A height referenced to webs whose thickness the run measures (ita.toplevel.heights):
+        decided now when those are all done, else kept pending (its events, details and
+        frames to the archive now); False when it is no such height."""
+        spec = self.session.specs[spec_id]
+        if spec.kind not in HEIGHT_KINDS:
+            return False
+        if self._floors is None:
+            self._floors = web_specs([s for s in self.session.ctx.specs if s.id in self.todo_set],
+                                     self.session.slra.vctx)
+        p = HeightPending.from_value(spec_id, value, tool, t0, t1, self._floors, self.session.slra.vctx)
+        if p is None:
+            return False
+        if why:
+            p = replace(p, why=why)
+        if any(s not in self.done for s in p.waits_for):
+            self.archive.record_pending(self.run_id, spec_id, [*events, p.to_event()], details=details,
+                                        frames=frames)
+            events.clear()
+            self.heights[spec_id] = p
+            self.kept[spec_id] = (details, tuple(frames))
+            return True
+        self._record(why_uncertain(self._height_result(p), value), events, details, frames)
+        return True
+
+    def _height_result(self, p: HeightPending) -> Result:
+        measured = {}
+        for sid in p.waits_for:
+            r = self.archive.result(self.run_id, sid)
+            if r is not None and r.value is not None and r.u is not None:
+                measured[sid] = (float(r.value), float(r.u))
+        specs = self.session.specs
+        return decide_height(p, specs[p.spec_id], measured, {k: specs[k].point for k in p.waits_for},
+                             self.session.slra.vctx.web_tolerance)
+
+    def _settle_heights(self, final: bool = False) -> None:
+        """Decide the pending heights whose webs' thicknesses are all done (final: every
+        one; a web whose thickness was not measured keeps its nominal)."""
+        for spec_id, p in list(self.heights.items()):
+            if final or all(s in self.done for s in p.waits_for):
+                self.heights.pop(spec_id)
+                details, frames = self.kept.pop(spec_id, (None, ()))
+                self._record(self._height_result(p), [], details, frames)
 
     def _solve_networks(self, final: bool = False) -> None:
         """Decide every network whose members are all measured or given up (final: every

@@ -6,6 +6,7 @@ and the constants of its method (see :mod:`ita.vision.measure`).
 
 from __future__ import annotations
 
+import functools
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -199,6 +200,14 @@ class VisionContext:
                 return p.web_thickness
         return None if self.floor is None else self.floor.height(xy)
 
+    def web_region(self, xy: FloatArray) -> str | None:
+        """The floor that part point (2,) lies on, named: its pocket ("pocket P07"), else
+        the nominal mesh's flat facet met straight down ("facet 1234"); None: neither."""
+        for p in self.pockets():
+            if g2.points_in_polygon(np.atleast_2d(xy), p.outline_array)[0]:
+                return f"pocket {p.id}"
+        return None if self.floor is None else self.floor.region(xy)
+
 
 def part_calibration_path(part_directory: Any) -> Any:
     """A user part's own SLRA calibration, made on its master (`ita part calibrate`)."""
@@ -228,6 +237,23 @@ class MeshFloor:
         if face[0] < 0 or self.rays.normals[face[0], 2] < 0.99:
             return None
         return self.top - float(dist[0])
+
+    def region(self, xy: FloatArray) -> str | None:
+        """The flat facet (coplanar faces joined by edges) of the upward face met straight
+        down at part point (2,), named by its lowest face index; None: no upward face."""
+        dist, face = self.rays.hits(np.array([[float(xy[0]), float(xy[1]), self.top]]), np.array([[0.0, 0.0, -1.0]]))
+        if face[0] < 0 or self.rays.normals[face[0], 2] < 0.99:
+            return None
+        return f"facet {int(self._facet_of[face[0]])}"
+
+    @functools.cached_property
+    def _facet_of(self) -> NDArray[np.int64]:
+        """Per face, the lowest face index of its facet (itself when in none)."""
+        mesh = self.rays.mesh
+        out = np.arange(len(mesh.faces), dtype=np.int64)
+        for group in mesh.facets:
+            out[group] = int(np.min(group))
+        return out
 
 
 def fastener_neighbours(hole: Hole, ctx: VisionContext, within: float) -> list[Hole]:

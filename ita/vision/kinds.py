@@ -118,8 +118,14 @@ def _height(top: FloatArray, webs: list[tuple[FloatArray, float]], ctx: VisionCo
     h = [fit.offsets[0] - fit.offsets[1 + i] + zw for i, (_, zw) in enumerate(webs)]
     u_fit = math.sqrt(np.mean([fit.gap_sigma(0, 1 + i) ** 2 for i in range(len(webs))]))
     u_web = ctx.web_tolerance / math.sqrt(3) / math.sqrt(len(webs))
+    # each web's reference, for the Top Level to put its measured thickness in place of
+    # the nominal (ita.toplevel.heights): where it was seen, its nominal height, the
+    # height through it alone
+    refs = [{"xy": [float(x) for x in np.mean(w[:, :2], axis=0)], "z": float(zw), "height": float(hi)}
+            for (w, zw), hi in zip(webs, h)]
     return float(np.mean(h)), math.hypot(u_fit, u_web), {"rms": fit.rms, "u_fit": u_fit, "u_web": u_web,
                                                          "pixels": [len(top)] + [len(w) for w, _ in webs],
+                                                         "webs": refs,
                                                          "budget": {"plane fits": u_fit,
                                                                     "web thickness (its tolerance)": u_web}}
 
