@@ -357,18 +357,43 @@ def simulate_frame(scene: SlraScene, pose: FloatArray, geometry: ScanGeometry, p
     frac, other_r, other_amp, other_drop = _mix(geometry, params, cast_sensor, origin, dirs, hits, pl.scale)
 
     k = 4 * math.pi * geometry.modulation_hz / SPEED_OF_LIGHT * pl.scale   # rad per mm
-    own_r = np.where(hits.kind != MISS, hits.dist, 0.0)
-    z = (1 - frac) * amp * np.exp(1j * k * own_r) + frac * other_amp * np.exp(1j * k * other_r)
-    a = np.abs(z)
-    drop = (a < params.min_amplitude) | (rng.random(h * w) < (1 - frac) * p_drop + frac * other_drop)
-    phase = np.angle(z) + rng.normal(0.0, 1.0, h * w) * params.phase_sigma(a)
-    rng_m = np.mod(phase, 2 * math.pi) / (2 * math.pi) * geometry.ambiguity_m
-    rng_m[drop] = np.nan
-    inten = a * (1 + params.intensity_noise * rng.normal(0.0, 1.0, h * w))
-    inten[a < params.min_amplitude] = 0.0
-    return RangeFrame(rng_m.reshape(h, w), np.maximum(inten, 0.0).reshape(h, w),
+    draws = rng.random(h * w), rng.normal(0.0, 1.0, h * w), rng.normal(0.0, 1.0, h * w)
+    rng_m, inten = _phase_kernel(hits.kind != MISS, hits.dist, amp, p_drop, frac, other_r, other_amp, other_drop,
+                                 *draws, k, params.min_amplitude, params.sigma_phase_ref, params.reflectance,
+                                 params.noise_exponent, params.intensity_noise, geometry.ambiguity_m)
+    return RangeFrame(rng_m.reshape(h, w), inten.reshape(h, w),
                       np.asarray(pose if reported_pose is None else reported_pose, dtype=float),
                       geometry, timestamp, params.frame_time(geometry), sensor)
+
+
+@njit(cache=True)
+def _phase_kernel(hit, dist, amp, p_drop, frac, other_r, other_amp, other_drop, u_drop, n_phase, n_inten, k,
+                  min_amplitude, sigma_ref, reflectance, exponent, intensity_noise, ambiguity_m
+                  ):  # pragma: no cover - compiled
+    """Per pixel: the phasor sum of its own return and the mixed-in other surface's, its
+    dropout (below the least amplitude, or drawn: u_drop < the returns' mixed dropout
+    probability), phase noise (n_phase standard normal draws times SlraParams.phase_sigma),
+    the wrapped range (m; nan when dropped) and the intensity (n_inten draws)."""
+    n = dist.shape[0]
+    out_r = np.empty(n)
+    out_i = np.empty(n)
+    two_pi = 2 * math.pi
+    for i in range(n):
+        own = dist[i] if hit[i] else 0.0
+        f = frac[i]
+        a1 = (1 - f) * amp[i]
+        a2 = f * other_amp[i]
+        re = a1 * math.cos(k * own) + a2 * math.cos(k * other_r[i])
+        im = a1 * math.sin(k * own) + a2 * math.sin(k * other_r[i])
+        a = math.hypot(re, im)
+        sigma = sigma_ref * (reflectance / max(a, 1e-9)) ** exponent
+        phase = math.atan2(im, re) + n_phase[i] * sigma
+        if a < min_amplitude or u_drop[i] < (1 - f) * p_drop[i] + f * other_drop[i]:
+            out_r[i] = np.nan
+        else:
+            out_r[i] = (phase % two_pi) / two_pi * ambiguity_m
+        out_i[i] = 0.0 if a < min_amplitude else max(a * (1 + intensity_noise * n_inten[i]), 0.0)
+    return out_r, out_i
 
 
 def _returns(params: SlraParams, hits: Hits, dirs: FloatArray, scale: float) -> tuple[FloatArray, FloatArray]:

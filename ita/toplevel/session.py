@@ -10,9 +10,9 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -72,10 +72,16 @@ class Session:
     seed: int
     setup_seconds: float = 0.0
     simulated: str = "generated"
+    _specs: dict[str, MeasurementSpec] = field(default_factory=dict, repr=False)
+    _specs_of: Any = field(default=None, repr=False)
 
     @property
     def specs(self) -> dict[str, MeasurementSpec]:
-        return {s.id: s for s in self.ctx.specs}
+        """Spec id -> spec (made once per planning context: the loop asks for it per result)."""
+        if self._specs_of is not self.ctx:
+            self._specs = {s.id: s for s in self.ctx.specs}
+            self._specs_of = self.ctx
+        return self._specs
 
     def planned_tool(self, spec_id: str) -> str | None:
         """The tool the prepared sequence plan takes `spec_id` with (None: not planned)."""

@@ -8,6 +8,7 @@ the part given by its corner points, with a mask of the pixels that fall in that
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -31,13 +32,21 @@ class View:
         self._to_part = rot.T @ frame.pose[:3, :3]                       # sensor -> part
         self._from_part = self._to_part.T
         self.origin = placement.to_part(frame.pose[None, :3, 3])[0]
-        d = self.geometry.directions()
-        self.dirs = np.einsum("ij,hwj->hwi", self._to_part, d)
         self.range_mm = frame.range_m / placement.scale
-        self.points = self.origin + self.dirs * self.range_mm[..., None]
         self.intensity = frame.intensity
         # mm per pixel on a surface square-on at the nominal range of the frame's centre
         self.pixel_rad = float(np.mean(self.geometry.pitch_rad))
+
+    @functools.cached_property
+    def dirs(self) -> FloatArray:
+        """Unit part-frame rays (H, W, 3) of every pixel (made when first asked for)."""
+        d, r = self.geometry.directions(), self._to_part
+        return d[..., 0:1] * r[:, 0] + d[..., 1:2] * r[:, 1] + d[..., 2:3] * r[:, 2]
+
+    @functools.cached_property
+    def points(self) -> FloatArray:
+        """Part points (H, W, 3) mm of every pixel's range (nan where it has none)."""
+        return self.origin + self.dirs * self.range_mm[..., None]
 
     @property
     def shape(self) -> tuple[int, int]:
