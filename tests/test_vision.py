@@ -232,3 +232,21 @@ def test_a_flange_s_inward_normal_is_taken_on_the_segment_nearest_the_point():
     assert np.linalg.norm(n) == pytest.approx(1.0)
     expected = 0.6 * np.array([0.0, 1.0]) + 0.4 * np.array([-s2, s2])
     assert np.allclose(n, expected / np.linalg.norm(expected))
+
+
+def test_the_gap_between_parallel_planes_has_the_uncertainty_its_noisier_face_gives():
+    """A quiet top face of many points and a noisy web patch of few: the spread of the
+    fitted gap over many draws is what gap_sigma says (one pooled variance said 20 % less)."""
+    from ita.vision.fit import fit_parallel_planes
+
+    rng = np.random.default_rng(5)
+    xy_top, xy_web = rng.uniform(0, 10, (600, 2)), rng.uniform(20, 30, (60, 2))
+    gaps, sigmas = [], []
+    for _ in range(400):
+        top = np.column_stack([xy_top, 40.0 + 0.001 * xy_top[:, 0] + rng.normal(0, 0.01, 600)])
+        web = np.column_stack([xy_web, 2.5 + 0.001 * xy_web[:, 0] + rng.normal(0, 0.08, 60)])
+        fit = fit_parallel_planes([top, web])
+        gaps.append(fit.offsets[0] - fit.offsets[1])
+        sigmas.append(fit.gap_sigma(0, 1))
+    assert np.std(gaps) == pytest.approx(np.sqrt(np.mean(np.square(sigmas))), rel=0.12)
+    assert fit.group_rms[1] == pytest.approx(0.08, rel=0.25) and fit.group_rms[0] == pytest.approx(0.01, rel=0.25)

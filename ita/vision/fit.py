@@ -367,6 +367,7 @@ class ParallelPlanes:
     offsets: tuple[float, ...]
     cov: FloatArray
     rms: float
+    group_rms: tuple[float, ...] = ()
 
     def gap_sigma(self, i: int, j: int) -> float:
         """Standard uncertainty of offsets[i] - offsets[j]."""
@@ -376,18 +377,33 @@ class ParallelPlanes:
 
 
 def fit_parallel_planes(groups: list[FloatArray]) -> ParallelPlanes:
-    """Least-squares planes of one shared tilt through point groups [(n_i, 3)]; the shared
-    tilt comes from all the points, so the gaps between the planes do not depend on
-    extrapolating any one of them."""
+    """Planes of one shared tilt through point groups [(n_i, 3)]; the shared tilt comes
+    from all the points, so the gaps between the planes do not depend on extrapolating any
+    one of them.  Each group has its own noise (a face seen farther off or more obliquely
+    scatters more): least squares first, then weighted by each group's own residual
+    variance (variance components), and the covariance from those; `group_rms` each
+    group's residual rms.  One pooled variance made the gap's uncertainty too small where
+    the smaller group is the noisier (a flange's web patch beside its cap)."""
     pts = np.vstack(groups)
     cx, cy = pts[:, 0].mean(), pts[:, 1].mean()
     cols = [pts[:, 0] - cx, pts[:, 1] - cy]
     for i, g in enumerate(groups):
         cols.append(np.concatenate([np.full(len(h), float(i == j)) for j, h in enumerate(groups)]))
     a = np.column_stack(cols)
+    which = np.concatenate([np.full(len(g), i) for i, g in enumerate(groups)])
+    n = np.array([len(g) for g in groups], dtype=float)
     sol, *_ = np.linalg.lstsq(a, pts[:, 2], rcond=None)
+    var = np.ones(len(groups))
+    for _ in range(2):
+        r = pts[:, 2] - a @ sol
+        # each group's share of the degrees of freedom: its offset, and the tilt's 2 in proportion
+        dof = np.maximum(n - 1 - 2 * n / n.sum(), 1.0)
+        var = np.bincount(which, weights=r * r, minlength=len(groups)) / dof
+        var = np.maximum(var, max(float(var.max()) * 1e-6, 1e-18))
+        w = np.sqrt(1.0 / var[which])
+        sol, *_ = np.linalg.lstsq(a * w[:, None], pts[:, 2] * w, rcond=None)
     r = pts[:, 2] - a @ sol
-    s2 = float(r @ r) / max(len(pts) - a.shape[1], 1)
-    cov = s2 * np.linalg.inv(a.T @ a)
+    cov = np.linalg.inv(a.T @ (a / var[which][:, None]))
+    rms = np.sqrt(np.bincount(which, weights=r * r, minlength=len(groups)) / n)
     return ParallelPlanes((float(sol[0]), float(sol[1])), tuple(float(c) for c in sol[2:]), cov,
-                          float(np.sqrt(np.mean(r ** 2))))
+                          float(np.sqrt(np.mean(r ** 2))), tuple(float(x) for x in rms))

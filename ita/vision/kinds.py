@@ -123,7 +123,8 @@ def _height(top: FloatArray, webs: list[tuple[FloatArray, float]], ctx: VisionCo
     # height through it alone
     refs = [{"xy": [float(x) for x in np.mean(w[:, :2], axis=0)], "z": float(zw), "height": float(hi)}
             for (w, zw), hi in zip(webs, h)]
-    return float(np.mean(h)), math.hypot(u_fit, u_web), {"rms": fit.rms, "u_fit": u_fit, "u_web": u_web,
+    return float(np.mean(h)), math.hypot(u_fit, u_web), {"rms": fit.rms, "rms_faces": list(fit.group_rms),
+                                                         "u_fit": u_fit, "u_web": u_web,
                                                          "pixels": [len(top)] + [len(w) for w, _ in webs],
                                                          "webs": refs,
                                                          "budget": {"plane fits": u_fit,
