@@ -104,3 +104,14 @@ def test_a_height_is_decided_with_its_web_measured_before_or_after_it(tmp_path, 
     assert r.U < 0.3 * 0.147        # the tolerance term alone made U 0.147 mm
     truth = true_values(builtin_part.directory)[fh.id]
     assert abs(r.value - truth) < r.U
+
+
+def test_two_webs_read_through_one_gauge_point_share_its_error() -> None:
+    """Both sides of a rib on one floor, one thickness measured: its error moves both webs
+    alike, so it is not divided by sqrt 2 as two independent webs' would be."""
+    spec = _height_spec()
+    a = WebRef((10.0, 2.0), 2.5, 40.02, ("WT-1",))
+    b = WebRef((-10.0, 2.0), 2.5, 40.00, ("WT-1",))
+    r = decide_height(HeightPending("FH-1", None, None, None, 0.003, (a, b), 40.01, 0.05), spec,
+                      {"WT-1": (2.52, 0.004)}, {"WT-1": (0.0, 0.0, 2.5)}, 0.127)
+    assert r.u == pytest.approx(math.hypot(0.003, 0.004))

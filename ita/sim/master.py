@@ -112,9 +112,8 @@ def _settled_pose(workcell: Any, tool: Any) -> Callable[[Any, Any, np.random.Gen
     """true pose (4, 4) of a frame taken at the reported `pose` (4, 4), joints `q` (6,) or
     None: with q, the arm's settle error as the controller makes it in a run (a normal TCP
     offset of repeatability / 3 per axis, reached by the least-norm joint change, which
-    turns the tool too: 0.12 to 0.15 mrad rms at the box's views, where a drawn rotation
-    of ROTATION_SIGMA per axis gave 0.09 and the box's widths' U came out 20 % short);
-    without, a drawn translation and rotation."""
+    turns the tool too: 0.12 to 0.15 mrad rms at the box's views, where the drawn rotation
+    of ROTATION_SIGMA per axis gives 0.09); without, a drawn translation and rotation."""
     from ita.kinematics import arm_model, flange_poses
     from ita.robot.controller import settled
 

@@ -142,20 +142,21 @@ def decide_height(p: HeightPending, spec: Any, measured: Mapping[str, tuple[floa
     """The height's result with each web's measured thickness where its floor has one.
     measured: web thickness spec id -> (value, u) of those measured in the run; points:
     spec id -> its point (mm); web_tolerance: the +/- of a web whose floor has none."""
-    heights, terms, notes = [], [], []
-    for w in p.webs:
+    heights, notes = [], []
+    terms: dict[str, float] = {}    # one term per source: two webs read through one gauge point share its error
+    for i, w in enumerate(p.webs):
         got = [(s, *measured[s]) for s in w.specs if s in measured]
         if not got:
             heights.append(w.height)
-            terms.append(web_tolerance / math.sqrt(3))
+            terms[f"tolerance {i}"] = web_tolerance / math.sqrt(3)
             continue
         near = min(got, key=lambda g: math.dist(points[g[0]][:2], w.xy))
         spread = float(np.std([g[1] for g in got], ddof=1)) if len(got) > 1 else 0.0
         heights.append(w.height - w.z + near[1])
-        terms.append(math.hypot(near[2], spread))
+        terms[near[0]] = terms.get(near[0], 0.0) + math.hypot(near[2], spread)
         notes.append(f"{near[0]} {near[1]:.4f} mm" + (f" (floor's spread {spread * 1000:.1f} um over {len(got)})"
                                                      if len(got) > 1 else ""))
-    u_web = math.sqrt(sum(t * t for t in terms)) / len(terms)
+    u_web = math.sqrt(sum(t * t for t in terms.values())) / len(heights)
     u = math.hypot(p.u_fit, u_web)
     reason = ("web measured: " + "; ".join(notes)) if notes else \
         "its web's thickness was not measured: the nominal, with its tolerance in U"

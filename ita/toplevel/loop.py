@@ -500,7 +500,7 @@ class TopLevel:
             self.heights[spec_id] = p
             self.kept[spec_id] = (details, tuple(frames))
             return True
-        self._record(why_uncertain(self._height_result(p), value), events, details, frames)
+        self._record(why_uncertain(self._height_result(p), None), events, details, frames)
         return True
 
     def _height_result(self, p: HeightPending) -> Result:
@@ -520,7 +520,7 @@ class TopLevel:
             if final or all(s in self.done for s in p.waits_for):
                 self.heights.pop(spec_id)
                 details, frames = self.kept.pop(spec_id, (None, ()))
-                self._record(self._height_result(p), [], details, frames)
+                self._record(why_uncertain(self._height_result(p), None), [], details, frames)
 
     def _solve_networks(self, final: bool = False) -> None:
         """Decide every network whose members are all measured or given up (final: every
