@@ -250,3 +250,23 @@ def test_the_gap_between_parallel_planes_has_the_uncertainty_its_noisier_face_gi
         sigmas.append(fit.gap_sigma(0, 1))
     assert np.std(gaps) == pytest.approx(np.sqrt(np.mean(np.square(sigmas))), rel=0.12)
     assert fit.group_rms[1] == pytest.approx(0.08, rel=0.25) and fit.group_rms[0] == pytest.approx(0.01, rel=0.25)
+
+
+def test_a_height_through_two_webs_has_the_uncertainty_of_their_mean():
+    """A rib's top and a web on each side: the spread of top minus the webs' mean over many
+    draws is mean_gap_sigma; the rms of the two gaps' own, used before, is larger (in the
+    mean the two webs' errors partly cancel)."""
+    from ita.vision.fit import fit_parallel_planes
+
+    rng = np.random.default_rng(6)
+    xy = [rng.uniform(-2, 2, (300, 2)), rng.uniform(-15, -5, (300, 2)), rng.uniform(5, 15, (300, 2))]
+    z0 = (30.0, 2.5, 2.5)
+    heights, claimed, rms_gaps = [], [], []
+    for _ in range(400):
+        groups = [np.column_stack([p, z + rng.normal(0, 0.05, len(p))]) for p, z in zip(xy, z0)]
+        fit = fit_parallel_planes(groups)
+        heights.append(fit.offsets[0] - (fit.offsets[1] + fit.offsets[2]) / 2)
+        claimed.append(fit.mean_gap_sigma(0, [1, 2]))
+        rms_gaps.append(np.sqrt((fit.gap_sigma(0, 1) ** 2 + fit.gap_sigma(0, 2) ** 2) / 2))
+    assert np.std(heights) == pytest.approx(np.sqrt(np.mean(np.square(claimed))), rel=0.12)
+    assert np.mean(rms_gaps) > 1.15 * np.mean(claimed)

@@ -378,6 +378,15 @@ class ParallelPlanes:
         g[2 + i], g[2 + j] = 1.0, -1.0
         return float(np.sqrt(max(g @ self.cov @ g, 0.0)))
 
+    def mean_gap_sigma(self, i: int, others: list[int]) -> float:
+        """Standard uncertainty of offsets[i] minus the mean of offsets[others] (the mean
+        of the gaps to each: the shared term counted once)."""
+        g = np.zeros(len(self.cov))
+        g[2 + i] = 1.0
+        for j in others:
+            g[2 + j] -= 1.0 / len(others)
+        return float(np.sqrt(max(g @ self.cov @ g, 0.0)))
+
 
 def fit_parallel_planes(groups: list[FloatArray]) -> ParallelPlanes:
     """Planes of one shared tilt through point groups [(n_i, 3)]; the shared tilt comes

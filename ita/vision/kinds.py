@@ -116,7 +116,7 @@ def _height(top: FloatArray, webs: list[tuple[FloatArray, float]], ctx: VisionCo
     as parallel planes (points (n, 3) of each), plus the webs' nominal heights."""
     fit = fit_parallel_planes([top] + [w for w, _ in webs])
     h = [fit.offsets[0] - fit.offsets[1 + i] + zw for i, (_, zw) in enumerate(webs)]
-    u_fit = math.sqrt(np.mean([fit.gap_sigma(0, 1 + i) ** 2 for i in range(len(webs))]))
+    u_fit = fit.mean_gap_sigma(0, [1 + i for i in range(len(webs))])     # of the mean of the webs' heights
     u_web = ctx.web_tolerance / math.sqrt(3) / math.sqrt(len(webs))
     # each web's reference, for the Top Level to put its measured thickness in place of
     # the nominal (ita.toplevel.heights): where it was seen, its nominal height, the
