@@ -151,3 +151,11 @@ def _directions(geometry: ScanGeometry) -> FloatArray:
     d = geometry.directions_at(rows, cols)
     d.setflags(write=False)
     return d
+
+
+def rotate_directions(d: FloatArray, rotation: FloatArray) -> FloatArray:
+    """Directions d (..., 3) turned by the rotation (3, 3): rotation @ each, written out
+    per component (a BLAS matmul stalls against embree's threads in the simulator)."""
+    r = np.asarray(rotation, dtype=float)
+    return d[..., 0:1] * r[:, 0] + d[..., 1:2] * r[:, 1] + d[..., 2:3] * r[:, 2]
+

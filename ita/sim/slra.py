@@ -48,7 +48,7 @@ from scipy.spatial import cKDTree
 from scipy.special import ndtr
 
 from ita.part.model import Hole
-from ita.sensors.slra_frame import SPEED_OF_LIGHT, RangeFrame, ScanGeometry
+from ita.sensors.slra_frame import SPEED_OF_LIGHT, RangeFrame, ScanGeometry, rotate_directions
 from ita.workcell.model import Box, PartPlacement, Workcell
 
 FloatArray = NDArray[np.float64]
@@ -349,8 +349,8 @@ def simulate_frame(scene: SlraScene, pose: FloatArray, geometry: ScanGeometry, p
     to_part = rot.T @ np.asarray(pose, dtype=float)[:3, :3]            # sensor -> part directions
 
     def cast_sensor(d_sensor: FloatArray) -> tuple[Hits, FloatArray]:
-        d = d_sensor[:, 0:1] * to_part[:, 0] + d_sensor[:, 1:2] * to_part[:, 1] + d_sensor[:, 2:3] * to_part[:, 2]
-        return scene.cast(origin, d), d  # (no BLAS matmul: it stalls against embree's threads)
+        d = rotate_directions(d_sensor, to_part)
+        return scene.cast(origin, d), d
 
     hits, dirs = cast_sensor(scene.directions(geometry))
     amp, p_drop = _returns(params, hits, dirs, pl.scale)
@@ -499,10 +499,9 @@ def _edge_distance(edges: FloatArray, x: FloatArray, pitch: float
     k = min(4, len(edges))
     dd, ii = cKDTree(edges).query(x, k=k)
     dd, ii = dd.reshape(len(x), k), ii.reshape(len(x), k)
-    e1 = edges[ii[:, 0]] - x
-    to_e1 = e1 / np.maximum(np.linalg.norm(e1, axis=1, keepdims=True), 1e-15)
     if k < 2:
-        return dd[:, 0], to_e1, ii[:, 0]
+        e1 = edges[ii[:, 0]] - x
+        return dd[:, 0], e1 / np.maximum(np.linalg.norm(e1, axis=1, keepdims=True), 1e-15), ii[:, 0]
     d, toward = _edge_line_kernel(np.ascontiguousarray(edges, dtype=np.float64), np.ascontiguousarray(ii),
                                   np.ascontiguousarray(dd[:, 0]), np.ascontiguousarray(x, dtype=np.float64),
                                   float(pitch))

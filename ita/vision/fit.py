@@ -203,7 +203,7 @@ def _gauss_newton_lstsq(q: FloatArray, c: FloatArray, r: float, iterations: int,
 @njit(cache=True)
 def _gauss_newton_kernel(q, cx, cy, r, iterations, fixed_radius):  # pragma: no cover - compiled
     """(cx, cy, r) after Gauss-Newton steps on |p - c| - r over q (n, 2); each step solves
-    J^T J s = -J^T res (3 or 2 unknowns) by Cholesky; stops on a step under 1e-10."""
+    J^T J s = -J^T res (3 or 2 unknowns, np.linalg.solve); stops on a step under 1e-10."""
     n = q.shape[0]
     m = 2 if fixed_radius else 3
     for _ in range(iterations):

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from ita.sensors.slra_frame import RangeFrame
+from ita.sensors.slra_frame import RangeFrame, rotate_directions
 from ita.workcell.model import PartPlacement
 
 FloatArray = NDArray[np.float64]
@@ -40,8 +40,7 @@ class View:
     @functools.cached_property
     def dirs(self) -> FloatArray:
         """Unit part-frame rays (H, W, 3) of every pixel (made when first asked for)."""
-        d, r = self.geometry.directions(), self._to_part
-        return d[..., 0:1] * r[:, 0] + d[..., 1:2] * r[:, 1] + d[..., 2:3] * r[:, 2]
+        return rotate_directions(self.geometry.directions(), self._to_part)
 
     @functools.cached_property
     def points(self) -> FloatArray:
