@@ -19,6 +19,7 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
+from numba import njit
 from numpy.typing import ArrayLike, NDArray
 
 FloatArray = NDArray[np.float64]
@@ -154,8 +155,19 @@ def _directions(geometry: ScanGeometry) -> FloatArray:
 
 
 def rotate_directions(d: FloatArray, rotation: FloatArray) -> FloatArray:
-    """Directions d (..., 3) turned by the rotation (3, 3): rotation @ each, written out
-    per component (a BLAS matmul stalls against embree's threads in the simulator)."""
-    r = np.asarray(rotation, dtype=float)
-    return d[..., 0:1] * r[:, 0] + d[..., 1:2] * r[:, 1] + d[..., 2:3] * r[:, 2]
+    """Directions d (..., 3) turned by the rotation (3, 3): rotation @ each, in a compiled
+    loop (a BLAS matmul stalls against embree's threads in the simulator; numpy's
+    per-column form makes five temporaries of the whole image)."""
+    a = np.ascontiguousarray(d, dtype=np.float64)
+    return _rotate_kernel(a.reshape(-1, 3), np.ascontiguousarray(rotation, dtype=np.float64)).reshape(a.shape)
 
+
+@njit(cache=True)
+def _rotate_kernel(d, r):  # pragma: no cover - compiled
+    """rotation r (3, 3) @ each row of d (n, 3), each component summed as (x r_k0 + y r_k1) + z r_k2."""
+    out = np.empty_like(d)
+    for i in range(d.shape[0]):
+        x, y, z = d[i, 0], d[i, 1], d[i, 2]
+        for k in range(3):
+            out[i, k] = x * r[k, 0] + y * r[k, 1] + z * r[k, 2]
+    return out
