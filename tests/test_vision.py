@@ -270,3 +270,46 @@ def test_a_height_through_two_webs_has_the_uncertainty_of_their_mean():
         rms_gaps.append(np.sqrt((fit.gap_sigma(0, 1) ** 2 + fit.gap_sigma(0, 2) ** 2) / 2))
     assert np.std(heights) == pytest.approx(np.sqrt(np.mean(np.square(claimed))), rel=0.12)
     assert np.mean(rms_gaps) > 1.15 * np.mean(claimed)
+
+
+@pytest.fixture(scope="module")
+def flange_scene() -> SlraScene:
+    """An L flange on a web: web top z = 2.5, a wall 4 thick at x 0..4, a cap 25 wide at x
+    0..25 with its top at z = 40 (the part as designed: nominal and true are one mesh)."""
+    solid = _box((-60, -100, 0), (150, 100, 2.5)) + _box((0, -100, 0), (4, 100, 40)) + _box((0, -100, 37), (25, 100, 40))
+    return SlraScene(_mesh(solid), PLACEMENT)
+
+
+def test_a_flange_height_on_a_mesh_part_keeps_its_faces_off_the_cap_edge(flange_scene, monkeypatch):
+    """A mesh part's flange segment comes from its width spec's point; at a bend it points
+    off the real edge (here 35 deg, as at an inner flange's corner), and the web patch then reaches the cap's free edge,
+    whose mixed pixels read high.  Vision keeps each face's pixels clear of the nominal
+    mesh's other surfaces: the height is right within its uncertainty; without that, low."""
+    from ita.part.model import FlangeSegment
+    from ita.vision import kinds
+    from ita.vision.context import MeshFloor
+
+    from ita.sensors.slra_frame import ScanGeometry
+
+    a = math.radians(35.0)
+    u = (math.cos(a), math.sin(a))
+    seg = FlangeSegment("F1", "outer", (0.0, 40.0), ((0.0, -20.0), (0.0, 20.0)), (u, u), 40.0, 4.0, 25.0, 3.0)
+    spec = MeasurementSpec("FH-F1", K.FLANGE_HEIGHT, "F1", (14.5, 0.0, 40.0), (0.0, 0.0, 1.0), 40.0, -0.2, 0.2)
+    ctx = replace(_ctx(seg), floor=MeshFloor(flange_scene.mesh))
+    window = ScanGeometry((256, 256), (8.64, 8.64))                # a flange view's window in a run
+    frames = [simulate_frame(flange_scene, looking_down(20.0, 0.0, 0.49), window, SlraParams(), np.random.default_rng(s))
+              for s in range(20)]
+
+    def errors() -> tuple[np.ndarray, float]:
+        got = [measure(f, spec, ctx) for f in frames]
+        assert all(r.ok for r in got), [getattr(r, "detail", "") for r in got]
+        # the fits' own u (the web's thickness is the gauge's to give: ita.toplevel.heights)
+        return np.array([r.value - 40.0 for r in got]), float(np.mean([r.diagnostics["u_fit"] for r in got]))
+
+    e, u_val = errors()
+    assert abs(e.mean()) < 3 * u_val / math.sqrt(len(e))          # no bias beyond the mean's own spread
+    assert np.mean(np.abs(e) < 2 * u_val) >= 0.8
+    monkeypatch.setattr(kinds, "_clear_of_steps", lambda view, patch, z, c: np.ones(
+        (patch.r1 - patch.r0, patch.c1 - patch.c0), dtype=bool))
+    e_raw, _ = errors()
+    assert e_raw.mean() < e.mean() - 3 * u_val / math.sqrt(len(e))  # the edge's mixed pixels pull it low

@@ -34,6 +34,11 @@ BLUR_MM = 1.0            # edge band half-width: >= 3 sigma of the SLRA's beam f
 SURFACE_BAND_MM = 3.0    # a face's pixels lie within this of its nominal height
 
 
+STEP_CLEAR_MM = 1.5      # on a part known by its mesh, a flange height's faces use only pixels this far (at
+                         # the face, in the image) from another nominal surface: 4.5 sigma of the beam's
+                         # footprint (BLUR_MM is 3), beyond which a 40 mm step moves a range by < 0.2 um
+
+
 OCCLUDER_MM = 3.0        # a pixel this far in front of a face occludes it
 
 
@@ -152,7 +157,8 @@ class VisionContext:
     reference workpieces (ita.vision.calibration.SlraCalibration; None: none, the
     measurers' type-B terms stand); floor: for a part without pockets among its features
     (one whose features were found on its mesh), the nominal mesh's height below a point
-    (:class:`MeshFloor`), the web a height is measured from.
+    (:class:`MeshFloor`), the web a height is measured from; views: the Views of the last
+    few frames measured (ita.vision.patches.Views: a group's members share them).
     """
 
     features: Mapping[str, Feature]
@@ -167,6 +173,7 @@ class VisionContext:
     diameter_tolerances: Mapping[str, float] = field(default_factory=dict)
     calibration: Any = None
     floor: Any = None
+    views: Any = field(default_factory=lambda: _views(), compare=False, repr=False)
 
     @classmethod
     def from_part(cls, part: Any, workcell: Any, tool: str = "slra_1", specs: Any = None) -> VisionContext:
@@ -207,6 +214,13 @@ class VisionContext:
             if g2.points_in_polygon(np.atleast_2d(xy), p.outline_array)[0]:
                 return f"pocket {p.id}"
         return None if self.floor is None else self.floor.region(xy)
+
+
+def _views() -> Any:
+    """A fresh cache of Views (ita.vision.patches.Views: the frames of one view group)."""
+    from ita.vision.patches import Views
+
+    return Views()
 
 
 def part_calibration_path(part_directory: Any) -> Any:

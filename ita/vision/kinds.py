@@ -8,6 +8,7 @@ import math
 
 import numpy as np
 from numpy.typing import NDArray
+from scipy import ndimage
 
 from ita.part.model import FlangeSegment, Hole, HoleRole, Stiffener
 from ita.specs.model import MeasurementKind as K
@@ -16,6 +17,7 @@ from ita.vision.context import (
     BLUR_MM,
     EDGE_CORRELATION,
     RIM_EDGE_MODEL_PX,
+    STEP_CLEAR_MM,
     WHOLE_RIM,
     VisionContext,
     VisionFail,
@@ -26,7 +28,7 @@ from ita.vision.fit import (
     LineFit,
     fit_parallel_planes,
 )
-from ita.vision.patches import View, nominal_points
+from ita.vision.patches import Patch, View, nominal_points
 from ita.vision.register import neighbour_rims, register_on_rims, rib_beneath
 from ita.vision.rims import edge_sigma, fit_edge, fit_face, fit_rim, frame_uv, free_edge, rect_patch
 
@@ -101,14 +103,38 @@ def _edge_distance(view: View, spec: MeasurementSpec, hole: Hole, ctx: VisionCon
 
 
 def _web_plane(view: View, c: FloatArray, u: FloatArray, v: FloatArray, u_range, v_range, ctx: VisionContext,
-               name: str) -> tuple[FloatArray, float]:
+               name: str, clear: bool = False) -> tuple[FloatArray, float]:
     mid = c + 0.5 * (u_range[0] + u_range[1]) * u
     z_web = ctx.web_at(mid)
     if z_web is None:
         raise VisionFail(VisionFailure.NOT_MEASURABLE, f"no pocket floor beside the feature at {tuple(np.round(mid, 1))}")
     patch, region = rect_patch(view, name, c, u, v, u_range, v_range, z_web)
+    if clear:
+        region = region & _clear_of_steps(view, patch, z_web, ctx)
     _, used = fit_face(view, patch, region, z_web)
     return patch.take(view.points)[used], z_web
+
+
+def _clear_of_steps(view: View, patch: Patch, z: float, ctx: VisionContext) -> NDArray[np.bool_]:
+    """(h, w) over the patch: pixels whose beam stays on the nominal face at height z,
+    every pixel within STEP_CLEAR_MM of them (in the image, at the face) meeting that face
+    on the nominal mesh along its ray through the reported pose.  All True when Vision has
+    no nominal mesh (a generated part, whose patches are placed on its exact features)."""
+    if ctx.floor is None:
+        return np.ones((patch.r1 - patch.r0, patch.c1 - patch.c0), dtype=bool)
+    h, w = view.shape
+    reach = float(np.nanmedian(view.plane_range((0.0, 0.0, z), patch.take(view.dirs))))
+    m = int(math.ceil(STEP_CLEAR_MM / view.pixel_mm(reach))) + 1
+    r0, r1, c0, c1 = max(patch.r0 - m, 0), min(patch.r1 + m, h), max(patch.c0 - m, 0), min(patch.c1 + m, w)
+    dirs = view.dirs[r0:r1, c0:c1].reshape(-1, 3)
+    dist = ctx.floor.rays.first(np.broadcast_to(view.origin, dirs.shape), dirs)
+    with np.errstate(invalid="ignore"):
+        on = (np.abs(view.origin[2] + dist * dirs[:, 2] - z) < FACE_MATCH_MM).reshape(r1 - r0, c1 - c0)
+    clear = ndimage.minimum_filter(on, size=2 * m + 1, mode="nearest")
+    return clear[patch.r0 - r0:patch.r1 - r0, patch.c0 - c0:patch.c1 - c0]
+
+
+FACE_MATCH_MM = 0.01     # a nominal ray meets the face when its hit lies this close to the face's height
 
 
 def _height(top: FloatArray, webs: list[tuple[FloatArray, float]], ctx: VisionContext) -> tuple[float, float, dict]:
@@ -142,9 +168,11 @@ def _flange(view: View, spec: MeasurementSpec, seg: FlangeSegment, ctx: VisionCo
     q = nominal_points(view, patch, seg.height)[..., :2] - outer
     s_u = q @ u
     cap_region = region & (s_u > b) & (s_u < seg.cap_width - b)
+    if spec.kind is K.FLANGE_HEIGHT:      # on a mesh part the segment may not follow a bend at the point
+        cap_region &= _clear_of_steps(view, patch, seg.height, ctx)
     cap, cap_px = fit_face(view, patch, cap_region, seg.height)
     if spec.kind is K.FLANGE_HEIGHT:
-        web = _web_plane(view, free, u, v, (b + 2.0, b + 14.0), along, ctx, "web")
+        web = _web_plane(view, free, u, v, (b + 2.0, b + 14.0), along, ctx, "web", clear=True)
         value, unc, diag = _height(patch.take(view.points)[cap_px], [web], ctx)
         return VisionResult(spec.id, spec.kind, value, unc, diag)
     l_out, d_out = fit_edge(view, cap, cap_px, patch, region & (np.abs(s_u) < b), region & (s_u < -b), "outer edge")
