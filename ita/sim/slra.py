@@ -382,9 +382,12 @@ def _phase_kernel(hit, dist, amp, p_drop, frac, other_r, other_amp, other_drop, 
         own = dist[i] if hit[i] else 0.0
         f = frac[i]
         a1 = (1 - f) * amp[i]
-        a2 = f * other_amp[i]
-        re = a1 * math.cos(k * own) + a2 * math.cos(k * other_r[i])
-        im = a1 * math.sin(k * own) + a2 * math.sin(k * other_r[i])
+        re = a1 * math.cos(k * own)
+        im = a1 * math.sin(k * own)
+        if f > 0.0:                  # a mixed pixel (most are not: their other term is an exact 0)
+            a2 = f * other_amp[i]
+            re += a2 * math.cos(k * other_r[i])
+            im += a2 * math.sin(k * other_r[i])
         a = math.hypot(re, im)
         sigma = sigma_ref * (reflectance / max(a, 1e-9)) ** exponent
         phase = math.atan2(im, re) + n_phase[i] * sigma

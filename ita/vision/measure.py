@@ -85,7 +85,6 @@ from ita.specs.model import MeasurementSpec
 from ita.vision.calibration import SlraCalibration
 from ita.vision.context import VisionContext, VisionException, VisionFail, VisionFailure, VisionReply, VisionResult
 from ita.vision.kinds import MEASURERS
-from ita.vision.patches import View
 
 FloatArray = NDArray[np.float64]
 
@@ -101,7 +100,7 @@ def measure(frame: RangeFrame, spec: MeasurementSpec, ctx: VisionContext) -> Vis
     if isinstance(feature, Hole) and feature.axis[2] < AXIS_UP_COS:
         ctx, spec, feature = along_axis(ctx, spec, feature)
     try:
-        result = entry[1](View(frame, ctx.placement), spec, feature, ctx)
+        result = entry[1](ctx.views.of(frame, ctx.placement), spec, feature, ctx)
     except VisionFail as exc:
         return VisionException(spec.id, exc.reason, exc.detail)
     return (ctx.calibration or SlraCalibration()).apply(result, calibrated)

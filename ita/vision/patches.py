@@ -9,8 +9,10 @@ the part given by its corner points, with a mask of the pixels that fall in that
 from __future__ import annotations
 
 import functools
+from collections import OrderedDict
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -36,6 +38,7 @@ class View:
         self.intensity = frame.intensity
         # mm per pixel on a surface square-on at the nominal range of the frame's centre
         self.pixel_rad = float(np.mean(self.geometry.pitch_rad))
+        self.found: dict[Any, Any] = {}   # what measurers found in this view (a rim's fit), by what they asked
 
     @functools.cached_property
     def dirs(self) -> FloatArray:
@@ -76,6 +79,31 @@ class View:
         """Part points (n, 3) where the rays of fractional pixels (n, 2) meet a plane."""
         d = self.rays_at(rc)
         return self.origin + d * self.plane_range(coef, d)[:, None]
+
+
+class Views:
+    """The last few Views made, one per frame and placement: a view group's members are
+    measured in the same frames, and each View keeps what was found in it (a hole's rim,
+    fitted once for its diameter, position and edge distance).  A frame is known by
+    identity; a cached View holds its frame, so no other frame can take its address while
+    it is cached.  At most `size` Views (and their frames) are kept."""
+
+    def __init__(self, size: int = 4):
+        self.size = size
+        self._views: OrderedDict[tuple[int, PartPlacement], View] = OrderedDict()
+
+    def of(self, frame: RangeFrame, placement: PartPlacement) -> View:
+        """The View of `frame` in `placement` (made now, or the one made before)."""
+        key = (id(frame), placement)
+        got = self._views.get(key)
+        if got is not None and got.frame is frame:
+            self._views.move_to_end(key)
+            return got
+        view = View(frame, placement)
+        self._views[key] = view
+        while len(self._views) > self.size:
+            self._views.popitem(last=False)
+        return view
 
 
 @dataclass(frozen=True)

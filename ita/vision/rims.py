@@ -152,6 +152,24 @@ def _edge_xy(view: View, patch: Patch, s: FloatArray, band: NDArray[np.bool_], n
 
 def fit_rim(view: View, hole: Hole, name: str, min_coverage: float = math.pi,
             radius: float | None = None) -> tuple[CircleFit, PlaneFit, dict]:
+    """The hole's rim circle on its entry face (see :func:`_fit_rim`), fitted once per view
+    (a hole's diameter, position and edge distance are measured in the same frames): the
+    same fit, or the same failure, each time it is asked for; the diagnostics a copy."""
+    key = ("rim", hole, name, min_coverage, radius)
+    if key not in view.found:
+        try:
+            view.found[key] = _fit_rim(view, hole, name, min_coverage, radius)
+        except VisionFail as exc:
+            view.found[key] = exc
+    got = view.found[key]
+    if isinstance(got, VisionFail):
+        raise VisionFail(got.reason, got.detail)
+    fit, face, diag = got
+    return fit, face, dict(diag)
+
+
+def _fit_rim(view: View, hole: Hole, name: str, min_coverage: float = math.pi,
+             radius: float | None = None) -> tuple[CircleFit, PlaneFit, dict]:
     """The hole's rim circle on its entry face; its points must span `min_coverage` (rad).
     radius: fit the centre only, with this radius (mm).
 
