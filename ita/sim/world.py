@@ -161,6 +161,7 @@ class SimWorld:
         self.flange_link = next(j for j, n in self.link_names.items() if n == arm.flange_link)
         self._arm_links = tuple(j for j in range(p.getNumJoints(self.arm, physicsClientId=c))
                                 if p.getCollisionShapeData(self.arm, j, physicsClientId=c))
+        self._self_links = frozenset(self._arm_links[:-1])     # what a held tool may touch of the arm
         self.tools: dict[str, int] = {}
         for tool in self.cell.tools:
             body = _tool_body(tool, c)
@@ -315,13 +316,12 @@ class SimWorld:
                     gap = min(gap, pt[8])
                     if pt[8] <= margin:
                         found.append(Contact(self.held, self.body_names[body], pt[5], pt[8]))
-        if self.held is not None:
-            tool = self.tools[self.held]
-            for link in self._arm_links[:-1]:
-                for pt in p.getClosestPoints(tool, self.arm, upto, linkIndexB=link, physicsClientId=c):
+        if self.held is not None:         # the held tool against the arm's links but the last (one query)
+            for pt in p.getClosestPoints(self.tools[self.held], self.arm, upto, physicsClientId=c):
+                if pt[4] in self._self_links:
                     gap = min(gap, pt[8])
                     if pt[8] <= margin:
-                        found.append(Contact(self.held, self.link_names[link], pt[5], pt[8]))
+                        found.append(Contact(self.held, self.link_names[pt[4]], pt[5], pt[8]))
         return found, gap
 
     def _moving_aabb(self, margin: float) -> tuple[FloatArray, FloatArray]:
