@@ -61,7 +61,12 @@
         } catch (err) { msg.textContent = err.message; msg.className = "err"; }
       });
     }
+    // one report request at a time: while one is being built, later asks make one more after
+    // it (a fast run asks every few seconds; piled-up builds kept STOP waiting on a busy server)
+    let drawing = false, again = false;
     async function drawReport() {
+      if (drawing) { again = true; return; }
+      drawing = true;
       try {
         const data = await getJSON(`/api/runs/${enc(run)}/report`);
         report.innerHTML = "";
@@ -70,6 +75,10 @@
           ` · <a href="/runs/${enc(run)}/scoring">scoring against the as-built part (simulation only)</a>`;
         document.body.dataset.ready = "1";
       } catch (err) { report.innerHTML = `<p class="note">${ITA.esc(err.message)}</p>`; }
+      finally {
+        drawing = false;
+        if (again) { again = false; drawReport(); }
+      }
     }
     function onState(s) {
       ITA.renderLive(live, s, { colours: { conforms: "#2ca02c", does_not_conform: "#d62728", uncertain: "#ff9f1c", not_done: "#6b6b6b", cannot_be_done: "#9467bd" }, resultHref: resultHref(run) });
