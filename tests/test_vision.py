@@ -286,10 +286,9 @@ def test_a_flange_height_on_a_mesh_part_keeps_its_faces_off_the_cap_edge(flange_
     whose mixed pixels read high.  Vision keeps each face's pixels clear of the nominal
     mesh's other surfaces: the height is right within its uncertainty; without that, low."""
     from ita.part.model import FlangeSegment
+    from ita.sensors.slra_frame import ScanGeometry
     from ita.vision import kinds
     from ita.vision.context import MeshFloor
-
-    from ita.sensors.slra_frame import ScanGeometry
 
     a = math.radians(35.0)
     u = (math.cos(a), math.sin(a))
@@ -313,3 +312,22 @@ def test_a_flange_height_on_a_mesh_part_keeps_its_faces_off_the_cap_edge(flange_
         (patch.r1 - patch.r0, patch.c1 - patch.c0), dtype=bool))
     e_raw, _ = errors()
     assert e_raw.mean() < e.mean() - 3 * u_val / math.sqrt(len(e))  # the edge's mixed pixels pull it low
+
+
+def test_a_hole_s_rim_is_fitted_once_per_frame_for_all_its_specs(plate_scene, monkeypatch):
+    """A view group's members are measured in the same frame: the rim is fitted once, and
+    each spec gets what a fit of its own would give; another frame is fitted anew."""
+    from ita.vision import rims
+
+    calls = []
+    real = rims._fit_rim
+    monkeypatch.setattr(rims, "_fit_rim", lambda *a, **k: calls.append(a[1].id) or real(*a, **k))
+    ctx = _ctx(NOMINAL_HOLE, POCKET)
+    frame = _frame(plate_scene, HD, ctx, seed=3)
+    first, again = measure(frame, HD, ctx), measure(frame, HD, ctx)
+    alone = measure(frame, HD, _ctx(NOMINAL_HOLE, POCKET))           # a context of its own: fitted there
+    assert first.ok and (first.value, first.uncertainty) == (again.value, again.uncertainty) \
+        == (alone.value, alone.uncertainty)
+    assert calls == ["H1", "H1"]
+    measure(_frame(plate_scene, HD, ctx, seed=4), HD, ctx)
+    assert calls == ["H1", "H1", "H1"]

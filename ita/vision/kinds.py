@@ -115,6 +115,9 @@ def _web_plane(view: View, c: FloatArray, u: FloatArray, v: FloatArray, u_range,
     return patch.take(view.points)[used], z_web
 
 
+FACE_MATCH_MM = 0.01     # a nominal ray meets the face when its hit lies this close to the face's height
+
+
 def _clear_of_steps(view: View, patch: Patch, z: float, ctx: VisionContext) -> NDArray[np.bool_]:
     """(h, w) over the patch: pixels whose beam stays on the nominal face at height z,
     every pixel within STEP_CLEAR_MM of them (in the image, at the face) meeting that face
@@ -132,9 +135,6 @@ def _clear_of_steps(view: View, patch: Patch, z: float, ctx: VisionContext) -> N
         on = (np.abs(view.origin[2] + dist * dirs[:, 2] - z) < FACE_MATCH_MM).reshape(r1 - r0, c1 - c0)
     clear = ndimage.minimum_filter(on, size=2 * m + 1, mode="nearest")
     return clear[patch.r0 - r0:patch.r1 - r0, patch.c0 - c0:patch.c1 - c0]
-
-
-FACE_MATCH_MM = 0.01     # a nominal ray meets the face when its hit lies this close to the face's height
 
 
 def _height(top: FloatArray, webs: list[tuple[FloatArray, float]], ctx: VisionContext) -> tuple[float, float, dict]:
