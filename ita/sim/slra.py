@@ -321,14 +321,6 @@ def pose_error(pose: FloatArray, rng: np.random.Generator, translation_sigma_m: 
     return out
 
 
-def _pairs(shape: tuple[int, int]) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
-    """Flat indices (m,) of the horizontally and vertically neighbouring pixel pairs."""
-    h, w = shape
-    idx = np.arange(h * w).reshape(h, w)
-    return (np.concatenate([idx[:, :-1].ravel(), idx[:-1, :].ravel()]),
-            np.concatenate([idx[:, 1:].ravel(), idx[1:, :].ravel()]))
-
-
 def _plane_range(normal: FloatArray, point: FloatArray, origin: FloatArray, dirs: FloatArray) -> FloatArray:
     """Range (n,) along dirs (n, 3) from origin to the planes (point, normal) (n, 3)."""
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -429,16 +421,7 @@ def _mix(geometry: ScanGeometry, params: SlraParams, cast_sensor, origin: FloatA
     thr = params.jump_m / scale
     hit, dist, normals = hits.kind != MISS, hits.dist, hits.normals
     pts = origin + np.where(hit, dist, 0.0)[:, None] * dirs
-    p, q = _pairs(geometry.shape)
-    with np.errstate(invalid="ignore"):
-        cand = (hit[p] != hit[q]) | (np.abs(dist[p] - dist[q]) > 0.2 * thr)
-    p, q = p[cand], q[cand]
-    both = hit[p] & hit[q]
-    rq_from_p = _plane_range(normals[p], pts[p], origin, dirs[q])
-    rp_from_q = _plane_range(normals[q], pts[q], origin, dirs[p])
-    with np.errstate(invalid="ignore"):
-        step = (both & (np.abs(dist[q] - rq_from_p) > thr) & (np.abs(dist[p] - rp_from_q) > thr)) | (hit[p] != hit[q])
-    p, q = p[step], q[step]
+    p, q = _step_pairs(hit, dist, normals, pts, np.ascontiguousarray(origin, dtype=float), dirs, h, w, thr)
     if not len(p):
         return frac, other_r, other_amp, other_drop
     rc_p = np.column_stack(np.divmod(p, w)).astype(float)
@@ -486,6 +469,43 @@ def _mix(geometry: ScanGeometry, params: SlraParams, cast_sensor, origin: FloatA
     f = np.where(same, 0.0, f)
     frac[x], other_r[x], other_amp[x], other_drop[x] = f, np.where(hm, dm, 0.0), am, pm
     return frac, other_r, other_amp, other_drop
+
+
+@njit(cache=True, error_model="numpy")
+def _step_pairs(hit, dist, normals, pts, origin, dirs, h, w, thr):  # pragma: no cover - compiled
+    """The neighbouring pixel pairs (flat indices p, q; the horizontal pairs row by row, then
+    the vertical ones) across a depth step: a hit beside a miss, or two hits each off the
+    other's plane by more than thr along its own ray (pairs whose ranges differ by 0.2 thr
+    or less are not looked at)."""
+    n = 2 * h * w
+    out_p = np.empty(n, dtype=np.int64)
+    out_q = np.empty(n, dtype=np.int64)
+    m = 0
+    near = 0.2 * thr
+    for vertical in range(2):
+        for r in range(h - vertical):
+            for c in range(w - 1 + vertical):
+                i = r * w + c
+                j = i + w if vertical else i + 1
+                if hit[i] != hit[j]:
+                    out_p[m], out_q[m] = i, j
+                    m += 1
+                    continue
+                if not (hit[i] and abs(dist[i] - dist[j]) > near):
+                    continue
+                # range along j's ray to i's plane, and along i's ray to j's plane
+                num = (normals[i, 0] * (pts[i, 0] - origin[0]) + normals[i, 1] * (pts[i, 1] - origin[1])) \
+                    + normals[i, 2] * (pts[i, 2] - origin[2])
+                den = (normals[i, 0] * dirs[j, 0] + normals[i, 1] * dirs[j, 1]) + normals[i, 2] * dirs[j, 2]
+                rj = num / den
+                num = (normals[j, 0] * (pts[j, 0] - origin[0]) + normals[j, 1] * (pts[j, 1] - origin[1])) \
+                    + normals[j, 2] * (pts[j, 2] - origin[2])
+                den = (normals[j, 0] * dirs[i, 0] + normals[j, 1] * dirs[i, 1]) + normals[j, 2] * dirs[i, 2]
+                ri = num / den
+                if abs(dist[j] - rj) > thr and abs(dist[i] - ri) > thr:
+                    out_p[m], out_q[m] = i, j
+                    m += 1
+    return out_p[:m], out_q[:m]
 
 
 def _aligned(a: FloatArray, b: FloatArray) -> NDArray[np.bool_]:
