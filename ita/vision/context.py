@@ -37,6 +37,7 @@ SURFACE_BAND_MM = 3.0    # a face's pixels lie within this of its nominal height
 STEP_CLEAR_MM = 1.5      # on a part known by its mesh, a flange height's faces use only pixels this far (at
                          # the face, in the image) from another nominal surface: 4.5 sigma of the beam's
                          # footprint (BLUR_MM is 3), beyond which a 40 mm step moves a range by < 0.2 um
+FACE_MATCH_MM = 0.01     # a nominal ray meets such a face when its hit lies this close to the face's height
 
 
 OCCLUDER_MM = 3.0        # a pixel this far in front of a face occludes it

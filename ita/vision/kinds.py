@@ -16,6 +16,7 @@ from ita.specs.model import MeasurementSpec
 from ita.vision.context import (
     BLUR_MM,
     EDGE_CORRELATION,
+    FACE_MATCH_MM,
     RIM_EDGE_MODEL_PX,
     STEP_CLEAR_MM,
     WHOLE_RIM,
@@ -113,9 +114,6 @@ def _web_plane(view: View, c: FloatArray, u: FloatArray, v: FloatArray, u_range,
         region = region & _clear_of_steps(view, patch, z_web, ctx)
     _, used = fit_face(view, patch, region, z_web)
     return patch.take(view.points)[used], z_web
-
-
-FACE_MATCH_MM = 0.01     # a nominal ray meets the face when its hit lies this close to the face's height
 
 
 def _clear_of_steps(view: View, patch: Patch, z: float, ctx: VisionContext) -> NDArray[np.bool_]:
