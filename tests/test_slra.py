@@ -149,3 +149,32 @@ def test_a_ray_into_a_large_hole_meets_its_exact_wall_beside_a_small_hole():
     ends = origin + hits.dist[:, None] * dirs
     assert np.allclose(np.hypot(ends[:, 0], ends[:, 1]), 100.0, atol=1e-9)     # on the true circle
     assert np.allclose(hits.normals[:, :2], -ends[:, :2] / 100.0, atol=1e-9)  # facing the axis
+
+
+def test_a_frame_cast_in_two_halves_on_two_cores_is_the_frame_cast_whole():
+    """Large casts go half to a second thread (SPLIT_RAYS); every ray, its hole, its mixed
+    pixel and its noise must come out as one cast gives them, in the same pixel."""
+    from ita.part.model import Hole, HoleRole
+    from ita.sim.slra import SPLIT_RAYS
+
+    hole = Hole("L1", HoleRole.LIGHTENING, (10.0, -20.0, 0.0), (0.0, 0.0, 1.0), 60.0, 10.0, "P1")
+    solid = plate(size=600.0).difference(trimesh.creation.cylinder(radius=30.0, height=30.0, sections=48)
+                                         .apply_translation(hole.center))
+    geometry = ScanGeometry((128, 160), (12.0, 12.0))
+    assert geometry.shape[0] * geometry.shape[1] >= SPLIT_RAYS
+    frames = []
+    for split in (True, False):
+        scene = SlraScene(solid, PLACEMENT, holes=(hole,))
+        if split:
+            assert scene._helper is not None, "this test needs two cores"
+            calls = []
+            submit = scene._helper.submit
+            scene._helper.submit = lambda *a: calls.append(len(a[2])) or submit(*a)
+        else:
+            scene._helper = None
+        frames.append(simulate_frame(scene, looking_down(5.0, 3.0), geometry, SlraParams(), np.random.default_rng(4)))
+    assert calls and calls[0] == geometry.shape[0] * geometry.shape[1] // 2     # the main cast went in halves
+    split_frame, whole = frames
+    assert np.isnan(whole.range_m).any() and np.isfinite(whole.range_m).mean() > 0.5   # the hole is in view
+    assert np.array_equal(split_frame.range_m, whole.range_m, equal_nan=True)
+    assert np.array_equal(split_frame.intensity, whole.intensity)

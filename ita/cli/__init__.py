@@ -10,6 +10,7 @@ from __future__ import annotations
 import contextlib
 import difflib
 import importlib
+import os
 
 import click
 
@@ -36,6 +37,11 @@ COMMANDS: dict[str, str] = {
     "campaign": "ita.cli.campaign:campaign",
 }
 
+#: BLAS threads for a command's process unless the user's environment says otherwise.  ITA's
+#: matrices are small; a second BLAS thread spins on the second core between calls (about 13 s
+#: of a whole run's 80 s of CPU), where the SLRA's ray casting runs half of each frame.
+BLAS_THREADS = "1"
+
 
 class LazyGroup(click.Group):
     """A click group that imports its subcommands on first use."""
@@ -45,6 +51,7 @@ class LazyGroup(click.Group):
 
     def get_command(self, ctx: click.Context, cmd_name: str) -> click.Command | None:
         if cmd_name in COMMANDS:
+            os.environ.setdefault("OPENBLAS_NUM_THREADS", BLAS_THREADS)   # read when numpy loads: before it
             module_name, attr = COMMANDS[cmd_name].split(":")
             return getattr(importlib.import_module(module_name), attr)
         return super().get_command(ctx, cmd_name)
@@ -74,7 +81,6 @@ class LazyGroup(click.Group):
         try:
             return super().invoke(ctx)
         except BrokenPipeError:  # the reader went away (`ita ... | head`): stop quietly
-            import os
             import sys
 
             with contextlib.suppress(OSError):

@@ -34,7 +34,9 @@ the Generator passed in.
 from __future__ import annotations
 
 import math
+import os
 from collections.abc import Sequence
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 from typing import NamedTuple
@@ -106,6 +108,9 @@ MISS, PART, BOX = -1, 0, 1
 GRAZING_WALL_COS = 0.1
 HOLE_EXIT_MARGIN_MM = 1.0
 SAME_SURFACE_COS = 0.9   # normals within ~25 deg: one surface, for locating a step between two
+#: rays of one cast from which a second core takes half (embree and the compiled kernels run
+#: without the GIL; below this, waking a thread costs about what it saves)
+SPLIT_RAYS = 8192
 
 
 class Hits(NamedTuple):
@@ -145,6 +150,8 @@ class SlraScene:
         self._hole_xy = np.ascontiguousarray(np.array([h.center[:2] for h in up], dtype=float).reshape(-1, 2))
         self._hole = np.ascontiguousarray(np.array([(h.center[2], h.diameter / 2, h.depth) for h in up]).reshape(-1, 3))
         self._near_hole = _hole_raster(self._hole_xy, self._hole[:, 1]) if up else None
+        self.intersector.intersects_first(np.zeros((1, 3)), np.array([[0.0, 0.0, 1.0]]))  # builds embree's scene now
+        self._helper = ThreadPoolExecutor(1, thread_name_prefix="slra-cast") if (os.cpu_count() or 1) > 1 else None
 
     @classmethod
     def from_simulated(cls, simulated, workcell: Workcell, extra_boxes: Sequence[Box] = ()) -> SlraScene:
@@ -169,6 +176,24 @@ class SlraScene:
 
     def cast(self, origin: FloatArray, dirs: FloatArray) -> Hits:
         """First hits of rays from part point `origin` (3,) mm along unit `dirs` (n, 3)."""
+        return Hits(*self.in_halves(self._cast, len(dirs), origin, dirs))
+
+    def in_halves(self, kernel, n: int, *args):
+        """kernel(*args), a tuple of arrays of n rows computed row by row: with n large, the
+        rows of every (n, ...) argument split in two halves, one of them on a second core
+        (embree and the compiled kernels run without the GIL).  The same arrays, bit for bit."""
+        if self._helper is None or n < SPLIT_RAYS:
+            return kernel(*args)
+        half = n // 2
+
+        def rows(lo: int, hi: int) -> list:
+            return [a[lo:hi] if isinstance(a, np.ndarray) and a.shape[:1] == (n,) else a for a in args]
+
+        second = self._helper.submit(kernel, *rows(half, n))
+        first = kernel(*rows(0, half))
+        return tuple(np.concatenate(pair) for pair in zip(first, second.result()))
+
+    def _cast(self, origin: FloatArray, dirs: FloatArray) -> Hits:
         n = len(dirs)
         face = self.intersector.intersects_first(np.broadcast_to(origin, (n, 3)), dirs)
         hits = self._hits(np.broadcast_to(origin, (n, 3)), dirs, face)
@@ -202,7 +227,7 @@ class SlraScene:
             hits.kind[below] = more.kind
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _holes_kernel(origin, dirs, dist, normals, kind, lo, cell, table, hole_xy, hole, grazing_cos,
                   exit_margin):  # pragma: no cover - compiled
     """SlraScene._into_holes per ray: the wall hits are written into dist and normals; the
@@ -262,7 +287,7 @@ def _holes_kernel(origin, dirs, dist, normals, kind, lo, cell, table, hole_xy, h
     return below[:m].copy(), step[:m].copy()
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _hits_kernel(origins, dirs, face, face_normals, anchor, n_part_faces):  # pragma: no cover - compiled
     n = len(dirs)
     dist = np.full(n, np.inf)
@@ -350,7 +375,7 @@ def simulate_frame(scene: SlraScene, pose: FloatArray, geometry: ScanGeometry, p
 
     k = 4 * math.pi * geometry.modulation_hz / SPEED_OF_LIGHT * pl.scale   # rad per mm
     draws = rng.random(h * w), rng.normal(0.0, 1.0, h * w), rng.normal(0.0, 1.0, h * w)
-    rng_m, inten = _phase_kernel(hits.kind != MISS, hits.dist, amp, p_drop, frac, other_r, other_amp, other_drop,
+    rng_m, inten = scene.in_halves(_phase_kernel, h * w, hits.kind != MISS, hits.dist, amp, p_drop, frac, other_r, other_amp, other_drop,
                                  *draws, k, params.min_amplitude, params.sigma_phase_ref, params.reflectance,
                                  params.noise_exponent, params.intensity_noise, geometry.ambiguity_m)
     return RangeFrame(rng_m.reshape(h, w), inten.reshape(h, w),
@@ -358,7 +383,7 @@ def simulate_frame(scene: SlraScene, pose: FloatArray, geometry: ScanGeometry, p
                       geometry, timestamp, params.frame_time(geometry), sensor)
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _phase_kernel(hit, dist, amp, p_drop, frac, other_r, other_amp, other_drop, u_drop, n_phase, n_inten, k,
                   min_amplitude, sigma_ref, reflectance, exponent, intensity_noise, ambiguity_m
                   ):  # pragma: no cover - compiled
