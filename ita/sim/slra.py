@@ -35,11 +35,11 @@ from __future__ import annotations
 
 import math
 import os
-from collections.abc import Sequence
-from concurrent.futures import ThreadPoolExecutor
+from collections.abc import Callable, Sequence
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
-from typing import NamedTuple
+from typing import NamedTuple, TypeVar
 
 import numpy as np
 import trimesh
@@ -54,6 +54,7 @@ from ita.sensors.slra_frame import SPEED_OF_LIGHT, RangeFrame, ScanGeometry, rot
 from ita.workcell.model import Box, PartPlacement, Workcell
 
 FloatArray = NDArray[np.float64]
+T = TypeVar("T")
 
 
 @dataclass(frozen=True)
@@ -177,6 +178,14 @@ class SlraScene:
     def cast(self, origin: FloatArray, dirs: FloatArray) -> Hits:
         """First hits of rays from part point `origin` (3,) mm along unit `dirs` (n, 3)."""
         return Hits(*self.in_halves(self._cast, len(dirs), origin, dirs))
+
+    def beside(self, work: Callable[[], T]) -> Future[T]:
+        """work() started on the second core (at once, where there is none)."""
+        if self._helper is not None:
+            return self._helper.submit(work)
+        done: Future[T] = Future()
+        done.set_result(work())
+        return done
 
     def in_halves(self, kernel, n: int, *args):
         """kernel(*args), a tuple of arrays of n rows computed row by row: with n large, the
@@ -370,14 +379,16 @@ def simulate_frame(scene: SlraScene, pose: FloatArray, geometry: ScanGeometry, p
         return scene.cast(origin, d), d
 
     hits, dirs = cast_sensor(scene.directions(geometry))
+    # the frame's noise, drawn (without the GIL) on the second core while this one finds the mixed pixels
+    draws = scene.beside(lambda: (rng.random(h * w), rng.normal(0.0, 1.0, h * w), rng.normal(0.0, 1.0, h * w)))
     amp, p_drop = _returns(params, hits, dirs, pl.scale)
     frac, other_r, other_amp, other_drop = _mix(geometry, params, cast_sensor, origin, dirs, hits, pl.scale)
 
     k = 4 * math.pi * geometry.modulation_hz / SPEED_OF_LIGHT * pl.scale   # rad per mm
-    draws = rng.random(h * w), rng.normal(0.0, 1.0, h * w), rng.normal(0.0, 1.0, h * w)
-    rng_m, inten = scene.in_halves(_phase_kernel, h * w, hits.kind != MISS, hits.dist, amp, p_drop, frac, other_r, other_amp, other_drop,
-                                 *draws, k, params.min_amplitude, params.sigma_phase_ref, params.reflectance,
-                                 params.noise_exponent, params.intensity_noise, geometry.ambiguity_m)
+    rng_m, inten = scene.in_halves(_phase_kernel, h * w, hits.kind != MISS, hits.dist, amp, p_drop, frac, other_r,
+                                   other_amp, other_drop, *draws.result(), k, params.min_amplitude,
+                                   params.sigma_phase_ref, params.reflectance, params.noise_exponent,
+                                   params.intensity_noise, geometry.ambiguity_m)
     return RangeFrame(rng_m.reshape(h, w), inten.reshape(h, w),
                       np.asarray(pose if reported_pose is None else reported_pose, dtype=float),
                       geometry, timestamp, params.frame_time(geometry), sensor)
@@ -545,7 +556,7 @@ def _edge_distance(edges: FloatArray, x: FloatArray, pitch: float
     nearest edge point.  The distance is to a line fitted to the 4 nearest edge points (to
     the nearest one alone where those do not spread along a line)."""
     k = min(4, len(edges))
-    dd, ii = cKDTree(edges).query(x, k=k)
+    dd, ii = cKDTree(edges).query(x, k=k, workers=2)
     dd, ii = dd.reshape(len(x), k), ii.reshape(len(x), k)
     if k < 2:
         e1 = edges[ii[:, 0]] - x
