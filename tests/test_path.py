@@ -391,6 +391,25 @@ def test_motion_checker_settings_are_checked(planner_for):
         MotionChecker(planner.context(tool).config_free, floor=0.0)
 
 
+def test_many_segments_checked_in_halves_on_two_cores_get_what_one_check_gets(planner_for):
+    """A check of many segments goes half to a second thread (SPLIT_SEGMENTS): each
+    segment's verdict and clearance evaluations must be what one check gives it."""
+    planner, tool = planner_for(None)
+    rng = np.random.default_rng(8)
+    q0 = rng.uniform(planner.model.lower, planner.model.upper, (60, 6))
+    q1 = q0 + rng.normal(0.0, 0.4, q0.shape)
+    verdicts = []
+    for split in (True, False):
+        checker = MotionChecker(planner.context(tool).config_free)
+        assert checker.core.active, "this test needs two cores"
+        if not split:
+            checker.core._thread = None
+        verdicts.append((checker(q0, q1), checker.evaluations))
+    (ok_split, evals_split), (ok_whole, evals_whole) = verdicts
+    assert 0 < ok_whole.sum() < len(ok_whole)                 # some free, some not: a real check
+    assert np.array_equal(ok_split, ok_whole) and evals_split == evals_whole
+
+
 def test_visibility_route_goes_around_a_box():
     tree = RegionTree()
     tree.add("box", Regions.boxes([[0.0, 0.0, 0.0]], np.eye(3), [[0.4, 0.4, 0.4]]))

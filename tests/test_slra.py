@@ -166,12 +166,12 @@ def test_a_frame_cast_in_two_halves_on_two_cores_is_the_frame_cast_whole():
     for split in (True, False):
         scene = SlraScene(solid, PLACEMENT, holes=(hole,))
         if split:
-            assert scene._helper is not None, "this test needs two cores"
+            assert scene.core.active, "this test needs two cores"
             calls = []
-            submit = scene._helper.submit
-            scene._helper.submit = lambda *a: calls.append(len(a[2])) or submit(*a)
+            submit = scene.core._thread.submit
+            scene.core._thread.submit = lambda *a: calls.append(len(a[1]) if len(a) > 1 else 0) or submit(*a)
         else:
-            scene._helper = None
+            scene.core._thread = None
         frames.append(simulate_frame(scene, looking_down(5.0, 3.0), geometry, SlraParams(), np.random.default_rng(4)))
     assert calls and calls[0] == geometry.shape[0] * geometry.shape[1] // 2     # the main cast went in halves
     split_frame, whole = frames

@@ -33,6 +33,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ita.collision import ArmChecker
 from ita.collision.kernels import check_arm, pair_gap, tube_clearance
+from ita.cores import SecondCore
 from ita.kinematics import JOINT_LIMIT_TOL, ArmModel
 
 FloatArray = NDArray[np.float64]
@@ -264,7 +265,7 @@ def _clearance_step(segs, need, floor, speed, pspeed, radii, cyl, world, ignore,
     return step * (1.0 - 1e-9), low
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _motions_free(a, b, bounds, floor, budget, probe, lower, upper, base, origins, axes, flange_offset, tube_links,
                   tube_ends, radii, cyl, world, ignore, pairs, kind, pos, rot, half, rad, bound, solid, obj, active,
                   child_ptr, child_idx, roots):
@@ -358,6 +359,10 @@ def _motions_free(a, b, bounds, floor, budget, probe, lower, upper, base, origin
     return out, spent
 
 
+#: segments of one check from which a second core takes half (a segment costs about 0.2 ms)
+SPLIT_SEGMENTS = 8
+
+
 class MotionChecker:
     """`motion_free(a (n, 6), b (n, 6)) -> bool (n,)`: joint segments free at every position
     (see the module doc), compiled end to end over a ConfigChecker's arm and tree.
@@ -376,6 +381,7 @@ class MotionChecker:
         self.floor, self.budget, self.probe = float(floor), int(budget), float(probe)
         self.checks = 0
         self.evaluations = 0
+        self.core = SecondCore(SPLIT_SEGMENTS, "motion")    # many segments: half on a second core
 
     def clear(self, q: ArrayLike) -> NDArray[np.bool_]:
         """Bool (n,): configurations q (n, 6) free with every tube a joint moves grown by
@@ -395,9 +401,9 @@ class MotionChecker:
         cf = self.config_free
         c = cf.checker
         self.checks += len(a)
-        ok, spent = _motions_free(np.ascontiguousarray(a), np.ascontiguousarray(b), self.bounds, self.floor,
-                                  self.budget, self.probe, *cf._limits, *cf._fk, c.radii, c.cylinder, c.world,
-                                  cf.ignore(), c.pairs, *c.tree.arrays())
+        ok, spent = self.core.in_halves(_motions_free, (np.ascontiguousarray(a), np.ascontiguousarray(b)),
+                                        self.bounds, self.floor, self.budget, self.probe, *cf._limits, *cf._fk,
+                                        c.radii, c.cylinder, c.world, cf.ignore(), c.pairs, *c.tree.arrays())
         self.evaluations += int(spent.sum())
         return ok
 

@@ -34,12 +34,10 @@ the Generator passed in.
 from __future__ import annotations
 
 import math
-import os
-from collections.abc import Callable, Sequence
-from concurrent.futures import Future, ThreadPoolExecutor
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import NamedTuple, TypeVar
+from typing import NamedTuple
 
 import numpy as np
 import trimesh
@@ -49,12 +47,12 @@ from scipy import ndimage
 from scipy.spatial import cKDTree
 from scipy.special import ndtr
 
+from ita.cores import SecondCore
 from ita.part.model import Hole
 from ita.sensors.slra_frame import SPEED_OF_LIGHT, RangeFrame, ScanGeometry, rotate_directions
 from ita.workcell.model import Box, PartPlacement, Workcell
 
 FloatArray = NDArray[np.float64]
-T = TypeVar("T")
 
 
 @dataclass(frozen=True)
@@ -152,7 +150,7 @@ class SlraScene:
         self._hole = np.ascontiguousarray(np.array([(h.center[2], h.diameter / 2, h.depth) for h in up]).reshape(-1, 3))
         self._near_hole = _hole_raster(self._hole_xy, self._hole[:, 1]) if up else None
         self.intersector.intersects_first(np.zeros((1, 3)), np.array([[0.0, 0.0, 1.0]]))  # builds embree's scene now
-        self._helper = ThreadPoolExecutor(1, thread_name_prefix="slra-cast") if (os.cpu_count() or 1) > 1 else None
+        self.core = SecondCore(SPLIT_RAYS, "slra")       # casts and kernels split with a second core
 
     @classmethod
     def from_simulated(cls, simulated, workcell: Workcell, extra_boxes: Sequence[Box] = ()) -> SlraScene:
@@ -177,32 +175,9 @@ class SlraScene:
 
     def cast(self, origin: FloatArray, dirs: FloatArray) -> Hits:
         """First hits of rays from part point `origin` (3,) mm along unit `dirs` (n, 3)."""
-        return Hits(*self.in_halves(self._cast, len(dirs), origin, dirs))
+        return Hits(*self.core.in_halves(self._cast, (dirs,), origin))
 
-    def beside(self, work: Callable[[], T]) -> Future[T]:
-        """work() started on the second core (at once, where there is none)."""
-        if self._helper is not None:
-            return self._helper.submit(work)
-        done: Future[T] = Future()
-        done.set_result(work())
-        return done
-
-    def in_halves(self, kernel, n: int, *args):
-        """kernel(*args), a tuple of arrays of n rows computed row by row: with n large, the
-        rows of every (n, ...) argument split in two halves, one of them on a second core
-        (embree and the compiled kernels run without the GIL).  The same arrays, bit for bit."""
-        if self._helper is None or n < SPLIT_RAYS:
-            return kernel(*args)
-        half = n // 2
-
-        def rows(lo: int, hi: int) -> list:
-            return [a[lo:hi] if isinstance(a, np.ndarray) and a.shape[:1] == (n,) else a for a in args]
-
-        second = self._helper.submit(kernel, *rows(half, n))
-        first = kernel(*rows(0, half))
-        return tuple(np.concatenate(pair) for pair in zip(first, second.result()))
-
-    def _cast(self, origin: FloatArray, dirs: FloatArray) -> Hits:
+    def _cast(self, dirs: FloatArray, origin: FloatArray) -> Hits:
         n = len(dirs)
         face = self.intersector.intersects_first(np.broadcast_to(origin, (n, 3)), dirs)
         hits = self._hits(np.broadcast_to(origin, (n, 3)), dirs, face)
@@ -380,15 +355,15 @@ def simulate_frame(scene: SlraScene, pose: FloatArray, geometry: ScanGeometry, p
 
     hits, dirs = cast_sensor(scene.directions(geometry))
     # the frame's noise, drawn (without the GIL) on the second core while this one finds the mixed pixels
-    draws = scene.beside(lambda: (rng.random(h * w), rng.normal(0.0, 1.0, h * w), rng.normal(0.0, 1.0, h * w)))
+    draws = scene.core.beside(lambda: (rng.random(h * w), rng.normal(0.0, 1.0, h * w), rng.normal(0.0, 1.0, h * w)))
     amp, p_drop = _returns(params, hits, dirs, pl.scale)
     frac, other_r, other_amp, other_drop = _mix(geometry, params, cast_sensor, origin, dirs, hits, pl.scale)
 
     k = 4 * math.pi * geometry.modulation_hz / SPEED_OF_LIGHT * pl.scale   # rad per mm
-    rng_m, inten = scene.in_halves(_phase_kernel, h * w, hits.kind != MISS, hits.dist, amp, p_drop, frac, other_r,
-                                   other_amp, other_drop, *draws.result(), k, params.min_amplitude,
-                                   params.sigma_phase_ref, params.reflectance, params.noise_exponent,
-                                   params.intensity_noise, geometry.ambiguity_m)
+    n_rows = (hits.kind != MISS, hits.dist, amp, p_drop, frac, other_r, other_amp, other_drop, *draws.result())
+    rng_m, inten = scene.core.in_halves(_phase_kernel, n_rows, k, params.min_amplitude, params.sigma_phase_ref,
+                                        params.reflectance, params.noise_exponent, params.intensity_noise,
+                                        geometry.ambiguity_m)
     return RangeFrame(rng_m.reshape(h, w), inten.reshape(h, w),
                       np.asarray(pose if reported_pose is None else reported_pose, dtype=float),
                       geometry, timestamp, params.frame_time(geometry), sensor)

@@ -1,0 +1,62 @@
+"""Work for a second core: compiled kernels and library calls that run without the GIL.
+
+    core = SecondCore(min_rows=8192)
+    hits = core.in_halves(kernel, (dirs,), origin)      # kernel(dirs, origin), dirs' rows in two halves
+    later = core.beside(lambda: rng.random(n))          # started now; later.result() when needed
+
+ITA's heavy loops (embree's ray casting, numba kernels compiled with nogil, numpy's random
+fills) release the GIL, so a second thread runs them on the second core.  A SecondCore is
+one such thread, kept for the owner's life (waking a kept thread costs tens of microseconds;
+starting one, more).  On a one-core machine it runs everything at once, in the caller.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable, Sequence
+from concurrent.futures import Future, ThreadPoolExecutor
+from typing import Any, TypeVar
+
+import numpy as np
+
+T = TypeVar("T")
+
+
+class SecondCore:
+    """A kept second thread for work split by rows (`in_halves`) or run alongside (`beside`).
+
+    min_rows: below this many rows `in_halves` runs the kernel whole, in the caller (the split
+    would cost about what it saves)."""
+
+    def __init__(self, min_rows: int, name: str = "ita-second-core") -> None:
+        if min_rows < 2:
+            raise ValueError(f"min_rows must be at least 2, got {min_rows}")
+        self.min_rows = int(min_rows)
+        self._thread = ThreadPoolExecutor(1, thread_name_prefix=name) if (os.cpu_count() or 1) > 1 else None
+
+    @property
+    def active(self) -> bool:
+        """Whether there is a second thread (False on a one-core machine)."""
+        return self._thread is not None
+
+    def beside(self, work: Callable[[], T]) -> Future[T]:
+        """work() started on the second thread (done at once, here, where there is none)."""
+        if self._thread is not None:
+            return self._thread.submit(work)
+        done: Future[T] = Future()
+        done.set_result(work())
+        return done
+
+    def in_halves(self, kernel: Callable[..., tuple], rows: Sequence[np.ndarray], *rest: Any) -> tuple:
+        """kernel(*rows, *rest): a tuple of arrays with a row for each row of `rows` (arrays
+        of n rows each), each computed from that row alone.  With n >= min_rows the rows go in
+        two halves, the second on the second thread; the same arrays, bit for bit, as one call."""
+        n = len(rows[0])
+        if any(len(r) != n for r in rows):
+            raise ValueError(f"rows of unequal length: {[len(r) for r in rows]}")
+        if self._thread is None or n < self.min_rows:
+            return kernel(*rows, *rest)
+        half = n // 2
+        second = self._thread.submit(kernel, *(r[half:] for r in rows), *rest)
+        first = kernel(*(r[:half] for r in rows), *rest)
+        return tuple(np.concatenate(pair) for pair in zip(first, second.result()))

@@ -1,0 +1,45 @@
+"""SecondCore: work split by rows with a second thread gives what one call gives."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from ita.cores import SecondCore
+
+
+def _scaled_rows(x, y, k):
+    """Per row: x * k + y, and the row's sum (a tuple of arrays, as the kernels return)."""
+    out = x * k + y
+    return out, out.sum(axis=1)
+
+
+def test_rows_split_in_halves_come_back_in_order_and_equal_to_one_call():
+    core = SecondCore(min_rows=4)
+    rng = np.random.default_rng(1)
+    x, y = rng.random((101, 3)), rng.random((101, 3))
+    calls = []
+    submit = core._thread.submit
+    core._thread.submit = lambda *a: calls.append(len(a[1])) or submit(*a)
+    split = core.in_halves(_scaled_rows, (x, y), 2.5)
+    whole = _scaled_rows(x, y, 2.5)
+    assert calls == [51]                                        # the second half went to the thread
+    assert all(np.array_equal(s, w) for s, w in zip(split, whole))
+
+
+def test_few_rows_run_whole_in_the_caller():
+    core = SecondCore(min_rows=64)
+    core._thread.submit = lambda *a: pytest.fail("a small call must not use the thread")
+    x = np.arange(30.0).reshape(10, 3)
+    out, total = core.in_halves(_scaled_rows, (x, x), 1.0)
+    assert np.array_equal(total, 2 * x.sum(axis=1))
+
+
+def test_rows_of_unequal_length_are_refused():
+    with pytest.raises(ValueError, match="unequal"):
+        SecondCore(min_rows=2).in_halves(_scaled_rows, (np.zeros((4, 3)), np.zeros((5, 3))), 1.0)
+
+
+def test_work_beside_runs_and_gives_its_result():
+    core = SecondCore(min_rows=2)
+    assert core.beside(lambda: 6 * 7).result() == 42
