@@ -8,6 +8,9 @@ to the component of the project that spends it: a function of `ita/` belongs to 
 package (`ita/sim` the simulator, `ita/vision`, `ita/path` the path planner, ...); time
 spent in a library (numpy, embree, pybullet, SQLite, SWI-Prolog through ctypes) goes to
 the project components that called it, in proportion to what each caller spent there.
+The profile is of the main thread: work a run hands to its second core (`ita/cores.py`)
+shows as the main thread's own half of it, and its waits for the other half under
+"second core (waiting)".
 Prints the table (wall seconds and share) and the hottest project functions, and writes
 bench/results/run_profile.json.  --whole: every measurement (slow).
 
@@ -37,7 +40,8 @@ NAMES = {"sim": "simulator (ranges, gauge, world)", "vision": "Vision", "robot":
          "executive": "Plan Executive", "archive": "results archive", "toplevel": "Top Level",
          "devices": "device adapters", "diagnosis": "Exception Handler", "sequence": "Sequence Planner",
          "geometry": "Geometric Reasoner", "part": "part and truth", "cli": "command line",
-         "scoring": "scoring", "sensors": "sensor models (gauge)", "workcell": "workcell model"}
+         "scoring": "scoring", "sensors": "sensor models (gauge)", "workcell": "workcell model",
+         "cores": "second core (waiting)"}
 
 Func = tuple[str, int, str]
 
