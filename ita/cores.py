@@ -7,7 +7,8 @@
 ITA's heavy loops (embree's ray casting, numba kernels compiled with nogil, numpy's random
 fills) release the GIL, so a second thread runs them on the second core.  A SecondCore is
 one such thread, kept for the owner's life (waking a kept thread costs tens of microseconds;
-starting one, more).  On a one-core machine it runs everything at once, in the caller.
+starting one, more).  On one core (the machine's, or the process's affinity) it runs
+everything at once, in the caller.
 """
 
 from __future__ import annotations
@@ -22,6 +23,15 @@ import numpy as np
 T = TypeVar("T")
 
 
+def usable_cores() -> int:
+    """The processors this process may run on (its affinity: a process pinned to one core
+    gets no second thread), or the machine's count where the system does not say."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:          # not on Linux
+        return os.cpu_count() or 1
+
+
 class SecondCore:
     """A kept second thread for work split by rows (`in_halves`) or run alongside (`beside`).
 
@@ -32,7 +42,7 @@ class SecondCore:
         if min_rows < 2:
             raise ValueError(f"min_rows must be at least 2, got {min_rows}")
         self.min_rows = int(min_rows)
-        self._thread = ThreadPoolExecutor(1, thread_name_prefix=name) if (os.cpu_count() or 1) > 1 else None
+        self._thread = ThreadPoolExecutor(1, thread_name_prefix=name) if usable_cores() > 1 else None
 
     @property
     def active(self) -> bool:

@@ -43,3 +43,14 @@ def test_rows_of_unequal_length_are_refused():
 def test_work_beside_runs_and_gives_its_result():
     core = SecondCore(min_rows=2)
     assert core.beside(lambda: 6 * 7).result() == 42
+
+
+def test_a_process_pinned_to_one_core_gets_no_second_thread(monkeypatch):
+    import ita.cores as cores
+
+    monkeypatch.setattr(cores.os, "sched_getaffinity", lambda pid: {0}, raising=False)
+    core = cores.SecondCore(min_rows=2)
+    assert not core.active
+    x = np.arange(12.0).reshape(4, 3)
+    assert np.array_equal(core.in_halves(_scaled_rows, (x, x), 1.0)[1], 2 * x.sum(axis=1))
+    assert core.beside(lambda: "here").result() == "here"
