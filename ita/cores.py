@@ -14,6 +14,7 @@ everything at once, in the caller.
 from __future__ import annotations
 
 import os
+import threading
 from collections.abc import Callable, Sequence
 from concurrent.futures import Future, ThreadPoolExecutor
 from typing import Any, TypeVar
@@ -42,7 +43,13 @@ class SecondCore:
         if min_rows < 2:
             raise ValueError(f"min_rows must be at least 2, got {min_rows}")
         self.min_rows = int(min_rows)
-        self._thread = ThreadPoolExecutor(1, thread_name_prefix=name) if usable_cores() > 1 else None
+        self._name = f"{name}-{id(self):x}"
+        self._thread = ThreadPoolExecutor(1, thread_name_prefix=self._name) if usable_cores() > 1 else None
+
+    def _here(self) -> bool:
+        """Whether work must run in the caller: no second thread, or the caller is it (work it
+        queued for itself would wait behind itself for ever)."""
+        return self._thread is None or threading.current_thread().name.startswith(self._name + "_")
 
     @property
     def active(self) -> bool:
@@ -50,8 +57,9 @@ class SecondCore:
         return self._thread is not None
 
     def beside(self, work: Callable[[], T]) -> Future[T]:
-        """work() started on the second thread (done at once, here, where there is none)."""
-        if self._thread is not None:
+        """work() started on the second thread (done at once, here, where there is none or
+        where this is it)."""
+        if not self._here():
             return self._thread.submit(work)
         done: Future[T] = Future()
         done.set_result(work())
@@ -64,7 +72,7 @@ class SecondCore:
         n = len(rows[0])
         if any(len(r) != n for r in rows):
             raise ValueError(f"rows of unequal length: {[len(r) for r in rows]}")
-        if self._thread is None or n < self.min_rows:
+        if n < self.min_rows or self._here():
             return kernel(*rows, *rest)
         half = n // 2
         second = self._thread.submit(kernel, *(r[half:] for r in rows), *rest)

@@ -54,3 +54,15 @@ def test_a_process_pinned_to_one_core_gets_no_second_thread(monkeypatch):
     x = np.arange(12.0).reshape(4, 3)
     assert np.array_equal(core.in_halves(_scaled_rows, (x, x), 1.0)[1], 2 * x.sum(axis=1))
     assert core.beside(lambda: "here").result() == "here"
+
+
+def test_work_the_second_thread_splits_again_runs_there_instead_of_waiting_for_itself():
+    core = SecondCore(min_rows=2)
+    x = np.arange(30.0).reshape(10, 3)
+
+    def nested():
+        inner = core.in_halves(_scaled_rows, (x, x), 1.0)[1]      # from the thread itself
+        return inner, core.beside(lambda: 5).result()
+
+    inner, five = core.beside(nested).result(timeout=10)
+    assert np.array_equal(inner, 2 * x.sum(axis=1)) and five == 5
