@@ -139,6 +139,28 @@ def test_link_tubes_come_from_the_urdf_and_follow_the_links(model: ArmModel) -> 
     assert np.allclose(lengths, np.linalg.norm(model.tube_ends[:, 1] - model.tube_ends[:, 0], axis=-1))
 
 
+
+@pytest.mark.parametrize("change, complete", [
+    (None, True),
+    (("<cylinder radius=\"0.3\" length=\"0.55\"/>", "<box size=\"0.6 0.6 0.55\"/>"), False),   # link1's
+    (("</robot>", "<link name=\"lamp\"><collision><geometry><sphere radius=\"0.1\"/></geometry></collision>"
+                  "</link><joint name=\"lamp_mount\" type=\"fixed\"><parent link=\"link3\"/>"
+                  "<child link=\"lamp\"/></joint></robot>"), False),                   # off the chain
+    (("</robot>", "<link name=\"plinth\"><collision><geometry><box size=\"1 1 0.1\"/></geometry></collision>"
+                  "</link><joint name=\"plinth_mount\" type=\"fixed\"><parent link=\"base_link\"/>"
+                  "<child link=\"plinth\"/></joint></robot>"), True),                  # does not move
+])
+def test_tubes_are_complete_only_when_they_enclose_every_moving_collision_shape(cell: Workcell, tmp_path, change,
+                                                                               complete) -> None:
+    text = cell.arm.urdf.read_text()
+    if change is not None:
+        assert change[0] in text
+        text = text.replace(change[0], change[1])
+    urdf = tmp_path / "arm.urdf"
+    urdf.write_text(text)
+    assert arm_model(dataclasses.replace(cell.arm, urdf=urdf)).tubes_complete is complete
+
+
 # --- inverse kinematics -------------------------------------------------------------------
 
 def test_ik_round_trip_contains_the_config(model: ArmModel, random_configs: np.ndarray) -> None:

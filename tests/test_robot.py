@@ -231,3 +231,59 @@ def test_a_step_back_along_the_line_of_sight_keeps_the_tool_s_orientation():
     angle, moved = turned_deg(joint_translation(model, q, tcp, step))
     assert angle < 1e-4 and np.allclose(moved, step, atol=1e-7)
     assert turned_deg(joint_offset(model, q, tcp, step))[0] > 0.5
+
+
+@pytest.mark.parametrize("tool", [None, "us_probe_90", "slra_1"])
+def test_no_gap_closes_faster_than_the_swept_bound_says(ctl, tool):
+    """The bound the controller skips checks by: from one control period to the next, the
+    arm's (and held tool's) gap to the cell, and the tool's to the arm, change by no more
+    than the swept bound grows, on random moves through the cell (gaps measured by
+    pybullet up to 0.5 m; a gap is 1-Lipschitz in every point's motion)."""
+    from ita.kinematics import link_frames
+
+    world = ctl.world
+    if tool is not None:
+        world.attach(tool)
+    rng = np.random.default_rng(11)
+    model = world.model
+    worst = 0.0
+    for _ in range(6):
+        goal = np.clip(READY + rng.uniform(-0.9, 0.9, 6), model.lower, model.upper)
+        traj = from_waypoints(model, [READY, goal])
+        configs = traj.sample(np.linspace(0.0, traj.duration, 40))
+        cell, tool_swept = ctl._swept(configs, link_frames(model, configs))
+        gaps = []
+        for q in configs:
+            world.set_q(q)
+            gaps.append(world.contacts_and_gaps(0.0, (), 0.5)[1:])
+        gaps = np.array(gaps)
+        assert np.all(np.abs(np.diff(gaps[:, 0])) <= np.diff(cell) + 1e-6)
+        assert np.all(np.abs(np.diff(gaps[:, 1])) <= np.diff(tool_swept) + 1e-6)
+        worst = max(worst, float(np.max(np.abs(np.diff(gaps[:, 0])) / np.maximum(np.diff(cell), 1e-12))))
+    assert worst > 0.2          # the bound is not vacuous: some step closes a good part of it
+
+
+@pytest.mark.parametrize("goal", [INTO_FIXTURE, INTO_PART])
+def test_checks_skipped_by_the_swept_bound_find_the_first_contact_of_checking_every_period(ctl, goal, monkeypatch):
+    """A move with a probe held into the fixture or the part: the controller's reply (what
+    touched what, when, where the arm stopped) is the reply of checking every period."""
+    world = ctl.world
+    world.attach("us_probe_1")
+    start = world.state()
+    traj = from_waypoints(world.model, [READY, goal])
+    checks = []
+    counted = world.contacts_and_gaps
+
+    def counting(*args, **kwargs):
+        checks.append(1)
+        return counted(*args, **kwargs)
+
+    monkeypatch.setattr(world, "contacts_and_gaps", counting)
+    skipped = ctl.execute(traj)
+    n_skipped = len(checks)
+    world.restore(start)
+    monkeypatch.setattr(ctl, "_swept", lambda configs, frames: (np.arange(len(configs)) * 1e9,) * 2)
+    every = ctl.execute(traj)
+    assert skipped.status is every.status is MotionStatus.BUMP
+    assert skipped == every
+    assert n_skipped < len(checks) - n_skipped        # far fewer checks than periods

@@ -46,6 +46,8 @@ class ArmModel:
     parameters (d1, a1, a2, d4, d6) the inverse kinematics uses.
     tube_links: (t,) index into link_names of each collision tube; tube_ends: (t, 2, 3)
     the tube's segment ends in its link's frame; tube_radii: (t,) its radius (m).
+    tubes_complete: whether the tubes enclose every collision shape of every link that
+    moves (the URDF's moving links have capsules and cylinders only, all on the chain).
     """
 
     base: FloatArray
@@ -63,6 +65,7 @@ class ArmModel:
     tube_links: NDArray[np.int64]
     tube_ends: FloatArray
     tube_radii: FloatArray
+    tubes_complete: bool
 
     def __repr__(self) -> str:
         return f"ArmModel({', '.join(self.joint_names)}; {len(self.tube_radii)} tubes)"
@@ -128,6 +131,7 @@ def arm_model(arm: ArmSpec) -> ArmModel:
         tube_links=_frozen(tube_links, np.int64),
         tube_ends=_frozen(tube_ends),
         tube_radii=_frozen(tube_radii),
+        tubes_complete=_only_tubes(root, link_names),
     )
 
 
@@ -200,7 +204,12 @@ def link_segments(model: ArmModel, q: ArrayLike) -> FloatArray:
     `model.tube_radii[k]`: the URDF's capsules exactly, its cylinders as the capsule that
     encloses them (same axis segment and radius).
     """
-    frames = link_frames(model, q)[:, model.tube_links]          # (n, t, 4, 4)
+    return frame_segments(model, link_frames(model, q))
+
+
+def frame_segments(model: ArmModel, frames: FloatArray) -> FloatArray:
+    """`link_segments` from the link frames (n, 8, 4, 4) of `link_frames`."""
+    frames = frames[:, model.tube_links]                          # (n, t, 4, 4)
     ends = np.einsum("ntij,tkj->ntki", frames[:, :, :3, :3], model.tube_ends)
     return ends + frames[:, :, None, :3, 3]
 
@@ -248,6 +257,32 @@ def _floats(element: ET.Element | None, attr: str, default: str) -> FloatArray:
 def _origin(element: ET.Element) -> FloatArray:
     origin = element.find("origin")
     return homogeneous(rpy_to_matrix(_floats(origin, "rpy", "0 0 0")), _floats(origin, "xyz", "0 0 0"))
+
+
+def _only_tubes(root: ET.Element, link_names: list[str]) -> bool:
+    """Whether every collision shape of a moving link is a capsule or a cylinder on a link
+    of the chain (`link_names`), so that the tubes `_tubes` reads enclose all of them.  The
+    moving links: all but the root and what hangs from it by fixed joints."""
+    fixed_to: dict[str, list[str]] = {}
+    for joint in root.findall("joint"):
+        if joint.get("type") == "fixed":
+            fixed_to.setdefault(joint.find("parent").get("link"), []).append(  # type: ignore[union-attr]
+                joint.find("child").get("link"))  # type: ignore[union-attr]
+    still, todo = set(), [link_names[0]]
+    while todo:
+        name = todo.pop()
+        if name not in still:
+            still.add(name)
+            todo.extend(fixed_to.get(name, []))
+    chain = set(link_names)
+    for link in root.findall("link"):
+        if link.get("name") in still:
+            continue
+        for collision in link.findall("collision"):
+            shapes = list(collision.iterfind("geometry/*"))
+            if link.get("name") not in chain or len(shapes) != 1 or shapes[0].tag not in ("capsule", "cylinder"):
+                return False
+    return True
 
 
 def _tubes(root: ET.Element, link_names: list[str]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

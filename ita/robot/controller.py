@@ -28,10 +28,10 @@ from enum import Enum
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ita.kinematics import JOINT_LIMIT_TOL, ArmModel, flange_poses
+from ita.kinematics import JOINT_LIMIT_TOL, ArmModel, flange_poses, frame_segments, link_frames
 from ita.robot.waypoints import TimedTrajectory
 from ita.sim.faults import Fault
-from ita.sim.world import Contact, SimWorld
+from ita.sim.world import Contact, SimWorld, tool_shapes
 
 FloatArray = NDArray[np.float64]
 CONTROLLER = "controller"       # the fault target naming the robot controller
@@ -122,22 +122,23 @@ class RobotController:
         times = np.minimum(np.arange(1, steps + 1) * self.period, trajectory.duration)
         fade = 1.0 - times / trajectory.duration if trajectory.duration > 0 else np.zeros(steps)
         configs = trajectory.sample(times) + fade[:, None] * offset
-        flanges = flange_poses(world.model, configs)      # forward kinematics of the whole move at once
-        # every control period is checked unless no contact is possible there: a point of the
-        # arm or tool moves at most sum_j |dq_j| r_j (_sweep_radii) from where the last check
-        # found the nearest gap, so the checks skip the periods that cannot close it (the
-        # same first contact as checking them all)
-        radii = 2.0 * self._sweep_radii()
+        frames = link_frames(world.model, configs)        # forward kinematics of the whole move at once
+        flanges = frames[:, -1]
+        # every control period is checked unless no contact is possible there: from one
+        # check to the next, no point of the arm or tool moves farther than the swept bound
+        # (`_swept`), so the checks skip the periods that cannot close the gaps the last
+        # check found (the same first contact as checking them all)
+        cell_swept, tool_swept = self._swept(configs, frames)
+        margin = self.contact_margin
         i = 0
         while i < steps:
             world.set_q(configs[i], flanges[i])
-            hits, gap = world.contacts_and_clearance(self.contact_margin, skip, self.contact_margin + LOOKAHEAD_M)
+            hits, cell_gap, tool_gap = world.contacts_and_gaps(margin, skip, margin + LOOKAHEAD_M)
             if hits:
                 return self._bump(command, float(times[i]), hits)
-            room = gap - self.contact_margin
-            moved = np.abs(configs[i + 1:] - configs[i]) @ radii
-            close = np.flatnonzero(moved >= room)
-            i = i + 1 + (int(close[0]) if len(close) else steps)
+            reach = min(int(np.searchsorted(cell_swept, cell_swept[i] + cell_gap - margin)),
+                        int(np.searchsorted(tool_swept, tool_swept[i] + tool_gap - margin)))
+            i = max(i + 1, reach)
         # the arm settles off its goal by its repeatability, but never past a joint's limit
         world.set_q(settled(world.model, trajectory.end, self._settle_tcp(), self._settle_offset()))
         hits = world.contacts(self.contact_margin, skip)
@@ -146,18 +147,69 @@ class RobotController:
         world.clock.advance(trajectory.duration)
         return MotionReply(MotionStatus.DONE, command, trajectory.duration, tuple(map(float, world.q)))
 
+    def _swept(self, configs: FloatArray, frames: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """Two bounds (n,) m, cumulative from configs[0] along the move's configs (n, 6)
+        with link frames (n, 8, 4, 4): how far a point of the arm or the held tool can have
+        come towards the cell, and the held tool towards the arm's links.  A step's bound
+        is the smaller of two that hold:
+
+        - joint by joint: a joint change dq moves no point of the links after it, or of the
+          tool, farther than sum |dq_j| r_j (`_sweep_radii`), in the world or in the frame
+          of any link before it;
+        - link by link, when the arm's tubes enclose its collision shapes: a tube moves by at
+          most its ends' shift plus its radius times |R' - R| (the 2-norm of the change of
+          its link's rotation, 2 sin(angle / 2)), the tool by the flange's shift plus its
+          reach times the flange's; twice the largest between the tool and a link.
+        """
+        model = self.world.model
+        joint_steps = np.abs(np.diff(configs, axis=0)) @ self._sweep_radii()
+        cell_steps, tool_steps = joint_steps, joint_steps
+        if model.tubes_complete and len(configs) > 1:
+            rotations, origins = frames[:, :, :3, :3], frames[:, :, :3, 3]
+            turn = np.sqrt(np.maximum(0.0, 3.0 - np.einsum("nlij,nlij->nl", rotations[1:], rotations[:-1])))
+            rigid = np.linalg.norm(np.diff(origins[:, -1], axis=0), axis=-1) + turn[:, -1] * self._tool_reach()
+            if len(model.tube_radii):
+                ends = frame_segments(model, frames)                                      # (n, t, 2, 3)
+                shift = np.linalg.norm(np.diff(ends, axis=0), axis=-1).max(axis=-1)       # (n - 1, t)
+                rigid = np.maximum(rigid, (shift + turn[:, model.tube_links] * model.tube_radii).max(axis=1))
+            cell_steps, tool_steps = np.minimum(joint_steps, rigid), np.minimum(joint_steps, 2.0 * rigid)
+        return np.concatenate([[0.0], np.cumsum(cell_steps)]), np.concatenate([[0.0], np.cumsum(tool_steps)])
+
+    def _tool_reach(self) -> float:
+        """How far (m) from the flange's origin the held tool reaches: its body box, its
+        collision shapes, its TCP (0 without a tool)."""
+        tool = self.world.held_tool
+        if tool is None:
+            return 0.0
+        reach = float(np.linalg.norm(tool.body_center) + 0.5 * np.linalg.norm(tool.body_size)
+                      + np.linalg.norm(tool.tcp.position))
+        for kind, centre, axis_or_size, radius, length in tool_shapes(tool):
+            if kind == "box":
+                far = float(np.linalg.norm(centre) + 0.5 * np.linalg.norm(axis_or_size))
+            else:
+                half = 0.5 * length * np.asarray(axis_or_size)
+                far = max(float(np.linalg.norm(centre + half)), float(np.linalg.norm(centre - half))) + radius
+            reach = max(reach, far)
+        return reach
+
     def _sweep_radii(self) -> FloatArray:
-        """Per joint, an upper bound (m) on how far a point the joint moves (the links after
-        it and the held tool) lies from its axis: the chain's lengths from the joint to the
-        flange and the links' widest radius, plus the tool's reach.  A joint change dq then
-        moves no point farther than sum |dq_j| r_j (twice that between two moving parts)."""
+        """Per joint j, an upper bound (m) on how far a point that the joint moves (of the
+        links after it, or of the held tool) lies from its axis, which passes through the
+        next link's origin: the chain's lengths from there to the point's link, plus how far
+        the point lies from its link's origin (a tube's end and radius; the tool's reach
+        from the flange), and never less than the lengths to the flange plus the widest
+        tube.  A joint change dq then moves no point farther than sum |dq_j| r_j."""
         model = self.world.model
         lengths = np.append(np.linalg.norm(model.origins[:, :3, 3], axis=1), np.linalg.norm(model.flange_offset[:3, 3]))
-        beyond = np.cumsum(lengths[::-1])[::-1][1:]              # from joint j's origin to the flange
-        tool = self.world.held_tool
-        reach = 0.0 if tool is None else float(np.linalg.norm(tool.body_center) + 0.5 * np.linalg.norm(tool.body_size)
-                                                + np.linalg.norm(tool.tcp.position))
-        return beyond + float(np.max(model.tube_radii)) + reach
+        to_link = np.concatenate([[0.0], np.cumsum(lengths)])          # from the base's origin to link l's
+        widest = float(np.max(model.tube_radii)) if len(model.tube_radii) else 0.0
+        radii = to_link[-1] - to_link[1:-1] + widest + self._tool_reach()     # (dof,): to the flange
+        far = np.linalg.norm(model.tube_ends, axis=-1).max(axis=-1) + model.tube_radii if len(model.tube_radii) else []
+        for link, out in zip(model.tube_links, far):
+            if link > 0:
+                joints = np.arange(link)                               # the joints that move link `link`
+                radii[joints] = np.maximum(radii[joints], to_link[link] - to_link[joints + 1] + out)
+        return radii
 
     def _bump(self, command: str, t: float, hits: list[Contact]) -> MotionReply:
         self.world.clock.advance(t)

@@ -286,17 +286,18 @@ class SimWorld:
         against the arm's links except the last (which carries it).  Bodies named in
         `ignore` are left out (an intended contact, e.g. the tool being picked up).
         """
-        return self.contacts_and_clearance(margin, ignore, margin)[0]
+        return self.contacts_and_gaps(margin, ignore, margin)[0]
 
-    def contacts_and_clearance(self, margin: float = 0.0, ignore: Iterable[str] = (),
-                               upto: float = 0.0) -> tuple[list[Contact], float]:
-        """:meth:`contacts`, and the smallest gap (m) of the same pairs, as far as `upto`
-        (>= margin; `upto` when every pair is farther): how far the arm may move before a
-        contact is possible."""
+    def contacts_and_gaps(self, margin: float = 0.0, ignore: Iterable[str] = (),
+                          upto: float = 0.0) -> tuple[list[Contact], float, float]:
+        """:meth:`contacts`, and the smallest gaps (m) of the same pairs, as far as `upto`
+        (>= margin; `upto` when every pair is farther): the arm's and the held tool's to
+        the cell (the static bodies, the part, the parked tools), and the held tool's to the
+        arm's links.  How far the arm may move before a contact is possible."""
         c = self.client
         skip = set(ignore)
         found: list[Contact] = []
-        gap = upto = max(float(upto), float(margin))
+        gap = tool_gap = upto = max(float(upto), float(margin))
         others = [b for b in self._static] + [b for n, b in self.tools.items() if n != self.held]
         others = [b for b in others if self.body_names[b] not in skip]
         lo, hi = self._moving_aabb(upto)
@@ -319,10 +320,10 @@ class SimWorld:
         if self.held is not None:         # the held tool against the arm's links but the last (one query)
             for pt in p.getClosestPoints(self.tools[self.held], self.arm, upto, physicsClientId=c):
                 if pt[4] in self._self_links:
-                    gap = min(gap, pt[8])
+                    tool_gap = min(tool_gap, pt[8])
                     if pt[8] <= margin:
                         found.append(Contact(self.held, self.link_names[pt[4]], pt[5], pt[8]))
-        return found, gap
+        return found, gap, tool_gap
 
     def _moving_aabb(self, margin: float) -> tuple[FloatArray, FloatArray]:
         c = self.client
