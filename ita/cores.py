@@ -65,14 +65,16 @@ class SecondCore:
         done.set_result(work())
         return done
 
-    def in_halves(self, kernel: Callable[..., tuple], rows: Sequence[np.ndarray], *rest: Any) -> tuple:
+    def in_halves(self, kernel: Callable[..., tuple], rows: Sequence[np.ndarray], *rest: Any,
+                  min_rows: int | None = None) -> tuple:
         """kernel(*rows, *rest): a tuple of arrays with a row for each row of `rows` (arrays
-        of n rows each), each computed from that row alone.  With n >= min_rows the rows go in
-        two halves, the second on the second thread; the same arrays, bit for bit, as one call."""
+        of n rows each), each computed from that row alone.  With n >= min_rows (this call's,
+        or the core's) the rows go in two halves, the second on the second thread; the same
+        arrays, bit for bit, as one call."""
         n = len(rows[0])
         if any(len(r) != n for r in rows):
             raise ValueError(f"rows of unequal length: {[len(r) for r in rows]}")
-        if n < self.min_rows or self._here():
+        if n < max(2, self.min_rows if min_rows is None else min_rows) or self._here():
             return kernel(*rows, *rest)
         half = n // 2
         second = self._thread.submit(kernel, *(r[half:] for r in rows), *rest)

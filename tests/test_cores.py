@@ -35,6 +35,19 @@ def test_few_rows_run_whole_in_the_caller():
     assert np.array_equal(total, 2 * x.sum(axis=1))
 
 
+def test_a_call_may_set_its_own_least_rows_to_split():
+    x = np.arange(30.0).reshape(10, 3)
+    eager = SecondCore(min_rows=64)
+    calls = []
+    submit = eager._thread.submit
+    eager._thread.submit = lambda *a: calls.append(len(a[1])) or submit(*a)
+    assert np.array_equal(eager.in_halves(_scaled_rows, (x, x), 1.0, min_rows=4)[1], 2 * x.sum(axis=1))
+    assert calls == [5]
+    lazy = SecondCore(min_rows=4)
+    lazy._thread.submit = lambda *a: pytest.fail("below this call's least rows the thread is not used")
+    assert np.array_equal(lazy.in_halves(_scaled_rows, (x, x), 1.0, min_rows=64)[1], 2 * x.sum(axis=1))
+
+
 def test_rows_of_unequal_length_are_refused():
     with pytest.raises(ValueError, match="unequal"):
         SecondCore(min_rows=2).in_halves(_scaled_rows, (np.zeros((4, 3)), np.zeros((5, 3))), 1.0)

@@ -110,6 +110,9 @@ SAME_SURFACE_COS = 0.9   # normals within ~25 deg: one surface, for locating a s
 #: rays of one cast from which a second core takes half (embree and the compiled kernels run
 #: without the GIL; below this, waking a thread costs about what it saves)
 SPLIT_RAYS = 8192
+#: points of one nearest-edge query (scipy's k-d tree, without the GIL) from which a second
+#: core takes half
+SPLIT_QUERIES = 1024
 
 
 class Hits(NamedTuple):
@@ -357,7 +360,8 @@ def simulate_frame(scene: SlraScene, pose: FloatArray, geometry: ScanGeometry, p
     # the frame's noise, drawn (without the GIL) on the second core while this one finds the mixed pixels
     draws = scene.core.beside(lambda: (rng.random(h * w), rng.normal(0.0, 1.0, h * w), rng.normal(0.0, 1.0, h * w)))
     amp, p_drop = _returns(params, hits, dirs, pl.scale)
-    frac, other_r, other_amp, other_drop = _mix(geometry, params, cast_sensor, origin, dirs, hits, pl.scale)
+    frac, other_r, other_amp, other_drop = _mix(geometry, params, cast_sensor, origin, dirs, hits, pl.scale,
+                                                 scene.core)
 
     k = 4 * math.pi * geometry.modulation_hz / SPEED_OF_LIGHT * pl.scale   # rad per mm
     n_rows = (hits.kind != MISS, hits.dist, amp, p_drop, frac, other_r, other_amp, other_drop, *draws.result())
@@ -418,7 +422,7 @@ def _returns(params: SlraParams, hits: Hits, dirs: FloatArray, scale: float) -> 
 
 
 def _mix(geometry: ScanGeometry, params: SlraParams, cast_sensor, origin: FloatArray, dirs: FloatArray,
-         hits: Hits, scale: float) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
+         hits: Hits, scale: float, core: SecondCore) -> tuple[FloatArray, FloatArray, FloatArray, FloatArray]:
     """Mixed pixels: for every pixel (flat), the share of its footprint beyond a depth step,
     and that other surface's range (mm), amplitude and dropout probability.
 
@@ -467,7 +471,7 @@ def _mix(geometry: ScanGeometry, params: SlraParams, cast_sensor, origin: FloatA
     seed[p] = seed[q] = True
     x = np.flatnonzero(ndimage.maximum_filter(seed.reshape(h, w), size=2 * reach + 1).ravel())
     xang = np.column_stack(geometry.angles(*np.divmod(x, w)))
-    d, toward, j = _edge_distance(ang, xang, min(da, de))
+    d, toward, j = _edge_distance(ang, xang, min(da, de), core)
     f = ndtr(-d / sig[j])
     keep = f > 1e-4
     x, xang, d, toward, f = x[keep], xang[keep], d[keep], toward[keep], f[keep]
@@ -524,14 +528,15 @@ def _aligned(a: FloatArray, b: FloatArray) -> NDArray[np.bool_]:
     return np.abs(np.einsum("ij,ij->i", a, b)) > SAME_SURFACE_COS
 
 
-def _edge_distance(edges: FloatArray, x: FloatArray, pitch: float
+def _edge_distance(edges: FloatArray, x: FloatArray, pitch: float, core: SecondCore
                    ) -> tuple[FloatArray, FloatArray, NDArray[np.int64]]:
     """Distance (n,) of points x (n, 2) to the edge through the points `edges` (m, 2), the
     unit direction (n, 2) from each point toward the edge, and the index (n,) of the
     nearest edge point.  The distance is to a line fitted to the 4 nearest edge points (to
     the nearest one alone where those do not spread along a line)."""
     k = min(4, len(edges))
-    dd, ii = cKDTree(edges).query(x, k=k, workers=2)
+    tree = cKDTree(edges)
+    dd, ii = core.in_halves(lambda half: tree.query(half, k=k), (x,), min_rows=SPLIT_QUERIES)
     dd, ii = dd.reshape(len(x), k), ii.reshape(len(x), k)
     if k < 2:
         e1 = edges[ii[:, 0]] - x
