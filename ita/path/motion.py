@@ -73,10 +73,16 @@ class ConfigChecker:
 
     def __call__(self, q: ArrayLike) -> NDArray[np.bool_]:
         """Bool (n,): configurations q (n, 6) (or (6,)) within the limits and collision-free."""
-        q = np.ascontiguousarray(np.atleast_2d(np.asarray(q, dtype=float)))
+        q = _rows(q)
         c = self.checker
         return _configs_free(q, *self._limits, *self._fk, c.radii, c.cylinder, c.world, self.ignore(), c.pairs,
                              *c.tree.arrays())
+
+
+def _rows(q: ArrayLike) -> FloatArray:
+    """q as configurations (n, 6) in a C-ordered, writable float array (a read-only or
+    strided one would make numba compile its kernels once more for that type)."""
+    return np.require(np.atleast_2d(np.asarray(q, dtype=float)), requirements=("C", "W"))
 
 
 @njit(cache=True)
@@ -386,7 +392,7 @@ class MotionChecker:
     def clear(self, q: ArrayLike) -> NDArray[np.bool_]:
         """Bool (n,): configurations q (n, 6) free with every tube a joint moves grown by
         `floor`: those a motion can leave or reach without first escaping near-contact."""
-        q = np.ascontiguousarray(np.atleast_2d(np.asarray(q, dtype=float)))
+        q = _rows(q)
         cf = self.config_free
         c = cf.checker
         moving = (self.bounds.sum(axis=0) > 0.0).astype(float)
@@ -395,13 +401,12 @@ class MotionChecker:
 
     def __call__(self, a: ArrayLike, b: ArrayLike) -> NDArray[np.bool_]:
         """Bool (n,): whether each segment a -> b ((n, 6) or (6,)) is free everywhere."""
-        a = np.ascontiguousarray(np.atleast_2d(np.asarray(a, dtype=float)))
-        b = np.ascontiguousarray(np.atleast_2d(np.asarray(b, dtype=float)))
-        a, b = np.broadcast_arrays(a, b)
+        a, b = (_rows(x) for x in np.broadcast_arrays(np.atleast_2d(np.asarray(a, dtype=float)),
+                                                      np.atleast_2d(np.asarray(b, dtype=float))))
         cf = self.config_free
         c = cf.checker
         self.checks += len(a)
-        ok, spent = self.core.in_halves(_motions_free, (np.ascontiguousarray(a), np.ascontiguousarray(b)),
+        ok, spent = self.core.in_halves(_motions_free, (a, b),
                                         self.bounds, self.floor, self.budget, self.probe, *cf._limits, *cf._fk,
                                         c.radii, c.cylinder, c.world, cf.ignore(), c.pairs, *c.tree.arrays())
         self.evaluations += int(spent.sum())
