@@ -223,8 +223,8 @@ class SimWorld:
         flange: the flange's pose at q when the caller has it (forward kinematics of a
         whole trajectory at once)."""
         q = np.asarray(list(q) if not isinstance(q, np.ndarray) else q, dtype=float).reshape(6)
-        for j, value in zip(self.joint_indices, q):
-            p.resetJointState(self.arm, j, float(value), physicsClientId=self.client)
+        p.resetJointStatesMultiDof(self.arm, self.joint_indices, [[value] for value in q.tolist()],
+                                   physicsClientId=self.client)
         self._q = q.copy()
         if self.held is not None:
             self._place_tool(self.held, self.flange_pose() if flange is None else flange)
