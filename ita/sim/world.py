@@ -26,6 +26,7 @@ drift) lives here too, so that `saved_state` restores it; the clock never runs b
 from __future__ import annotations
 
 import contextlib
+import math
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 from typing import Self
@@ -293,11 +294,14 @@ class SimWorld:
         """:meth:`contacts`, and the smallest gaps (m) of the same pairs, as far as `upto`
         (>= margin; `upto` when every pair is farther): the arm's and the held tool's to
         the cell (the static bodies, the part, the parked tools), and the held tool's to the
-        arm's links.  How far the arm may move before a contact is possible."""
+        arm's links (infinite without a tool).  How far the arm may move before a contact is
+        possible."""
         c = self.client
         skip = set(ignore)
         found: list[Contact] = []
         gap = tool_gap = upto = max(float(upto), float(margin))
+        if self.held is None:
+            tool_gap = math.inf
         others = [b for b in self._static] + [b for n, b in self.tools.items() if n != self.held]
         others = [b for b in others if self.body_names[b] not in skip]
         lo, hi = self._moving_aabb(upto)
