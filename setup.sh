@@ -60,8 +60,15 @@ setup() {
         say "installing the ita package and its test extras into $venv"
         "$venv/bin/python" -m pip install -q --upgrade pip
         "$venv/bin/python" -m pip install -q -e ".[test]"
-        "$venv/bin/python" -m ita.warmup >&2
         echo "$want" > "$stamp"
+    fi
+    # Compile the numba kernels again when their sources changed (numba's cache lies beside
+    # them), so that the first run after a fresh set-up or an update does not pay for it.
+    local kernels="$venv/.ita-kernels" have
+    have=$(grep -rl --include='*.py' '@njit' ita | sort | xargs cat ita/warmup.py | sha256sum | cut -d' ' -f1)
+    if [ ! -f "$kernels" ] || [ "$(cat "$kernels")" != "$have" ]; then
+        "$venv/bin/python" -m ita.warmup >&2
+        echo "$have" > "$kernels"
     fi
 }
 
