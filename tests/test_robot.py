@@ -233,15 +233,22 @@ def test_a_step_back_along_the_line_of_sight_keeps_the_tool_s_orientation():
     assert turned_deg(joint_offset(model, q, tcp, step))[0] > 0.5
 
 
-@pytest.mark.parametrize("tool", [None, "us_probe_90", "slra_1"])
-def test_no_gap_closes_faster_than_the_swept_bound_says(ctl, tool):
+@pytest.mark.parametrize("tool, tubes", [(None, True), ("us_probe_90", True), ("slra_1", True),
+                                         ("us_probe_90", False), (None, False)])
+def test_no_gap_closes_faster_than_the_swept_bound_says(ctl, tool, tubes, monkeypatch):
     """The bound the controller skips checks by: from one control period to the next, the
     arm's (and held tool's) gap to the cell, and the tool's to the arm, change by no more
     than the swept bound grows, on random moves through the cell (gaps measured by
-    pybullet up to 0.5 m; a gap is 1-Lipschitz in every point's motion)."""
+    pybullet up to 0.5 m; a gap is 1-Lipschitz in every point's motion).  tubes=False: an
+    arm whose collision shapes the tubes may not enclose (a user's URDF with meshes or
+    boxes) is bounded by its links' reach alone."""
+    import dataclasses
+
     from ita.kinematics import link_frames
 
     world = ctl.world
+    if not tubes:
+        monkeypatch.setattr(world, "model", dataclasses.replace(world.model, tubes_complete=False))
     if tool is not None:
         world.attach(tool)
     rng = np.random.default_rng(11)

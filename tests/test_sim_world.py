@@ -129,3 +129,30 @@ def test_close_disconnects(builtin_part):
         assert p.isConnected(client)
     assert not p.isConnected(client)
     world.close()  # idempotent
+
+
+def test_a_link_s_reach_covers_every_point_of_its_collision_shapes(fresh):
+    """SimWorld.link_reach (what the controller's swept bound turns each link by) is no
+    less than the distance from the link's origin to any surface point of its shapes:
+    rays shot at each link's origin from 400 directions, at three poses, find its surface."""
+    from ita.kinematics import link_frames
+
+    world = fresh
+    index = {name: k for k, name in enumerate(world.model.link_names)}
+    rng = np.random.default_rng(2)
+    u = rng.normal(size=(400, 3))
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    found = np.zeros(len(index))
+    for q in (np.zeros(6), np.array([0.4, -0.3, 0.5, 1.0, -0.8, 0.6]), np.array([-1.0, 0.6, -0.4, -1.2, 1.1, 2.0])):
+        world.set_q(q)
+        frames = link_frames(world.model, q)[0]
+        for j in world._arm_links:
+            k = index[world.link_names[j]]
+            origin = frames[k, :3, 3]
+            hits = p.rayTestBatch((origin + 3.0 * u).tolist(), np.tile(origin, (len(u), 1)).tolist(),
+                                  physicsClientId=world.client)
+            on_link = [h[3] for h in hits if h[0] == world.arm and h[1] == j]
+            if on_link:
+                found[k] = max(found[k], float(np.linalg.norm(np.array(on_link) - origin, axis=1).max()))
+    assert found[1:7].min() > 0.05                             # every moving link was hit
+    assert np.all(world.link_reach >= found - 1e-6)

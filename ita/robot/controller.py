@@ -156,23 +156,27 @@ class RobotController:
         - joint by joint: a joint change dq moves no point of the links after it, or of the
           tool, farther than sum |dq_j| r_j (`_sweep_radii`), in the world or in the frame
           of any link before it;
-        - link by link, when the arm's tubes enclose its collision shapes: a tube moves by at
-          most its ends' shift plus its radius times |R' - R| (the 2-norm of the change of
-          its link's rotation, 2 sin(angle / 2)), the tool by the flange's shift plus its
-          reach times the flange's; twice the largest between the tool and a link.
+        - link by link: a link's shapes move by at most its origin's shift plus their reach
+          from it (`SimWorld.link_reach`) times |R' - R| (the 2-norm of the change of its
+          rotation, 2 sin(angle / 2)), or, where the arm's tubes enclose its collision
+          shapes, by the smaller of that and a tube's ends' shift plus its radius times the
+          same; the tool by the flange's shift plus its reach times the flange's; between the
+          tool and a link, twice the largest.
         """
-        model = self.world.model
+        world, model = self.world, self.world.model
         joint_steps = np.abs(np.diff(configs, axis=0)) @ self._sweep_radii()
-        cell_steps, tool_steps = joint_steps, joint_steps
-        if model.tubes_complete and len(configs) > 1:
-            rotations, origins = frames[:, :, :3, :3], frames[:, :, :3, 3]
-            turn = np.sqrt(np.maximum(0.0, 3.0 - np.einsum("nlij,nlij->nl", rotations[1:], rotations[:-1])))
-            rigid = np.linalg.norm(np.diff(origins[:, -1], axis=0), axis=-1) + turn[:, -1] * self._tool_reach()
-            if len(model.tube_radii):
-                ends = frame_segments(model, frames)                                      # (n, t, 2, 3)
-                shift = np.linalg.norm(np.diff(ends, axis=0), axis=-1).max(axis=-1)       # (n - 1, t)
-                rigid = np.maximum(rigid, (shift + turn[:, model.tube_links] * model.tube_radii).max(axis=1))
-            cell_steps, tool_steps = np.minimum(joint_steps, rigid), np.minimum(joint_steps, 2.0 * rigid)
+        if len(configs) < 2:
+            return np.zeros(len(configs)), np.zeros(len(configs))
+        rotations, origins = frames[:, :, :3, :3], frames[:, :, :3, 3]
+        turn = np.sqrt(np.maximum(0.0, 3.0 - np.einsum("nlij,nlij->nl", rotations[1:], rotations[:-1])))
+        links = (np.linalg.norm(np.diff(origins, axis=0), axis=-1) + turn * world.link_reach).max(axis=1)
+        if model.tubes_complete and len(model.tube_radii):
+            ends = frame_segments(model, frames)                                      # (n, t, 2, 3)
+            shift = np.linalg.norm(np.diff(ends, axis=0), axis=-1).max(axis=-1)       # (n - 1, t)
+            links = np.minimum(links, (shift + turn[:, model.tube_links] * model.tube_radii).max(axis=1))
+        tool = np.linalg.norm(np.diff(origins[:, -1], axis=0), axis=-1) + turn[:, -1] * self._tool_reach()
+        rigid = np.maximum(links, tool)
+        cell_steps, tool_steps = np.minimum(joint_steps, rigid), np.minimum(joint_steps, 2.0 * rigid)
         return np.concatenate([[0.0], np.cumsum(cell_steps)]), np.concatenate([[0.0], np.cumsum(tool_steps)])
 
     def _tool_reach(self) -> float:
@@ -196,19 +200,21 @@ class RobotController:
         """Per joint j, an upper bound (m) on how far a point that the joint moves (of the
         links after it, or of the held tool) lies from its axis, which passes through the
         next link's origin: the chain's lengths from there to the point's link, plus how far
-        the point lies from its link's origin (a tube's end and radius; the tool's reach
-        from the flange), and never less than the lengths to the flange plus the widest
-        tube.  A joint change dq then moves no point farther than sum |dq_j| r_j."""
+        the point lies from its link's origin (`SimWorld.link_reach`, a tube's end and
+        radius; the tool's reach from the flange), and never less than the lengths to the
+        flange plus the widest tube.  A joint change dq then moves no point farther than
+        sum |dq_j| r_j."""
         model = self.world.model
         lengths = np.append(np.linalg.norm(model.origins[:, :3, 3], axis=1), np.linalg.norm(model.flange_offset[:3, 3]))
         to_link = np.concatenate([[0.0], np.cumsum(lengths)])          # from the base's origin to link l's
         widest = float(np.max(model.tube_radii)) if len(model.tube_radii) else 0.0
         radii = to_link[-1] - to_link[1:-1] + widest + self._tool_reach()     # (dof,): to the flange
-        far = np.linalg.norm(model.tube_ends, axis=-1).max(axis=-1) + model.tube_radii if len(model.tube_radii) else []
-        for link, out in zip(model.tube_links, far):
-            if link > 0:
-                joints = np.arange(link)                               # the joints that move link `link`
-                radii[joints] = np.maximum(radii[joints], to_link[link] - to_link[joints + 1] + out)
+        far = np.array(self.world.link_reach, dtype=float)
+        if len(model.tube_radii):
+            np.maximum.at(far, model.tube_links, np.linalg.norm(model.tube_ends, axis=-1).max(axis=-1) + model.tube_radii)
+        for link in range(1, len(far)):
+            joints = np.arange(min(link, model.dof))                   # the joints that move link `link`
+            radii[joints] = np.maximum(radii[joints], to_link[link] - to_link[joints + 1] + far[link])
         return radii
 
     def _bump(self, command: str, t: float, hits: list[Contact]) -> MotionReply:

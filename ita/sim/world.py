@@ -35,7 +35,7 @@ import numpy as np
 import trimesh
 from numpy.typing import NDArray
 
-from ita.kinematics import ArmModel, arm_model, flange_poses
+from ita.kinematics import ArmModel, arm_model, flange_poses, link_frames
 from ita.sim.faults import FaultSet
 from ita.sim.quiet import import_pybullet
 from ita.workcell import Box, Pose, ToolSpec, Workcell, load_workcell
@@ -163,6 +163,7 @@ class SimWorld:
         self._arm_links = tuple(j for j in range(p.getNumJoints(self.arm, physicsClientId=c))
                                 if p.getCollisionShapeData(self.arm, j, physicsClientId=c))
         self._self_links = frozenset(self._arm_links[:-1])     # what a held tool may touch of the arm
+        self.link_reach = self._link_reach()
         self.tools: dict[str, int] = {}
         for tool in self.cell.tools:
             body = _tool_body(tool, c)
@@ -172,6 +173,25 @@ class SimWorld:
             p.resetBasePositionAndOrientation(body, slot.pose.position, slot.pose.quaternion, physicsClientId=c)
         self._static = [b for n, b in self.bodies.items() if n not in self.tools]
         self._static_aabbs = {b: np.array(p.getAABB(b, physicsClientId=c)) for b in self._static}
+
+    def _link_reach(self) -> FloatArray:
+        """Per link of the arm model's chain (`model.link_names`), how far (m) its collision
+        shapes, and those of the links fixed to it, reach from the link's origin: the
+        farthest corner of pybullet's boxes around them, as the arm is loaded (all joints
+        at 0).  How far a turn of the link can move a point of it, whatever the shapes."""
+        c = self.client
+        frames = link_frames(self.model, np.zeros(self.model.dof))[0]
+        index = {name: k for k, name in enumerate(self.model.link_names)}
+        reach = np.zeros(len(index))
+        for j in self._arm_links:
+            up = j                                 # up the tree to the link of the chain it is fixed to
+            while up >= 0 and self.link_names[up] not in index:
+                up = p.getJointInfo(self.arm, up, physicsClientId=c)[16]
+            k = index[self.link_names[up]] if up >= 0 else 0
+            lo, hi = (np.asarray(v, dtype=float) for v in p.getAABB(self.arm, j, physicsClientId=c))
+            corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+            reach[k] = max(reach[k], float(np.linalg.norm(corners - frames[k, :3, 3], axis=1).max()))
+        return reach
 
     def _add(self, name: str, body: int) -> None:
         self.bodies[name] = body
