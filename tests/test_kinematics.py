@@ -12,6 +12,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from ita.kinematics import (
+    JOINT_LIMIT_TOL,
     ArmModel,
     IKStatus,
     approach_poses,
@@ -199,10 +200,16 @@ def test_ik_round_trip_at_special_configs(model: ArmModel, fractions: list[float
     ik = ik_flange(model, pose)
     assert ik.status(()) is IKStatus.OK
     solutions = ik.solutions(())
-    # at singular and at-limit configurations IK keeps sub-micrometre accuracy (the arm's
-    # repeatability is 0.25 mm); elsewhere it is exact to 1e-10 (tests above)
-    assert _poses_close(flange_poses(model, solutions), np.broadcast_to(pose, (len(solutions), 4, 4)), 1e-6)
-    if case == "wrist_singular" or abs(q[4]) < 1e-9:  # j5 = 0: only j4 + j6 is determined
+    # at singular and at-limit configurations IK keeps micrometre accuracy (the arm's
+    # repeatability is 0.25 mm); elsewhere it is exact to 1e-10 (tests above).  A solution
+    # up to JOINT_LIMIT_TOL (1e-6 rad) past a limit is clipped onto it, which moves the
+    # flange by that angle times its distance from the joint's axis (under 3 m): a shoulder
+    # flipped by pi from -45 deg lands 1e-6 rad past +135 deg and 1.03e-6 m off
+    assert _poses_close(flange_poses(model, solutions), np.broadcast_to(pose, (len(solutions), 4, 4)),
+                        3.0 * JOINT_LIMIT_TOL)
+    # j5 = 0: only j4 + j6 is determined; near it (|j5| < 0.01 rad) j4 - j6 is ill-conditioned
+    # (an error of 1e-9 in the pose grows by 1 / sin j5), so the sum is what is compared there
+    if case == "wrist_singular" or abs(q[4]) < 1e-2:
         def key(c: np.ndarray) -> np.ndarray:
             return np.r_[c[:3], c[4], np.cos(c[3] + c[5]), np.sin(c[3] + c[5])]
 
