@@ -21,6 +21,7 @@ plus `reply_timeout_s` (a TRANSIENT fault on the controller: for one command onl
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable
 from dataclasses import dataclass, replace
 from enum import Enum
@@ -158,7 +159,7 @@ class RobotController:
           of any link before it;
         - link by link: a link's shapes move by at most its origin's shift plus their reach
           from it (`SimWorld.link_reach`) times |R' - R| (the 2-norm of the change of its
-          rotation, 2 sin(angle / 2)), or, where the arm's tubes enclose its collision
+          rotation, 2 sin(angle / 2): its Frobenius norm over the square root of 2), or, where the arm's tubes enclose its collision
           shapes, by the smaller of that and a tube's ends' shift plus its radius times the
           same; the tool by the flange's shift plus its reach times the flange's; between the
           tool and a link, twice the largest.
@@ -168,7 +169,7 @@ class RobotController:
         if len(configs) < 2:
             return np.zeros(len(configs)), np.zeros(len(configs))
         rotations, origins = frames[:, :, :3, :3], frames[:, :, :3, 3]
-        turn = np.sqrt(np.maximum(0.0, 3.0 - np.einsum("nlij,nlij->nl", rotations[1:], rotations[:-1])))
+        turn = np.linalg.norm(rotations[1:] - rotations[:-1], axis=(-2, -1)) / math.sqrt(2.0)  # 2 sin(angle / 2)
         links = (np.linalg.norm(np.diff(origins, axis=0), axis=-1) + turn * world.link_reach).max(axis=1)
         if model.tubes_complete and len(model.tube_radii):
             ends = frame_segments(model, frames)                                      # (n, t, 2, 3)
