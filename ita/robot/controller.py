@@ -159,13 +159,14 @@ class RobotController:
           of any link before it;
         - link by link: a link's shapes move by at most its origin's shift plus their reach
           from it (`SimWorld.link_reach`) times |R' - R| (the 2-norm of the change of its
-          rotation, 2 sin(angle / 2): its Frobenius norm over the square root of 2), or, where the arm's tubes enclose its collision
-          shapes, by the smaller of that and a tube's ends' shift plus its radius times the
-          same; the tool by the flange's shift plus its reach times the flange's; between the
+          rotation, 2 sin(angle / 2): its Frobenius norm over the square root of 2), or,
+          where the arm's tubes enclose its collision shapes, by the smaller of that and a
+          tube's ends' shift plus its radius times the same; the tool by the flange's shift plus its reach times the flange's; between the
           tool and a link, twice the largest.
         """
         world, model = self.world, self.world.model
-        joint_steps = np.abs(np.diff(configs, axis=0)) @ self._sweep_radii()
+        reach = self._tool_reach()
+        joint_steps = np.abs(np.diff(configs, axis=0)) @ self._sweep_radii(reach)
         if len(configs) < 2:
             return np.zeros(len(configs)), np.zeros(len(configs))
         rotations, origins = frames[:, :, :3, :3], frames[:, :, :3, 3]
@@ -175,7 +176,7 @@ class RobotController:
             ends = frame_segments(model, frames)                                      # (n, t, 2, 3)
             shift = np.linalg.norm(np.diff(ends, axis=0), axis=-1).max(axis=-1)       # (n - 1, t)
             links = np.minimum(links, (shift + turn[:, model.tube_links] * model.tube_radii).max(axis=1))
-        tool = np.linalg.norm(np.diff(origins[:, -1], axis=0), axis=-1) + turn[:, -1] * self._tool_reach()
+        tool = np.linalg.norm(np.diff(origins[:, -1], axis=0), axis=-1) + turn[:, -1] * reach
         rigid = np.maximum(links, tool)
         cell_steps, tool_steps = np.minimum(joint_steps, rigid), np.minimum(joint_steps, 2.0 * rigid)
         return np.concatenate([[0.0], np.cumsum(cell_steps)]), np.concatenate([[0.0], np.cumsum(tool_steps)])
@@ -197,19 +198,19 @@ class RobotController:
             reach = max(reach, far)
         return reach
 
-    def _sweep_radii(self) -> FloatArray:
+    def _sweep_radii(self, tool_reach: float) -> FloatArray:
         """Per joint j, an upper bound (m) on how far a point that the joint moves (of the
         links after it, or of the held tool) lies from its axis, which passes through the
         next link's origin: the chain's lengths from there to the point's link, plus how far
         the point lies from its link's origin (`SimWorld.link_reach`, a tube's end and
-        radius; the tool's reach from the flange), and never less than the lengths to the
+        radius; the tool's reach `tool_reach` from the flange), and never less than the lengths to the
         flange plus the widest tube.  A joint change dq then moves no point farther than
         sum |dq_j| r_j."""
         model = self.world.model
         lengths = np.append(np.linalg.norm(model.origins[:, :3, 3], axis=1), np.linalg.norm(model.flange_offset[:3, 3]))
         to_link = np.concatenate([[0.0], np.cumsum(lengths)])          # from the base's origin to link l's
         widest = float(np.max(model.tube_radii)) if len(model.tube_radii) else 0.0
-        radii = to_link[-1] - to_link[1:-1] + widest + self._tool_reach()     # (dof,): to the flange
+        radii = to_link[-1] - to_link[1:-1] + widest + tool_reach     # (dof,): to the flange
         far = np.array(self.world.link_reach, dtype=float)
         if len(model.tube_radii):
             np.maximum.at(far, model.tube_links, np.linalg.norm(model.tube_ends, axis=-1).max(axis=-1) + model.tube_radii)
