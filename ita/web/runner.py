@@ -8,7 +8,9 @@ on the same runs directory, their output in a log file beside the archive.
 
 The child is the command line itself (`python -m ita.cli ...`), so a run started here
 is the same as one started in a terminal: STOP and INTERRUPT reach it through the
-archive's control table, and it may outlive the server.
+archive's control table, and it may outlive the server (it is in a session of its own:
+the server's Ctrl-C does not reach it).  While the server runs, each child has a thread
+that waits for it, so one that ends is reaped at once and never left a zombie.
 """
 
 from __future__ import annotations
@@ -41,6 +43,11 @@ class Processes:
     def log_path(self, run_id: str) -> Path:
         return Path(self.runs_dir) / LOG_DIR / f"{run_id}.log"
 
+    def _watch(self, child: subprocess.Popen) -> None:
+        """Reap `child` the moment it ends (a daemon thread blocked in its wait: no
+        SIGCHLD handler, no polling; it goes with the server, the child does not)."""
+        threading.Thread(target=child.wait, name=f"reap-{child.pid}", daemon=True).start()
+
     def _spawn(self, run_id: str, args: list[str]) -> None:
         log = self.log_path(run_id)
         log.parent.mkdir(parents=True, exist_ok=True)
@@ -53,18 +60,23 @@ class Processes:
                 except subprocess.TimeoutExpired:
                     raise RuntimeError(f"run {run_id} already has a process of this server (pid {old.pid})") from None
             with open(log, "ab") as out:
-                self._children[run_id] = subprocess.Popen(
+                child = subprocess.Popen(
                     [self.python, "-m", "ita.cli", *args, "--runs-dir", str(self.runs_dir)],
                     stdin=subprocess.DEVNULL, stdout=out, stderr=subprocess.STDOUT,
                     env=dict(os.environ, PYTHONUNBUFFERED="1"), start_new_session=True)
+            self._children[run_id] = child
+            self._watch(child)
 
-    def start_inspect(self, *, limit: int | None = None, seed: int = 0, part: str | None = None) -> str:
+    def start_inspect(self, *, limit: int | None = None, seed: int = 0, part: str | None = None,
+                      faults: float = 0.0) -> str:
         """Start `ita inspect` for a new run; returns its id (the run appears in the
         archive once the child has loaded the system, about a minute)."""
         run_id = new_run_id()
         args = ["inspect", "--run-id", run_id, "--seed", str(int(seed))]
         if limit is not None:
             args += ["--limit", str(int(limit))]
+        if faults:
+            args += ["--faults", repr(float(faults))]
         if part:
             args += ["--part", part]
         self._spawn(run_id, args)
@@ -79,6 +91,12 @@ class Processes:
         with self._lock:
             p = self._children.get(run_id)
             return p is not None and p.poll() is None
+
+    def pid(self, run_id: str) -> int | None:
+        """The process id of this server's (last) child for `run_id`; None when none."""
+        with self._lock:
+            p = self._children.get(run_id)
+            return None if p is None else p.pid
 
     def exit_code(self, run_id: str) -> int | None:
         with self._lock:
