@@ -29,15 +29,18 @@ def serve(host: str, port: int, runs_dir: Path | None) -> None:
     the Gantt chart, exports (CSV, JSON, HTML and PDF reports) and, for simulated runs,
     the scoring against the as-built part on its own page.
 
-    Every script the pages use ships with the package: it works offline.  Ctrl-C stops
-    the server; runs it started go on (watch them with `ita monitor`).
+    Every script the pages use ships with the package: it works offline.  The server
+    answers only requests that name it (Host 127.0.0.1, localhost or [::1], or --host,
+    with its port: 421 otherwise), takes no POST from another site's page (403), no body
+    over 1 MB (413) and no body that is not the request's JSON object (400).  Ctrl-C stops
+    it within a second, live pages and all; runs it started go on (watch them with
+    `ita monitor`).
     """
     import socket
 
-    import uvicorn
-
     from ita.archive import runs_dir as default_runs_dir
     from ita.web.app import create_app
+    from ita.web.server import serve as serve_app
 
     directory = default_runs_dir(runs_dir)
     if host not in LOCAL:
@@ -50,9 +53,8 @@ def serve(host: str, port: int, runs_dir: Path | None) -> None:
         from ita.errors import ItaError
 
         raise ItaError(f"cannot listen on {host}:{port}: {exc.strerror}") from None
+    sock.listen(128)          # before the line below: a client that reads it can connect at once
     bound = sock.getsockname()[1]
     click.echo(f"ITA System Monitor on http://{host if ':' not in host else f'[{host}]'}:{bound}/ "
                f"(runs in {directory}); Ctrl-C to stop", err=True)
-    config = uvicorn.Config(create_app(directory), log_level="warning", timeout_graceful_shutdown=2,
-                            access_log=False)
-    uvicorn.Server(config).run(sockets=[sock])
+    serve_app(create_app(directory, host=host), sock)

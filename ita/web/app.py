@@ -1,6 +1,6 @@
 """The System Monitor's web application (Starlette): pages, a JSON API, a live stream.
 
-    app = create_app(runs_dir)          # served by `ita serve` through uvicorn
+    app = create_app(runs_dir, host="127.0.0.1")    # served by `ita serve` (ita.web.server)
 
 Pages: `/` runs (and a form to start one), `/runs/{id}` a run (live view, controls,
 results table, 3-D part, Gantt chart, events), `/runs/{id}/results/{spec}` one result
@@ -10,9 +10,18 @@ own page).  API under `/api/`; `/api/runs/{id}/live` is a server-sent event stre
 Exports: `/runs/{id}/results.csv|json`, `/runs/{id}/report.html|pdf`.  Scripts are
 served from the package (`/assets/`): no page loads anything from elsewhere.
 
-Requests that change something (POST) must carry the header `X-ITA: 1`, which a page of
-another site cannot send without this server's consent (it gives none): no cross-site
-request can start or stop a run.  No knowledge-base query is offered.
+What the server refuses (:mod:`ita.web.guard`, in front of every route): a request whose
+`Host` is not `127.0.0.1`, `localhost` or `[::1]` (or the `--host` address, or the
+address the connection reached) with the server's port, or that has no `Host` (421: DNS
+rebinding gets nothing); a POST whose `Origin` is another site's (403); a body over 1 MB
+(413, by its Content-Length before a byte is read, or as soon as a chunked one passes it).
+A POST must also carry the header `X-ITA: 1` (403 otherwise), which a page of another site
+cannot send without this server's consent (it gives none).  A body must be a JSON object
+of the request's fields, each of its type and range (:mod:`ita.web.bodies`; 400 naming the
+field and what it may hold).  The project's errors (a damaged archive, an unknown run)
+are answered with their one line (400, 404 or 409); anything unexpected with a one-line
+500 and one line in the server's log, never a traceback.  No knowledge-base query is
+offered.
 """
 
 from __future__ import annotations
@@ -21,38 +30,52 @@ import asyncio
 import csv
 import io
 import json
+import logging
+import re
 import threading
 from pathlib import Path
 from typing import Any
 
 from starlette.applications import Starlette
 from starlette.concurrency import run_in_threadpool
+from starlette.middleware import Middleware
 from starlette.requests import Request
 from starlette.responses import FileResponse, HTMLResponse, JSONResponse, Response, StreamingResponse
 from starlette.routing import Route
 
-from ita.archive import Archive, ArchiveError, NoArchive, archive_path
+from ita.archive import Archive, ArchiveError, NoArchive, UnknownRun, archive_path
+from ita.errors import InputError, ItaError
 from ita.report.assets import asset_path
 from ita.report.data import COLUMNS, STATUS_COLOURS, collect, jsonable, result_row
 from ita.web import pages
+from ita.web.bodies import BadRequest, control_command, json_object, spec_count, start_request
+from ita.web.guard import LOG, Guard, printable
 from ita.web.runner import Processes
 
 ASSETS = {"plotly.min.js": "application/javascript", "ita.js": "application/javascript",
           "ita.css": "text/css", "web.js": "application/javascript"}
 LIVE_POLL_S = 1.0
 LIVE_KEEPALIVE_S = 15.0
+STOP_CHECK_S = 0.1      # how often a live stream looks whether the server is stopping
+RUN_ID = re.compile(r"[A-Za-z0-9_.-]{1,80}", re.ASCII)
 
 
 class State:
     """What the app keeps between requests: the runs directory, its child processes, the
-    part scenes it loaded, recent report payloads.  One per app, shared by its threads."""
+    part scenes it loaded, recent report payloads, whether the server is stopping.  One
+    per app, shared by its threads."""
 
     def __init__(self, runs_dir: Path) -> None:
         self.runs_dir = Path(runs_dir)
         self.procs = Processes(self.runs_dir)
+        self.stopping = threading.Event()
         self._lock = threading.Lock()
         self._scenes: dict[str, Any] = {}
         self._payloads: dict[str, tuple[str, Any]] = {}
+
+    def stop(self) -> None:
+        """The server is stopping: live streams end now (uvicorn waits for them)."""
+        self.stopping.set()
 
     def archive(self) -> Archive:
         """A fresh connection (each request thread its own); NoArchive when no run yet."""
@@ -106,21 +129,58 @@ def _checked(request: Request) -> JSONResponse | None:
     return None
 
 
+def _run_id(request: Request) -> str:
+    """The run id of the path; UnknownRun (404) for one no run could have."""
+    run_id = request.path_params["run"]
+    if not RUN_ID.fullmatch(run_id):
+        raise UnknownRun(f"no run {printable(run_id, 80)!r}")
+    return run_id
+
+
+async def _body(request: Request) -> dict[str, Any]:
+    """The request's JSON object (the guard has capped its size); BadRequest otherwise."""
+    return json_object(await request.body())
+
+
+def error_status(exc: ItaError) -> int:
+    """The status the project's error answers: 400 a bad request, 404 an unknown run or no
+    archive, 409 anything else (the archive or the run cannot do it now, or is damaged)."""
+    if isinstance(exc, (BadRequest, InputError)):
+        return 400
+    if isinstance(exc, (UnknownRun, NoArchive)):
+        return 404
+    return 409
+
+
+def _one_line(exc: Exception) -> str:
+    return printable((str(exc).strip().splitlines() or [type(exc).__name__])[0], 300)
+
+
+async def ita_error(request: Request, exc: Exception) -> JSONResponse:
+    """An ItaError raised while serving: its one line (the first of its message), no
+    traceback; one line in the server's log when it is not the request's fault."""
+    status = error_status(exc) if isinstance(exc, ItaError) else 500
+    line = _one_line(exc)
+    if status >= 409:
+        logging.getLogger(LOG).warning("%s %s: %s", request.method, printable(request.url.path), line)
+    return _error(line, status)
+
+
 # ------------------------------------------------------------------------------ pages
 async def page_runs(request: Request) -> HTMLResponse:
     return HTMLResponse(pages.runs_page())
 
 
 async def page_run(request: Request) -> HTMLResponse:
-    return HTMLResponse(pages.run_page(request.path_params["run"]))
+    return HTMLResponse(pages.run_page(_run_id(request)))
 
 
 async def page_result(request: Request) -> HTMLResponse:
-    return HTMLResponse(pages.result_page(request.path_params["run"], request.path_params["spec"]))
+    return HTMLResponse(pages.result_page(_run_id(request), request.path_params["spec"]))
 
 
 async def page_scoring(request: Request) -> HTMLResponse:
-    return HTMLResponse(pages.scoring_page(request.path_params["run"]))
+    return HTMLResponse(pages.scoring_page(_run_id(request)))
 
 
 async def asset(request: Request) -> Response:
@@ -151,23 +211,10 @@ async def api_runs(request: Request) -> JSONResponse:
         bad = _checked(request)
         if bad:
             return bad
-        try:
-            body = await request.json()
-        except json.JSONDecodeError:
-            body = {}
-        try:
-            limit = body.get("limit")
-            limit = None if limit in (None, "", 0) else int(limit)
-            if limit is not None and limit < 1:
-                raise ValueError("limit must be at least 1")
-            seed = int(body.get("seed") or 0)
-        except (TypeError, ValueError) as exc:
-            return _error(f"bad field: {exc}", 400)
-        part = (body.get("part") or "").strip() or None
-        if part is not None and not Path(part).expanduser().is_dir():
-            return _error(f"part: {part} is not a directory", 400)
-        run_id = await run_in_threadpool(state.procs.start_inspect, limit=limit, seed=seed,
-                                         part=None if part is None else str(Path(part).expanduser().resolve()))
+        body = await _body(request)
+        start = await run_in_threadpool(start_request, body, spec_count)
+        run_id = await run_in_threadpool(state.procs.start_inspect, limit=start.limit, seed=start.seed,
+                                         part=start.part, faults=start.faults)
         return _json({"run": run_id, "started": True}, 201)
     return _json(await run_in_threadpool(_runs, state))
 
@@ -185,14 +232,8 @@ async def api_control(request: Request) -> JSONResponse:
     bad = _checked(request)
     if bad:
         return bad
-    state, run_id = _state(request), request.path_params["run"]
-    try:
-        body = await request.json()
-    except json.JSONDecodeError:
-        body = {}
-    command = str(body.get("command", "")).upper()
-    if command not in ("STOP", "INTERRUPT", "CONTINUE"):
-        return _error("command must be STOP, INTERRUPT or CONTINUE", 400)
+    state, run_id = _state(request), _run_id(request)
+    command = control_command(await _body(request))
 
     def act(archive: Archive) -> JSONResponse:
         rid = archive.resolve(run_id)
@@ -207,8 +248,6 @@ async def api_control(request: Request) -> JSONResponse:
 
     try:
         out = await run_in_threadpool(_with_archive, state, act)
-    except ArchiveError as exc:
-        return _error(str(exc), 409)
     except RuntimeError as exc:
         return _error(str(exc), 409)
     return out if out is not None else _error("no archive yet", 404)
@@ -243,15 +282,12 @@ def _has_truth(info: Any) -> bool:
 
 
 async def api_report(request: Request) -> JSONResponse:
-    try:
-        payload = await run_in_threadpool(_report, _state(request), request.path_params["run"])
-    except ArchiveError as exc:
-        return _error(str(exc), 404)
+    payload = await run_in_threadpool(_report, _state(request), _run_id(request))
     return _json(payload) if payload is not None else _error("no archive yet", 404)
 
 
 async def api_scoring(request: Request) -> JSONResponse:
-    state, run_id = _state(request), request.path_params["run"]
+    state, run_id = _state(request), _run_id(request)
 
     def make(archive: Archive) -> Any:
         from ita import scoring
@@ -266,15 +302,12 @@ async def api_scoring(request: Request) -> JSONResponse:
         return report_payload(data, true_values=scoring.true_values(info.part_dir), only=("scoring",),
                               injected=scoring.injected_faults(archive.path.parent, rid))
 
-    try:
-        out = await run_in_threadpool(_with_archive, state, make)
-    except ArchiveError as exc:
-        return _error(str(exc), 404)
+    out = await run_in_threadpool(_with_archive, state, make)
     return _json(out) if out is not None else _error("no archive yet", 404)
 
 
 async def api_result(request: Request) -> JSONResponse:
-    state, run_id, spec = _state(request), request.path_params["run"], request.path_params["spec"]
+    state, run_id, spec = _state(request), _run_id(request), request.path_params["spec"]
 
     def make(archive: Archive) -> Any:
         from ita.report.result import result_payload
@@ -283,10 +316,7 @@ async def api_result(request: Request) -> JSONResponse:
         info = archive.run(rid)
         return result_payload(archive, rid, spec, scene=state.scene(info.part_dir))
 
-    try:
-        out = await run_in_threadpool(_with_archive, state, make)
-    except ArchiveError as exc:
-        return _error(str(exc), 404)
+    out = await run_in_threadpool(_with_archive, state, make)
     return _json(out) if out is not None else _error(f"no result {spec} in run {run_id}", 404)
 
 
@@ -296,7 +326,7 @@ def _live(state: State, run_id: str) -> dict[str, Any]:
     def make(archive: Archive) -> dict[str, Any]:
         try:
             rid = archive.resolve(run_id)
-        except ArchiveError:
+        except ArchiveError:       # not (yet) in the archive, or an ambiguous prefix
             return {}
         return live_state(archive, rid)
 
@@ -314,22 +344,36 @@ def _live(state: State, run_id: str) -> dict[str, Any]:
     return out
 
 
+async def _pause(state: State, seconds: float) -> None:
+    """Sleep `seconds`, or less when the server begins to stop."""
+    loop = asyncio.get_running_loop()
+    end = loop.time() + seconds
+    while not state.stopping.is_set() and (left := end - loop.time()) > 0:
+        await asyncio.sleep(min(STOP_CHECK_S, left))
+
+
 async def api_live(request: Request) -> StreamingResponse:
     """Server-sent events: the run's live state whenever it changes (polled every second),
-    a comment line every LIVE_KEEPALIVE_S otherwise."""
-    state, run_id = _state(request), request.path_params["run"]
+    a comment line every LIVE_KEEPALIVE_S otherwise, a `problem` event with one line when
+    the archive cannot be read; the stream ends when the server stops (so Ctrl-C does not
+    wait for the page)."""
+    state, run_id = _state(request), _run_id(request)
 
     async def stream() -> Any:
         key, quiet = None, 0.0
-        while not await request.is_disconnected():
-            now = await run_in_threadpool(_live, state, run_id)
+        while not state.stopping.is_set() and not await request.is_disconnected():
+            try:
+                now = await run_in_threadpool(_live, state, run_id)
+            except ItaError as exc:     # a damaged archive, say: said once, looked at again next second
+                now = {"key": f"error:{exc}", "error": _one_line(exc)}
             if now["key"] != key:
                 key, quiet = now["key"], 0.0
-                yield f"event: state\ndata: {json.dumps(jsonable(now))}\n\n"
+                kind = "problem" if "error" in now else "state"
+                yield f"event: {kind}\ndata: {json.dumps(jsonable(now))}\n\n"
             elif quiet >= LIVE_KEEPALIVE_S:
                 quiet = 0.0
                 yield ": keep-alive\n\n"
-            await asyncio.sleep(LIVE_POLL_S)
+            await _pause(state, LIVE_POLL_S)
             quiet += LIVE_POLL_S
 
     return StreamingResponse(stream(), media_type="text/event-stream",
@@ -337,12 +381,12 @@ async def api_live(request: Request) -> StreamingResponse:
 
 
 async def api_live_once(request: Request) -> JSONResponse:
-    return _json(await run_in_threadpool(_live, _state(request), request.path_params["run"]))
+    return _json(await run_in_threadpool(_live, _state(request), _run_id(request)))
 
 
 # ----------------------------------------------------------------------------- exports
 async def export(request: Request) -> Response:
-    state, run_id, what = _state(request), request.path_params["run"], request.path_params["what"]
+    state, run_id, what = _state(request), _run_id(request), request.path_params["what"]
 
     def make(archive: Archive) -> Response:
         rid = archive.resolve(run_id)
@@ -375,15 +419,14 @@ async def export(request: Request) -> Response:
 
     if what not in ("results.csv", "results.json", "report.html", "report.pdf"):
         return _error("no such export", 404)
-    try:
-        out = await run_in_threadpool(_with_archive, state, make)
-    except ArchiveError as exc:
-        return _error(str(exc), 404)
+    out = await run_in_threadpool(_with_archive, state, make)
     return out if out is not None else _error("no archive yet", 404)
 
 
-def create_app(runs_dir: Path | str) -> Starlette:
-    """The System Monitor over the archive in `runs_dir`."""
+def create_app(runs_dir: Path | str, host: str | None = None) -> Starlette:
+    """The System Monitor over the archive in `runs_dir`, behind its walls
+    (:class:`~ita.web.guard.Guard`): it answers requests that name 127.0.0.1,
+    localhost or [::1], or `host` (the address `ita serve --host` listens on)."""
     routes = [
         Route("/", page_runs),
         Route("/runs/{run}", page_run),
@@ -399,7 +442,8 @@ def create_app(runs_dir: Path | str) -> Starlette:
         Route("/api/runs/{run}/live", api_live),
         Route("/api/runs/{run}/state", api_live_once),
     ]
-    app = Starlette(routes=routes)
+    app = Starlette(routes=routes, middleware=[Middleware(Guard, host=host)],
+                    exception_handlers={ItaError: ita_error})
     app.state.ita = State(Path(runs_dir))
     app.state.colours = STATUS_COLOURS
     return app
