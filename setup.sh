@@ -38,8 +38,15 @@ find_python() {
 }
 
 setup() {
-    if ! command -v swipl >/dev/null 2>&1; then
-        apt_install swi-prolog-nox
+    # SWI-Prolog; bubblewrap and libseccomp confine the knowledge-base query child
+    # (ita/logic/confine.py: `ita kb query` refuses to run without them)
+    local debs=()
+    command -v swipl >/dev/null 2>&1 || debs+=(swi-prolog-nox)
+    command -v bwrap >/dev/null 2>&1 || debs+=(bubblewrap)
+    compgen -G '/usr/lib/*/libseccomp.so.2' >/dev/null || compgen -G '/lib/*/libseccomp.so.2' >/dev/null ||
+        debs+=(libseccomp2)
+    if [ ${#debs[@]} -gt 0 ]; then
+        apt_install "${debs[@]}"
     fi
     local py; py=$(find_python)
     if ! "$venv/bin/python" -m pip --version >/dev/null 2>&1; then

@@ -2,6 +2,7 @@
           [ run_query/4,                % +Text, +Modules, +Options, -Result
             with_user_goal/5,           % +Text, +Modules, +Options, :Action, -Result
             term_text/2,                % +Term, -Text
+            error_text/2,               % +Error, -Text
             goal_hazard/2               % +Goal, -Reason
           ]).
 
@@ -27,7 +28,10 @@ predicate in a child process with operating-system limits (ita/logic/sandbox.py,
 kb_sandbox.pl), so a goal that gets past both checks still meets the process's walls.
 
 Problems with the user's goal are results, not exceptions: `refused(Reason)`,
-`limit_exceeded(Reason)` and `error(Reason)` carry a one-line Reason string.
+`limit_exceeded(Reason)` and `error(Reason)` carry a one-line Reason string.  A term
+the goal produced (an exception, a syntax or refusal reason) is made text by
+error_text/2, never by the message system: message translation runs the `format/2`
+directives of the term (`~@` runs a goal), after every check of the goal's text.
 */
 
 :- use_module(library(sandbox)).
@@ -169,11 +173,7 @@ read_first(Text, Goal, Bindings, Rest) :-
         close(In)).
 
 syntax_reason(error(syntax_error(What), Context), Reason) :- !,
-    message_words(error(syntax_error(What), _), Words0),
-    (   sub_string(Words0, 0, _, After, "Syntax error: ")
-    ->  sub_string(Words0, _, After, 0, Words)
-    ;   Words = Words0
-    ),
+    syntax_words(What, Words),
     (   (   Context = string(_, CharNo) ; Context = stream(_, _, _, CharNo) ),
         integer(CharNo)
     ->  format(string(Reason), "refused: syntax error: ~w (at character ~d)", [Words, CharNo])
@@ -183,7 +183,8 @@ syntax_reason(error(resource_error(Resource), _), Reason) :- !,
     format(string(Reason),
            "refused: the goal is too large or nested too deep to read (out of ~w)", [Resource]).
 syntax_reason(Error, Reason) :-
-    message_words(Error, Reason).
+    error_text(Error, Words),
+    format(string(Reason), "refused: ~s", [Words]).
 
 import_exports(Modules, Into) :-
     forall(( member(Module, Modules),
@@ -232,7 +233,7 @@ exception_result(error(resource_error(Resource), _), _, limit_exceeded(Reason)) 
     format(string(Reason), "stopped: out of ~w (a resource limit); the goal may loop \c
                             or build a huge term", [Resource]).
 exception_result(Error, _, error(Reason)) :-
-    message_words(Error, Reason).
+    error_text(Error, Reason).
 
 %   refusal_reason(+SandboxError, -Reason) gives a one-line reason.
 refusal_reason(error(permission_error(call, sandboxed, Culprit), sandbox(_, Path)),
@@ -264,8 +265,8 @@ refusal_reason(error(instantiation_error, _), Reason) :- !,
     Reason = "refused: the goal calls a variable goal (e.g. call(G) with G unbound), \c
               which cannot be checked for safety".
 refusal_reason(Error, Reason) :-
-    message_words(Error, Words),
-    format(string(Reason), "refused: ~w", [Words]).
+    error_text(Error, Words),
+    format(string(Reason), "refused: ~s", [Words]).
 
 %!  goal_hazard(+Goal, -Reason:string) is semidet.
 %
@@ -413,16 +414,84 @@ name_variables([Var|Vars], N) :-
 
 print_text(Term, Text) :-
     format(string(Text), "~W",
-           [Term, [quoted(true), numbervars(true), portray(true),
+           [Term, [quoted(true), numbervars(true), portray(false),
                    spacing(next_argument)]]).
 
-message_words(Term, Words) :-
-    (   catch('$messages':translate_message(Term, Lines, []), _, fail)
-    ->  with_output_to(string(Text),
-                       print_message_lines(current_output, '', Lines)),
-        split_string(Text, "\n", " \t", Parts),
-        exclude(==(""), Parts, NonEmpty),
-        atomic_list_concat(NonEmpty, ' ', Atom),
-        atom_string(Atom, Words)
-    ;   format(string(Words), "~q", [Term])
-    ).
+%!  error_text(+Error, -Text:string) is det.
+%
+%   Text is a one-line description of the exception term Error, made without the
+%   message system (whose translation of a term runs its `format/2` directives, `~@`
+%   included, so printing a user's exception could run any goal).  ISO error terms get
+%   their usual words; every other term, and every argument, is written with `~W`
+%   (quoted, depth-limited, no portray hook, attributes ignored); control characters
+%   become spaces.
+
+error_text(Error, Text) :-
+    (   catch(error_words(Error, Words), _, fail)
+    ->  true
+    ;   Words = "an exception that cannot be printed"
+    ),
+    one_line(Words, Text).
+
+error_words(error(Formal, Context), Words) :- !,
+    formal_words(Formal, Head),
+    (   catch(context_words(Context, Tail), _, fail) -> true ; Tail = "" ),
+    string_concat(Head, Tail, Words).
+error_words(Term, Words) :-
+    show("unhandled exception: ~W", [Term], Words).
+
+formal_words(Var, Words) :- var(Var), !,
+    Words = "unknown error".
+formal_words(instantiation_error, "arguments are not sufficiently instantiated") :- !.
+formal_words(uninstantiation_error(T), W) :- !, show("~W is not a fresh variable", [T], W).
+formal_words(type_error(T, V), W) :- !, show("type error: ~W expected, found ~W", [T, V], W).
+formal_words(domain_error(D, V), W) :- !, show("domain error: ~W expected, found ~W", [D, V], W).
+formal_words(existence_error(procedure, PI), W) :- !, show("unknown procedure ~W", [PI], W).
+formal_words(existence_error(K, V), W) :- !, show("~W ~W does not exist", [K, V], W).
+formal_words(existence_error(K, V, In), W) :- !, show("~W ~W does not exist in ~W", [K, V, In], W).
+formal_words(permission_error(A, T, C), W) :- !, show("no permission to ~W ~W ~W", [A, T, C], W).
+formal_words(representation_error(R), W) :- !, show("cannot represent due to ~W", [R], W).
+formal_words(evaluation_error(E), W) :- !, show("arithmetic: evaluation error: ~W", [E], W).
+formal_words(resource_error(R), W) :- !, show("not enough resources: ~W", [R], W).
+formal_words(syntax_error(S), W) :- !,
+    syntax_words(S, Words),
+    format(string(W), "syntax error: ~s", [Words]).
+formal_words(Formal, W) :-
+    show("unknown error term: ~W", [Formal], W).
+
+context_words(Var, "") :- var(Var), !.
+context_words(context(Culprit, Message), Words) :- !,
+    (   var(Culprit) -> In = "" ; show(" (in ~W)", [Culprit], In) ),
+    (   var(Message) -> Note = ""
+    ;   ( atom(Message) ; string(Message) )
+    ->  format(string(Note), ": ~w", [Message])
+    ;   show(": ~W", [Message], Note)
+    ),
+    string_concat(In, Note, Words).
+context_words(_, "").
+
+%   syntax_words(+What, -Words): the reader's syntax error What in words
+%   (operator_expected: "operator expected").
+syntax_words(What, Words) :-
+    atom(What), !,
+    atomic_list_concat(Parts, '_', What),
+    atomic_list_concat(Parts, ' ', Atom),
+    atom_string(Atom, Words).
+syntax_words(What, Words) :-
+    show("~W", [What], Words).
+
+%   show(+Format, +Terms, -Text): Format with each ~W given one of Terms and the safe
+%   write options.
+show(Format, Terms, Text) :-
+    findall(Arg, ( member(T, Terms), member(Arg, [T, [quoted(true), max_depth(12), portray(false),
+                                                     attributes(ignore), numbervars(false)]]) ),
+            Args),
+    format(string(Text), Format, Args).
+
+one_line(Text0, Text) :-
+    string_codes(Text0, Codes0),
+    maplist(printable, Codes0, Codes),
+    string_codes(Text, Codes).
+
+printable(C0, C) :- ( C0 < 32 ; C0 =:= 127 ), !, C = 0' .
+printable(C, C).

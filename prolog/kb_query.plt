@@ -72,4 +72,32 @@ test(listing_prints_clauses, true(R == answers([], [[]], false))) :-
 test(listing_unknown_refused, true(sub_string(Reason, _, _, _, "no knowledge-base predicate"))) :-
     run_query("listing(nothere/3)", [world], [], refused(Reason)).
 
+test(thrown_format_is_not_run, true(Pwned == false)) :-
+    run_query("X is 63+1, atom_codes(F, [126, X]), throw(format(F, [assertz(user:kb_query_pwned)]))",
+              [world], [], error(Reason)),
+    once(sub_string(Reason, _, _, _, "unhandled exception: format(")),
+    ( catch(user:kb_query_pwned, _, fail) -> Pwned = true ; Pwned = false ).
+
+test(format_in_error_context_is_not_run, true(Pwned == false)) :-
+    run_query("atom_codes(F, [0'~, 0'@]), \c
+               throw(error(foo, context(_, format(F, [assertz(user:kb_query_pwned)]))))",
+              [world], [], error(_)),
+    ( catch(user:kb_query_pwned, _, fail) -> Pwned = true ; Pwned = false ).
+
+test(format_in_formal_error_is_not_run, true(Pwned == false)) :-
+    run_query("atom_codes(F, [0'~, 0'@]), \c
+               throw(error(type_error(format(F, [assertz(user:kb_query_pwned)]), x), _))",
+              [world], [], error(Reason)),
+    sub_string(Reason, 0, _, _, "type error: "),
+    ( catch(user:kb_query_pwned, _, fail) -> Pwned = true ; Pwned = false ).
+
+test(error_text_iso_terms, true(T == "type error: integer expected, found a (in foo/1): bad")) :-
+    error_text(error(type_error(integer, a), context(foo/1, bad)), T).
+
+test(error_text_is_one_line, true(T == "unhandled exception: 'a\\nb'")) :-
+    error_text('a\nb', T).
+
+test(error_text_of_a_variable_context, true(T == "arguments are not sufficiently instantiated")) :-
+    error_text(error(instantiation_error, _), T).
+
 :- end_tests(kb_query).

@@ -5,10 +5,10 @@
 /** <module> The child process that runs one user goal
 
 `ita kb query`, `ita kb why` and each goal of `ita kb shell` start `swipl` on this
-file in a process of its own (ita/logic/sandbox.py), with operating-system limits
-(CPU time, address space, no bytes written to files, few open files) set before
-SWI-Prolog starts, and a wall-clock limit that the parent enforces by killing the
-process group.  The main ITA process never runs a user goal.
+file in a process of its own (ita/logic/sandbox.py) behind the operating system's
+walls (ita/logic/confine.py: bubblewrap's namespaces, a seccomp filter, rlimits, the
+user nobody), and a wall-clock limit that the parent enforces by killing it.  The main
+ITA process never runs a user goal.
 
 The protocol is small.  The parent writes one JSON object on standard input:
 
@@ -37,7 +37,7 @@ library(sandbox), a temporary module, snapshot/1, and the time and inference lim
 :- use_module(library(apply)).
 :- use_module(library(lists)).
 :- use_module(library(error)).
-:- use_module(kb_query, [run_query/4]).
+:- use_module(kb_query, [run_query/4, error_text/2]).
 :- use_module(kb_explain, [explain_query/4]).
 :- use_module(py_bridge, [load_source_files/2, file_module/2]).
 
@@ -62,7 +62,7 @@ sandbox_main :-
     set_output(user_error),
     catch(answer(Request, Reply, Answer),
           Error,
-          ( message_to_text(Error, Text),
+          ( error_text(Error, Text),
             Answer = _{status: "error", reason: Text} )),
     json_write_dict(Reply, Answer, [width(0)]),
     nl(Reply),
@@ -123,6 +123,3 @@ add_module(File, Modules0, Modules) :-
     ->  Modules0 = [Module|Modules]
     ;   Modules0 = Modules
     ).
-
-message_to_text(Error, Text) :-
-    format(string(Text), "~q", [Error]).

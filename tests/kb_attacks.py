@@ -27,8 +27,8 @@ class Attack:
         return self.goal.replace("{t}", tmp)
 
 
-GROUPS = ("side effects", "escapes", "kb changes", "threads", "limits", "memory", "deep terms",
-          "encodings")
+GROUPS = ("side effects", "escapes", "thrown formats", "kb changes", "threads", "limits", "memory",
+          "deep terms", "encodings")
 
 # --- side effects: files, processes, environment, loading code, leaving -----------------
 _SIDE_PRIMITIVES = (
@@ -136,6 +136,41 @@ _ESCAPES = (
     f"when(nonvar(X), {_PWN}), X = 1",
     f"dif(X, a), put_attr(Y, freeze, {_PWN}), Y = 1",
     f"catch(call_with_time_limit(0.001, repeat), E, (print_message(error, E), {_PWN}))",
+)
+
+# --- format directives built at run time, in terms the goal throws -----------------------
+# The escape of issue 28: a `~@` made at run time (never in the goal's text) inside a term
+# that is thrown, so that turning the exception into text ran the goal.  Each builder
+# makes F = '~@'; each payload is a goal that does harm; each wrapper throws a term that
+# carries format(F, [Payload]) somewhere a message translation would format it.
+_FORMAT_BUILDERS = (
+    "X is 63+1, atom_codes(F, [126, X])",
+    "atom_codes(F, [0'~, 0'@])",
+    "char_code(T, 126), char_code(A, 64), atom_concat(T, A, F)",
+    "string_codes(F, [126, 64])",
+    "format(atom(F), '~c~c', [126, 64])",
+)
+_FORMAT_PAYLOADS = (
+    "open('{t}/pwned', write, S)",
+    "shell('touch {t}/pwned')",
+    "delete_file('{t}/victim')",
+    "read_file_to_string('/etc/passwd', S, [])",
+)
+_THROWS = (
+    "throw(format(F, [P]))",
+    "throw(error(format(F, [P]), _))",
+    "throw(error(type_error(format(F, [P]), x), _))",
+    "throw(error(domain_error(x, format(F, [P])), _))",
+    "throw(error(existence_error(x, y), context(format(F, [P]), _)))",
+    "throw(error(foo, context(_, format(F, [P]))))",
+    "throw(error(permission_error(a, b, c), context(x/1, format(F, [P]))))",
+    "throw(error(syntax_error(format(F, [P])), _))",
+    "throw(error(resource_error(format(F, [P])), _))",
+    "catch(throw(format(F, [P])), E, throw(E))",
+    "catch(throw(error(format(F, [P]), _)), E, throw(wrapped(E)))",
+    "catch(Y = 1, _, true), Y == 1, throw(error(evaluation_error(format(F, [P])), context(_, _)))",
+    "E = error(format(F, [P]), context(format(F, [P]), format(F, [P]))), throw(E)",
+    "T = format(F, [P])",                       # an answer: printed with ~W, never formatted
 )
 
 # --- changes to the knowledge bases ------------------------------------------------------
@@ -326,10 +361,22 @@ def all_attacks() -> list[Attack]:
     attacks = [Attack("side effects", w.format(g=p), "clean")
                for p in _SIDE_PRIMITIVES for w in _SIDE_WRAPPERS]
     attacks += [Attack("escapes", g) for g in _ESCAPES]
+    attacks += thrown_formats()
     attacks += [Attack("kb changes", g, e) for g, e in _KB_CHANGES]
     attacks += [Attack("threads", g) for g in _THREADS]
     attacks += [Attack("limits", g, e) for g, e in _LIMITS]
     attacks += [Attack("memory", g) for g in _MEMORY]
     attacks += [Attack("deep terms", g, e) for g, e in _DEEP]
     attacks += [Attack("encodings", g, e) for g, e in _ENCODINGS]
+    return attacks
+
+
+def thrown_formats() -> list[Attack]:
+    """The family of format directives built at run time and thrown (issue 28)."""
+    attacks = []
+    for builder in _FORMAT_BUILDERS:
+        for payload in _FORMAT_PAYLOADS:
+            for throw in _THROWS:
+                goal = f"{builder}, P = ({payload}), {throw}"
+                attacks.append(Attack("thrown formats", goal, "harmless" if throw.startswith("T =") else "clean"))
     return attacks

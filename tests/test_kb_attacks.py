@@ -2,48 +2,66 @@
 cleanly, with no side effect (no file, no changed fact in a later query, no process
 left) and the exit code a user expects.
 
-The attacks are listed in tests/kb_attacks.py (over 300, in eight groups).  The whole
-list runs in the slow suite::
+The attacks are listed in tests/kb_attacks.py (about 600, in nine groups).  The whole
+list runs in the slow suite (and the family of issue 28, format directives built at run
+time in thrown terms, through `kb why` and `kb shell` as well)::
 
     .venv/bin/python -m pytest -q -p no:cacheprovider -m slow tests/test_kb_attacks.py -s
 
 which prints the table "group, cases tried, refused cleanly".  The default suite runs a
 representative of each group end to end through the command line.
+
+The arena the attacks aim at is world-writable (like /tmp), so that a goal that got out
+could harm it whichever user the query child runs as; the walls alone are tested in
+tests/test_kb_walls.py.
 """
 
 from __future__ import annotations
 
 import os
+import shutil
+import stat
+import tempfile
 import time
 from collections import Counter
 from concurrent.futures import ThreadPoolExecutor
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
 from click.testing import CliRunner
-from kb_attacks import GROUPS, Attack, all_attacks
+from kb_attacks import GROUPS, Attack, all_attacks, thrown_formats
 
 from ita.cli import main
 from ita.errors import ItaError, QueryLimitExceeded, QueryRefused
-from ita.logic.sandbox import SandboxFiles, SandboxLimits, query
+from ita.logic.sandbox import SandboxFiles, SandboxLimits, explain, query
 
 TIME_LIMIT = 1.0
 SLACK = 2.0  # a limit holds within this many seconds of its setting
 VICTIM = "victim.\n"
 FACTS = "tool_condition(T, C)"
+LEAKS = ("root:x:0:0", "root:*:0:0")  # /etc/passwd's first line, should a goal read it
+ESCAPE = "X is 63+1, atom_codes(F, [126, X]), throw(format(F, [open('{t}/pwned', write, S)]))"
 
 
 @pytest.fixture()
-def arena(tmp_path: Path) -> Path:
-    """The test's directory, holding one file that attacks try to change or delete."""
-    (tmp_path / "victim").write_text(VICTIM, encoding="utf-8")
-    return tmp_path
+def arena() -> Iterator[Path]:
+    """The test's own directory, world-writable like /tmp (so any user could harm it
+    without the walls), under the system's temporary directory (reachable by every
+    user), holding one world-writable file that attacks try to change or delete."""
+    path = Path(tempfile.mkdtemp(prefix="ita-attacks-"))
+    os.chmod(path, 0o1777)
+    (path / "victim").write_text(VICTIM, encoding="utf-8")
+    os.chmod(path / "victim", 0o666)
+    yield path
+    shutil.rmtree(path)
 
 
 def assert_untouched(arena: Path) -> None:
     """No file made, changed or removed in the arena, and no process left behind."""
     assert sorted(p.name for p in arena.iterdir()) == ["victim"]
     assert (arena / "victim").read_text(encoding="utf-8") == VICTIM
+    assert stat.S_IMODE((arena / "victim").stat().st_mode) == 0o666
     assert not _processes_mentioning(str(arena))
     assert not _swipl_children()
 
@@ -63,7 +81,7 @@ def _processes_mentioning(text: str) -> list[int]:
 
 
 def _swipl_children() -> list[int]:
-    """Our child processes running swipl (the sandbox must reap every one)."""
+    """Our child processes running swipl or bwrap (the sandbox must reap every one)."""
     found = []
     for entry in Path("/proc").iterdir():
         if not entry.name.isdigit():
@@ -74,7 +92,7 @@ def _swipl_children() -> list[int]:
             continue
         name = stat[stat.index("(") + 1: stat.rindex(")")]
         ppid = int(stat[stat.rindex(")") + 2:].split()[1])
-        if ppid == os.getpid() and name.startswith("swipl"):
+        if ppid == os.getpid() and (name.startswith("swipl") or name.startswith("bwrap")):
             found.append(int(entry.name))
     return found
 
@@ -82,8 +100,8 @@ def _swipl_children() -> list[int]:
 # -- the default suite: one or more of each group, end to end -----------------------------
 
 @pytest.fixture()
-def ita(arena: Path, monkeypatch):
-    monkeypatch.setenv("ITA_HOME", str(arena.parent / f"{arena.name}-home"))
+def ita(tmp_path: Path, monkeypatch):
+    monkeypatch.setenv("ITA_HOME", str(tmp_path / "home"))
     runner = CliRunner()
 
     def invoke(*args: str, stdin: str | None = None):
@@ -125,6 +143,11 @@ REPRESENTATIVES = [
     ("deep terms", "length(L, 20000), foldl([_, A0, f(A0)]>>true, L, a, X)", "stopped"),
     ("encodings", "\udcff(X)", "clean"),  # refused by the ita group: not valid UTF-8
     ("encodings", "type(X, us_tool). shell('touch {t}/pwned')", "refused"),
+    ("thrown formats", ESCAPE, "error"),
+    ("thrown formats", "X is 63+1, atom_codes(F, [126, X]), "
+     "throw(error(format(F, [read_file_to_string('/etc/passwd', S, [])]), _))", "error"),
+    ("thrown formats", "atom_codes(F, [0'~, 0'@]), "
+     "throw(error(foo, context(_, format(F, [shell('touch {t}/pwned')]))))", "error"),
 ]
 
 
@@ -138,11 +161,31 @@ def test_query_attack_is_refused_without_effect(ita, arena, facts, group, goal, 
         assert line.startswith("error: refused:"), line
     elif expect == "stopped":
         assert line.startswith("error: stopped:"), line
+    assert not any(leak in result.output for leak in LEAKS), result.output
     if "\udcff" in goal:
         assert "not valid UTF-8" in line
     assert "Traceback" not in result.output
     if group in ("kb changes", "threads"):
         assert _facts_now() == facts
+    assert_untouched(arena)
+
+
+@pytest.mark.parametrize("command", ["why", "shell"])
+def test_why_and_shell_keep_the_thrown_format_escape_harmless(ita, arena, command):
+    """The escape of issue 28 through `kb why` and `kb shell`: the thrown term is shown
+    with ~q (the goal in it is data), nothing is made."""
+    goal = ESCAPE.replace("{t}", str(arena))
+    if command == "why":
+        result = ita("kb", "why", goal)
+        assert result.exit_code == 2, result.output
+        line = _error_line(result.output)
+    else:
+        result = ita("kb", "shell", stdin=f"{goal}\ntype(X, arm)\n")
+        assert result.exit_code == 0, result.output
+        assert "t3" in result.output      # the shell goes on
+        line = next(l for l in result.output.splitlines() if "unhandled exception" in l)
+    assert "unhandled exception: format(" in line and "open(" in line, line
+    assert "Traceback" not in result.output
     assert_untouched(arena)
 
 
@@ -183,12 +226,12 @@ def test_shell_flags_and_deep_input_do_not_leak(ita, arena):
     assert_untouched(arena)
 
 
-def test_shell_survives_a_line_that_is_not_utf8(arena, monkeypatch):
+def test_shell_survives_a_line_that_is_not_utf8(arena, tmp_path):
     import subprocess
     import sys
 
     repo = Path(__file__).resolve().parent.parent
-    env = dict(os.environ, PYTHONPATH=str(repo), ITA_HOME=str(arena.parent / f"{arena.name}-home"))
+    env = dict(os.environ, PYTHONPATH=str(repo), ITA_HOME=str(tmp_path / "home"))
     proc = subprocess.run([sys.executable, str(repo / "cli.py"), "kb", "shell"],
                           input=b"\xff(X)\ntype(X, arm)\n", capture_output=True, env=env, timeout=120)
     assert proc.returncode == 0, proc.stderr
@@ -216,6 +259,8 @@ def _outcome(attack: Attack, arena: Path, files: SandboxFiles) -> tuple[Attack, 
 
 
 def _clean(attack: Attack, kind: str, text: str) -> bool:
+    if any(leak in text for leak in LEAKS):
+        return False
     if kind in ("refused", "stopped", "error"):
         if "\n" in text.strip() or not text.strip():
             return False
@@ -265,6 +310,40 @@ def test_every_attack_is_refused_cleanly(arena, capsys):
     assert_untouched(arena)
 
 
+def _why_outcome(attack: Attack, arena: Path, files: SandboxFiles) -> tuple[Attack, str, str]:
+    try:
+        tree = explain(attack.text(str(arena)), files, SandboxLimits(time_limit=TIME_LIMIT))
+        kind, text = "answer", repr(tree)[:2000]
+    except QueryRefused as exc:
+        kind, text = "refused", str(exc)
+    except QueryLimitExceeded as exc:
+        kind, text = "stopped", str(exc)
+    except ItaError as exc:
+        kind, text = "error", str(exc)
+    return attack, kind, text
+
+
+@pytest.mark.slow
+def test_thrown_formats_through_why_and_shell(arena, ita, capsys):
+    """Every attack of the thrown-formats family through `kb why` (each in its own
+    child) and through one `kb shell` session: nothing made, nothing leaked."""
+    files = SandboxFiles.of()
+    attacks = thrown_formats()
+    with ThreadPoolExecutor(max_workers=2) as pool:
+        outcomes = list(pool.map(lambda a: _why_outcome(a, arena, files), attacks))
+    failures = [f"why {a.goal[:80]!r}: {kind}: {text[:120]}" for a, kind, text in outcomes
+                if not _clean(a, kind, text)]
+    shell = ita("kb", "shell", stdin="".join(a.text(str(arena)) + "\n" for a in attacks) + "type(X, arm)\n")
+    if shell.exit_code != 0 or "t3" not in shell.output or "Traceback" in shell.output:
+        failures.append(f"shell: exit {shell.exit_code}: {shell.output[-500:]}")
+    if any(leak in shell.output for leak in LEAKS):
+        failures.append("shell: /etc/passwd leaked")
+    with capsys.disabled():
+        print(f"\n| thrown formats | why {len(attacks)} | shell {len(attacks)} | failures {len(failures)} |")
+    assert not failures, "\n".join(failures)
+    assert_untouched(arena)
+
+
 def test_shell_lists_clauses_read_only(ita, arena):
     result = ita("kb", "shell", stdin="listing(available)\nlisting(shell)\n")
     assert result.exit_code == 0, result.output
@@ -273,7 +352,7 @@ def test_shell_lists_clauses_read_only(ita, arena):
     assert_untouched(arena)
 
 
-def test_ctrl_c_stops_the_goal_not_the_shell(arena):
+def test_ctrl_c_stops_the_goal_not_the_shell(arena, tmp_path):
     """On a terminal, Ctrl-C kills the running goal's process and the shell goes on."""
     import pty
     import select
@@ -282,7 +361,7 @@ def test_ctrl_c_stops_the_goal_not_the_shell(arena):
     import sys
 
     repo = Path(__file__).resolve().parent.parent
-    env = dict(os.environ, PYTHONPATH=str(repo), ITA_HOME=str(arena.parent / f"{arena.name}-home"))
+    env = dict(os.environ, PYTHONPATH=str(repo), ITA_HOME=str(tmp_path / "home"))
     primary, secondary = pty.openpty()
     proc = subprocess.Popen([sys.executable, str(repo / "cli.py"), "kb", "shell"], stdin=secondary,
                             stdout=secondary, stderr=secondary, env=env, start_new_session=True)
@@ -317,32 +396,4 @@ def test_ctrl_c_stops_the_goal_not_the_shell(arena):
             proc.wait()
         os.close(primary)
     assert not _swipl_children()
-    assert_untouched(arena)
-
-
-@pytest.mark.skipif(os.geteuid() != 0, reason="the nobody wall is raised only when ITA runs as root")
-def test_process_walls_hold_without_the_prolog_checks(arena):
-    """A goal that got past goal_hazard/2 and library(sandbox) meets the process's walls:
-    run straight in a child with the sandbox's limits, it cannot start a command or a
-    thread, nor write a byte of a file."""
-    import pwd
-    import subprocess
-
-    from ita.logic.sandbox import _preexec
-
-    if os.geteuid() != 0:
-        pytest.skip("the process walls drop to nobody only when ITA runs as root")
-    nobody = pwd.getpwnam("nobody")
-    user = (nobody.pw_uid, nobody.pw_gid)   # as the sandbox's child runs (no knowledge base loaded here)
-    goal = (f"catch(shell('touch {arena}/pwned', S), E1, true), print(S-E1), nl, "
-            f"catch(open('{arena}/victim', write, O), E2, true), print(O-E2), nl, "
-            "catch(thread_create(true, T, []), E3, true), print(T-E3), nl")
-    proc = subprocess.run(["swipl", "-q", "-f", "none", "--no-packs", "-g", goal, "-t", "halt"],
-                          capture_output=True, text=True, timeout=60, cwd="/",
-                          preexec_fn=_preexec(SandboxLimits(), user))
-    lines = proc.stdout.splitlines()
-    assert len(lines) == 3, (proc.stdout, proc.stderr)
-    assert "Resource temporarily unavailable" in proc.stderr  # no fork: RLIMIT_NPROC 0 as nobody
-    assert "permission_error" in lines[1]
-    assert "error" in lines[2]
     assert_untouched(arena)

@@ -5,8 +5,10 @@ with no solution, or `check` found problems; 2 a refused goal (syntax error, uns
 a goal stopped by its time, inference, memory or CPU limit, a goal that raised an error,
 or a knowledge base that does not load.
 
-`query`, `why` and each goal of `shell` run in a child process with operating-system
-limits (ita/logic/sandbox.py); this process never runs a goal a person typed.
+`query`, `why` and each goal of `shell` run in a child process behind the operating
+system's walls (ita/logic/sandbox.py, ita/logic/confine.py: bubblewrap's namespaces, a
+seccomp filter, rlimits); this process never runs a goal a person typed, and refuses to
+run one where the walls cannot be raised.
 """
 
 from __future__ import annotations
@@ -19,11 +21,12 @@ from typing import TYPE_CHECKING, Callable, TextIO
 
 import click
 
-from ita.cli.common import reports_errors
+from ita.cli.common import FiniteFloatRange, reports_errors
 from ita.errors import ItaError
 
 if TYPE_CHECKING:
     from ita.logic.bridge import KnowledgeBase
+    from ita.logic.confine import Jail
     from ita.logic.model import ProofNode, QueryResult
     from ita.logic.sandbox import SandboxFiles, SandboxLimits
 
@@ -31,8 +34,10 @@ NO_SOLUTION = 1
 SHELL_HELP = """\
 Type a Prolog goal, e.g.  type(X, us_tool)  or  available(T), weight(T, W)
 Goals run read-only: the sandbox refuses files, processes, halt, messages, threads and
-changes to the knowledge bases; each goal runs in a process of its own under a time,
-an inference, a CPU and a memory limit (nothing it does reaches the next goal).
+changes to the knowledge bases; each goal runs in a process of its own, confined by the
+operating system (no file but Prolog's and the knowledge bases, no network, no other
+process), under a time, an inference, a CPU and a memory limit (nothing it does reaches
+the next goal).
 Ctrl-C stops the current goal, not the shell.
   why GOAL   show the proof tree of GOAL's first solution
   help       this text
@@ -40,7 +45,7 @@ Ctrl-C stops the current goal, not the shell.
 
 
 def _limit_options(func: Callable) -> Callable:
-    func = click.option("--time-limit", type=click.FloatRange(min=0.001), default=10.0,
+    func = click.option("--time-limit", type=FiniteFloatRange(min=0.001), default=10.0,
                         show_default=True,
                         help="Stop the goal after this many seconds of wall clock (its process is "
                              "killed; it also has 1 GiB of memory and no file writes).")(func)
@@ -57,26 +62,30 @@ def _knowledge_base() -> "KnowledgeBase":
 
 @dataclass(frozen=True)
 class UserGoals:
-    """Runs user goals in the sandbox's child processes (ita.logic.sandbox)."""
+    """Runs user goals in the sandbox's child processes (ita.logic.sandbox), behind the
+    walls found once (a shell's goals share them)."""
 
     files: "SandboxFiles"
     limits: "SandboxLimits"
+    jail: "Jail"
 
     @staticmethod
     def make(time_limit: float, inference_limit: int) -> "UserGoals":
+        """Raises Unconfinable (an ItaError) where the walls cannot be raised."""
         from ita.logic.sandbox import SandboxFiles, SandboxLimits
 
-        return UserGoals(SandboxFiles.of(), SandboxLimits(float(time_limit), int(inference_limit)))
+        files = SandboxFiles.of()
+        return UserGoals(files, SandboxLimits(float(time_limit), int(inference_limit)), files.jail())
 
     def query(self, goal: str, limit: int) -> "QueryResult":
         from ita.logic import sandbox
 
-        return sandbox.query(goal, self.files, self.limits, limit, echo=_echo_output)
+        return sandbox.query(goal, self.files, self.limits, limit, echo=_echo_output, jail=self.jail)
 
     def why(self, goal: str, max_depth: int) -> "ProofNode | None":
         from ita.logic import sandbox
 
-        return sandbox.explain(goal, self.files, self.limits, max_depth, echo=_echo_output)
+        return sandbox.explain(goal, self.files, self.limits, max_depth, echo=_echo_output, jail=self.jail)
 
 
 def _echo_output(text: str) -> None:

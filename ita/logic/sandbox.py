@@ -1,51 +1,53 @@
 """User goals (`ita kb query`, `kb why`, `kb shell`) run in a child process with walls.
 
 The main ITA process never runs a goal a person typed.  :func:`run_user_goal` starts
-``swipl`` on ``prolog/kb_sandbox.pl`` in a new session (its own process group) with
-operating-system limits set before SWI-Prolog starts:
+``swipl`` on ``prolog/kb_sandbox.pl`` behind the operating system's walls of
+:mod:`ita.logic.confine`: bubblewrap's namespaces (a file system of SWI-Prolog and the
+project's ``prolog/`` and ``kb/`` only, read-only; no network; a PID namespace that dies
+with it; ``nobody`` with no capability), a seccomp filter (no process, thread, program,
+socket or file write), and limits set before it starts:
 
 - ``RLIMIT_CPU``: the time limit plus the start-up allowance, so a goal that swallows
   every Prolog limit still cannot burn a core;
 - ``RLIMIT_AS``: the address space (1 GiB by default), so memory of a query is capped;
 - ``RLIMIT_FSIZE`` 0: the child cannot write a byte to any file;
 - ``RLIMIT_NOFILE``: few open files; ``RLIMIT_CORE`` 0: no core dumps;
-- when ITA runs as root: the child drops to the user ``nobody`` with ``RLIMIT_NPROC``
-  0, so it can start no process and no thread and write no file of root's (used only
-  when every Prolog file it loads is readable by others);
+- when ITA runs as root: the child becomes the user ``nobody`` before bwrap starts
+  (when nobody can read every Prolog file it loads);
 
 and Prolog's own stack limit, so a deeply nested term raises a resource error rather
 than crashing.  The parent enforces a wall-clock limit: once the child says it is ready
 (the knowledge bases are loaded), the goal has its time limit plus one second of grace,
-after which the whole process group is killed.  Ctrl-C kills the child and raises
-KeyboardInterrupt in the parent.  Inside the child the goal still goes through
-goal_hazard/2 and library(sandbox) (prolog/kb_query.pl) before it runs.
+after which bwrap is killed, and the kernel kills everything in its PID namespace.
+Ctrl-C kills the child and raises KeyboardInterrupt in the parent.  Inside the child the
+goal still goes through goal_hazard/2 and library(sandbox) (prolog/kb_query.pl) before
+it runs: those checks give the clear refusals; the walls hold when they are wrong.
 
 Refusals and limits come back as :class:`~ita.errors.QueryRefused` and
 :class:`~ita.errors.QueryLimitExceeded`, a goal's own error as
-:class:`~ita.errors.PrologError`, each with a one-line reason.
+:class:`~ita.errors.PrologError`, each with a one-line reason; a machine that cannot
+raise the walls gives :class:`~ita.logic.confine.Unconfinable` and runs no goal.
 """
 
 from __future__ import annotations
 
 import json
 import os
-import pwd
-import resource
 import selectors
-import shutil
 import signal
-import stat
 import subprocess
 import time
 from collections.abc import Callable
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from ita.errors import ItaError, KBLoadError, Location, PrologError, QueryLimitExceeded, QueryRefused
+from ita.logic.confine import Jail, RLimits, Unconfinable, await_namespace_end
 from ita.logic.model import ProofNode, QueryResult
+from ita.paths import resource_dir
 
-__all__ = ["SandboxLimits", "SandboxFiles", "run_user_goal", "query", "explain"]
+__all__ = ["SandboxLimits", "SandboxFiles", "run_user_goal", "query", "explain", "Unconfinable"]
 
 # The engine modules the sandbox does not offer to user goals (the bridge's own).
 BRIDGE_MODULES = ("py_bridge", "kb_query", "kb_explain", "kb_check", "kb_sandbox")
@@ -76,28 +78,42 @@ class SandboxLimits:
 
 @dataclass(frozen=True)
 class SandboxFiles:
-    """The Prolog files the child loads: engines (prolog/) then knowledge bases (kb/)."""
+    """The Prolog files the child loads: engines (prolog/) then knowledge bases (kb/).
+
+    `entry_file` is the file ``swipl`` starts on, whose ``kb_sandbox:sandbox_main/0``
+    answers the request (default: ``kb_sandbox.pl`` among the engine files)."""
 
     engine_files: tuple[Path, ...]
     kb_files: tuple[Path, ...]
+    entry_file: Path | None = field(default=None)
 
     @staticmethod
     def of(prolog_dir: Path | None = None, kb_dir: Path | None = None) -> "SandboxFiles":
-        from ita.paths import resource_dir
-
         prolog_dir = Path(prolog_dir) if prolog_dir else resource_dir("prolog")
         kb_dir = Path(kb_dir) if kb_dir else resource_dir("kb")
         return SandboxFiles(_pl_files(prolog_dir), _pl_files(kb_dir))
 
     @property
     def entry(self) -> Path:
-        """``kb_sandbox.pl`` among the engine files."""
+        """The file the child starts on."""
+        if self.entry_file is not None:
+            return Path(self.entry_file).resolve()
         for path in self.engine_files:
             if path.name == "kb_sandbox.pl":
                 return path
-        from ita.paths import resource_dir
-
         return (resource_dir("prolog") / "kb_sandbox.pl").resolve()
+
+    @property
+    def all_files(self) -> tuple[Path, ...]:
+        """Every file the child reads: the entry, the engines, the knowledge bases."""
+        return (self.entry, *self.engine_files, *self.kb_files)
+
+    def jail(self) -> Jail:
+        """The walls of a child that reads these files (their directories, read-only).
+
+        Raises Unconfinable when this machine cannot raise them."""
+        directories = {path.parent for path in self.all_files}
+        return Jail.find("swipl", sorted(directories), self.all_files)
 
 
 @dataclass(frozen=True)
@@ -113,11 +129,12 @@ def _pl_files(directory: Path) -> tuple[Path, ...]:
 
 
 def query(goal: str, files: SandboxFiles, limits: SandboxLimits, limit: int = 100,
-          echo: Callable[[str], None] | None = None) -> QueryResult:
+          echo: Callable[[str], None] | None = None, jail: Jail | None = None) -> QueryResult:
     """All solutions (at most `limit`) of the user goal `goal`, run in a child process.
 
-    `echo` receives whatever the goal printed (default: dropped)."""
-    outcome = run_user_goal("query", goal, files, limits, {"limit": int(limit)})
+    `echo` receives whatever the goal printed (default: dropped); `jail` are the walls
+    (default: found for `files`; pass one to reuse it across goals)."""
+    outcome = run_user_goal("query", goal, files, limits, {"limit": int(limit)}, jail)
     _echo(outcome, echo)
     reply = outcome.reply
     if reply.get("status") != "answers":
@@ -131,9 +148,9 @@ def query(goal: str, files: SandboxFiles, limits: SandboxLimits, limit: int = 10
 
 
 def explain(goal: str, files: SandboxFiles, limits: SandboxLimits, max_depth: int = 30,
-            echo: Callable[[str], None] | None = None) -> ProofNode | None:
+            echo: Callable[[str], None] | None = None, jail: Jail | None = None) -> ProofNode | None:
     """The proof tree of the first solution of the user goal, or None without one."""
-    outcome = run_user_goal("why", goal, files, limits, {"max_depth": int(max_depth)})
+    outcome = run_user_goal("why", goal, files, limits, {"max_depth": int(max_depth)}, jail)
     _echo(outcome, echo)
     reply = outcome.reply
     if reply.get("status") == "no_proof":
@@ -158,13 +175,6 @@ def _node(data: dict[str, Any]) -> ProofNode:
     )
 
 
-def _swipl() -> str:
-    found = shutil.which("swipl")
-    if found is None:
-        raise ItaError("SWI-Prolog (swipl) is not on PATH; it runs the knowledge-base queries")
-    return found
-
-
 def _check_text(goal: str) -> bytes:
     try:
         return goal.encode("utf-8")
@@ -175,57 +185,18 @@ def _check_text(goal: str) -> bytes:
         ) from None
 
 
-def _unprivileged(files: SandboxFiles) -> tuple[int, int] | None:
-    """(uid, gid) of ``nobody`` when ITA runs as root and nobody can read every file the
-    child loads; else None (the child keeps the caller's user)."""
-    if os.geteuid() != 0:
-        return None
-    try:
-        entry = pwd.getpwnam("nobody")
-    except KeyError:
-        return None
-    for path in (files.entry, *files.engine_files, *files.kb_files):
-        if not _world_readable(path):
-            return None
-    return entry.pw_uid, entry.pw_gid
-
-
-def _world_readable(path: Path) -> bool:
-    try:
-        if not path.stat().st_mode & stat.S_IROTH:
-            return False
-        return all(parent.stat().st_mode & stat.S_IXOTH for parent in path.parents)
-    except OSError:
-        return False
-
-
-def _preexec(limits: SandboxLimits, user: tuple[int, int] | None) -> Callable[[], None]:
-    cpu = int(limits.load_seconds + limits.time_limit + limits.grace) + 1
-
-    def set_limits() -> None:  # runs in the child, between fork and exec
-        resource.setrlimit(resource.RLIMIT_CPU, (cpu, cpu))
-        resource.setrlimit(resource.RLIMIT_AS, (limits.memory_bytes, limits.memory_bytes))
-        resource.setrlimit(resource.RLIMIT_FSIZE, (0, 0))
-        resource.setrlimit(resource.RLIMIT_NOFILE, (limits.open_files, limits.open_files))
-        resource.setrlimit(resource.RLIMIT_CORE, (0, 0))
-        if user is not None:
-            uid, gid = user
-            os.setgroups([])
-            os.setgid(gid)
-            os.setuid(uid)
-            resource.setrlimit(resource.RLIMIT_NPROC, (0, 0))  # no process, no thread
-
-    return set_limits
-
-
 def run_user_goal(action: str, goal: str, files: SandboxFiles, limits: SandboxLimits,
-                  extra: dict[str, Any]) -> Outcome:
-    """Run `goal` (action ``query`` or ``why``) in a child ``swipl``; its reply.
+                  extra: dict[str, Any], jail: Jail | None = None) -> Outcome:
+    """Run `goal` (action ``query`` or ``why``) in a child ``swipl`` behind `jail`'s
+    walls (default: ``files.jail()``); its reply.
 
     Raises QueryRefused, QueryLimitExceeded, PrologError or KBLoadError for every
-    reply or end of the child that is not an answer.
+    reply or end of the child that is not an answer, Unconfinable when the walls
+    cannot be raised (the goal does not run).
     """
     _check_text(goal)
+    if jail is None:
+        jail = files.jail()
     request = {
         "action": action,
         "goal": goal,
@@ -238,27 +209,36 @@ def run_user_goal(action: str, goal: str, files: SandboxFiles, limits: SandboxLi
         **extra,
     }
     stack = max(1, limits.stack_bytes >> 20)
-    command = [_swipl(), "-q", "-f", "none", "--no-packs", "--no-tty",
-               f"--stack-limit={stack}m", "-g", "kb_sandbox:sandbox_main", "-t", "halt(4)",
-               str(files.entry)]
-    env = {"PATH": os.environ.get("PATH", "/usr/bin:/bin"), "LANG": "C.UTF-8",
-           "LC_ALL": "C.UTF-8", "HOME": "/nonexistent"}
+    args = ["-q", "-f", "none", "--no-packs", "--no-tty", f"--stack-limit={stack}m",
+            "-g", "kb_sandbox:sandbox_main", "-t", "halt(4)", str(files.entry)]
+    env = {"LANG": "C.UTF-8", "LC_ALL": "C.UTF-8", "HOME": "/nonexistent"}
+    cpu = int(limits.load_seconds + limits.time_limit + limits.grace) + 1
+    seccomp = jail.seccomp_pipe()
+    info, info_w = os.pipe()
+    command = jail.command(args, seccomp, env, info_w)
     try:
         child = subprocess.Popen(
             command, stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-            start_new_session=True, preexec_fn=_preexec(limits, _unprivileged(files)),
+            start_new_session=True, pass_fds=(seccomp, info_w),
+            preexec_fn=jail.preexec(RLimits(cpu, limits.memory_bytes, limits.open_files)),
             cwd="/", env=env,
         )
     except (OSError, subprocess.SubprocessError) as exc:
+        os.close(info)
         raise ItaError(f"cannot start the query process ({command[0]}): {exc}") from None
+    finally:
+        os.close(seccomp)
+        os.close(info_w)
     try:
         return _converse(child, request, limits)
     finally:
         _kill_group(child)
+        _await_end(info)
 
 
 def _kill_group(child: subprocess.Popen) -> None:
-    """Kill the child's whole process group (whatever it started too) and reap it."""
+    """Kill the child (bwrap) and its process group, and reap it; the kernel then kills
+    everything in its PID namespace (``--die-with-parent``)."""
     try:
         os.killpg(child.pid, signal.SIGKILL)
     except (ProcessLookupError, PermissionError):
@@ -270,6 +250,19 @@ def _kill_group(child: subprocess.Popen) -> None:
                 stream.close()
             except OSError:
                 pass
+
+
+def _await_end(info: int) -> None:
+    """Wait (briefly) until everything in the child's PID namespace has ended."""
+    try:
+        os.set_blocking(info, False)
+        try:
+            data = os.read(info, 4096)
+        except BlockingIOError:
+            data = b""
+        await_namespace_end(data)
+    finally:
+        os.close(info)
 
 
 def _converse(child: subprocess.Popen, request: dict[str, Any], limits: SandboxLimits) -> Outcome:
@@ -366,6 +359,9 @@ def _ended(code: int | None, killed_for: str | None, limits: SandboxLimits, stde
             f"stopped: the answer is larger than {limits.reply_bytes >> 20} MiB; narrow the goal "
             "or lower --limit")
     mib = limits.memory_bytes >> 20
+    walls = _wall_failure(stderr)
+    if walls is not None:
+        return walls
     if code is not None and code < 0:
         sig = -code
         if sig == signal.SIGXCPU:
@@ -384,3 +380,17 @@ def _ended(code: int | None, killed_for: str | None, limits: SandboxLimits, stde
     last = next((line for line in reversed(stderr.splitlines()) if line.strip()), "")
     detail = f": {last.strip()[:200]}" if last else ""
     return PrologError(goal, f"the query process ended without an answer (exit {code}){detail}")
+
+
+def _wall_failure(stderr: str) -> Unconfinable | None:
+    """The error for a bwrap that could not raise its walls (it says ``bwrap: ...``)."""
+    line = next((line.strip() for line in stderr.splitlines() if line.startswith("bwrap:")), None)
+    if line is None:
+        return None
+    hint = ""
+    if "namespace" in line.lower() or "uid map" in line.lower() or "permission" in line.lower():
+        hint = ("; the kernel must allow unprivileged user namespaces (sysctl "
+                "user.max_user_namespaces > 0, kernel.unprivileged_userns_clone=1, and no "
+                "AppArmor restriction on them), or run ITA as root")
+    return Unconfinable(f"cannot confine the query process ({line[:200]}){hint}; "
+                        "no goal runs without its walls")
