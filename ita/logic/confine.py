@@ -54,7 +54,8 @@ from typing import Any
 
 from ita.errors import ItaError
 
-__all__ = ["Unconfinable", "Jail", "RLimits", "set_limits", "seccomp_program", "await_namespace_end"]
+__all__ = ["Unconfinable", "Jail", "RLimits", "set_limits", "seccomp_program", "namespace_pid",
+           "await_namespace_end"]
 
 NOBODY_ID = 65534  # the uid and gid the goal has inside its user namespace
 
@@ -250,16 +251,25 @@ class Jail:
         return read
 
 
-def await_namespace_end(info: bytes, timeout: float = 2.0) -> bool:
-    """Wait until the PID namespace that bwrap reported in `info` (the JSON it wrote to
-    its ``--info-fd``) has ended, at most `timeout` seconds; True when it has (or never
-    started).  Its first process exits only after the kernel killed every other one."""
+def namespace_pid(info: bytes) -> int | None:
+    """The PID (in ours) of the first process of the namespace bwrap reported in `info`
+    (the JSON it wrote to its ``--info-fd``), or None when it wrote none."""
     import json
-    import select
 
     try:
-        pid = int(json.loads(info.decode("utf-8"))["child-pid"])
+        return int(json.loads(info.decode("utf-8"))["child-pid"])
     except (ValueError, KeyError, TypeError, UnicodeDecodeError):
+        return None
+
+
+def await_namespace_end(info: bytes, timeout: float = 2.0) -> bool:
+    """Wait until the PID namespace that bwrap reported in `info` has ended, at most
+    `timeout` seconds; True when it has (or never started).  Its first process exits
+    only after the kernel killed every other one."""
+    import select
+
+    pid = namespace_pid(info)
+    if pid is None:
         return True
     try:
         handle = os.pidfd_open(pid)

@@ -43,7 +43,7 @@ from pathlib import Path
 from typing import Any
 
 from ita.errors import ItaError, KBLoadError, Location, PrologError, QueryLimitExceeded, QueryRefused
-from ita.logic.confine import Jail, RLimits, Unconfinable, await_namespace_end
+from ita.logic.confine import Jail, RLimits, Unconfinable, await_namespace_end, namespace_pid
 from ita.logic.model import ProofNode, QueryResult
 from ita.paths import resource_dir
 
@@ -229,44 +229,71 @@ def run_user_goal(action: str, goal: str, files: SandboxFiles, limits: SandboxLi
     finally:
         os.close(seccomp)
         os.close(info_w)
+    confined = _Confined(child, info)
     try:
-        return _converse(child, request, limits)
+        return _converse(confined, request, limits)
     finally:
-        _kill_group(child)
-        _await_end(info)
+        confined.stop()
 
 
-def _kill_group(child: subprocess.Popen) -> None:
-    """Kill the child (bwrap) and its process group, and reap it; the kernel then kills
-    everything in its PID namespace (``--die-with-parent``)."""
-    try:
-        os.killpg(child.pid, signal.SIGKILL)
-    except (ProcessLookupError, PermissionError):
-        pass
-    child.wait()
-    for stream in (child.stdin, child.stdout, child.stderr):
-        if stream is not None:
+class _Confined:
+    """A started child: bwrap's process, and the pipe where bwrap writes the PID of its
+    namespace's first process (``--info-fd``)."""
+
+    def __init__(self, process: subprocess.Popen, info_fd: int) -> None:
+        self.process = process
+        self._info_fd = info_fd
+        self._info = b""
+
+    def _read_info(self) -> bytes:
+        if self._info_fd >= 0:
             try:
-                stream.close()
+                os.set_blocking(self._info_fd, False)
+                self._info = os.read(self._info_fd, 4096)
             except OSError:
                 pass
+            finally:
+                os.close(self._info_fd)
+                self._info_fd = -1
+        return self._info
 
+    def stop(self) -> None:
+        """End the child and everything in its PID namespace, and reap it.
 
-def _await_end(info: int) -> None:
-    """Wait (briefly) until everything in the child's PID namespace has ended."""
-    try:
-        os.set_blocking(info, False)
+        While bwrap still runs, the namespace's first process is killed first, so that
+        the kernel kills the rest and bwrap reaps it and exits on its own (killing bwrap
+        first would leave that process to whoever adopts orphans); then bwrap's process
+        group; then this waits until the namespace is gone."""
+        child = self.process
+        info = self._read_info()
+        if child.poll() is None:
+            pid = namespace_pid(info)
+            if pid is not None:
+                try:
+                    os.kill(pid, signal.SIGKILL)  # bwrap has not reaped it: the PID is still its
+                except (ProcessLookupError, PermissionError):
+                    pass
+            try:
+                child.wait(timeout=2.0)
+            except subprocess.TimeoutExpired:
+                pass
         try:
-            data = os.read(info, 4096)
-        except BlockingIOError:
-            data = b""
-        await_namespace_end(data)
-    finally:
-        os.close(info)
+            os.killpg(child.pid, signal.SIGKILL)
+        except (ProcessLookupError, PermissionError):
+            pass
+        child.wait()
+        await_namespace_end(info)
+        for stream in (child.stdin, child.stdout, child.stderr):
+            if stream is not None:
+                try:
+                    stream.close()
+                except OSError:
+                    pass
 
 
-def _converse(child: subprocess.Popen, request: dict[str, Any], limits: SandboxLimits) -> Outcome:
+def _converse(confined: _Confined, request: dict[str, Any], limits: SandboxLimits) -> Outcome:
     """Send the request, collect output and reply under the wall-clock limits."""
+    child = confined.process
     assert child.stdin is not None and child.stdout is not None and child.stderr is not None
     try:
         child.stdin.write(json.dumps(request).encode("utf-8") + b"\n")
@@ -310,7 +337,7 @@ def _converse(child: subprocess.Popen, request: dict[str, Any], limits: SandboxL
             if killed_for:
                 break
     except KeyboardInterrupt:
-        _kill_group(child)
+        confined.stop()
         raise
     finally:
         selector.close()
@@ -319,7 +346,7 @@ def _converse(child: subprocess.Popen, request: dict[str, Any], limits: SandboxL
             child.wait(timeout=max(0.1, deadline - time.monotonic()))
         except subprocess.TimeoutExpired:
             killed_for = "time"
-    _kill_group(child)
+    confined.stop()
     printed = buffers[err_fd].decode("utf-8", "replace")
     reply_lines = buffers[reply_fd].decode("utf-8", "replace").splitlines()
     if killed_for is None and len(reply_lines) >= 2 and reply_lines[0] == "ready":
