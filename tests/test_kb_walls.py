@@ -9,10 +9,11 @@ without them); each test asserts the harm did not happen (no file made, changed 
 removed, no secret in anything the child sent back, no connection or byte received, no
 process left), not only an exit code.
 
-Each case runs twice when the suite runs as root: as root (the child becomes nobody),
-and as an unprivileged user (uid 4242, a user of no name: the test drops to it before
-bwrap starts, so bwrap and the goal never hold a right of root's); as any other user it
-runs as that user.
+Each case runs three times when the suite runs as root: as root (the child becomes
+nobody before bwrap starts), as root where nobody cannot read the project (the child
+stays root outside its user namespace, with no capability), and as an unprivileged
+user (uid 4242, a user of no name: the test drops to it before bwrap starts, so bwrap
+and the goal never hold a right of root's); as any other user it runs as that user.
 """
 
 from __future__ import annotations
@@ -53,7 +54,7 @@ class Arena:
 
 
 def _users() -> list[str]:
-    return ["root", "unprivileged"] if os.geteuid() == 0 else ["caller"]
+    return ["root", "root-kept", "unprivileged"] if os.geteuid() == 0 else ["caller"]
 
 
 @pytest.fixture(scope="module")
@@ -66,6 +67,8 @@ def who(request: pytest.FixtureRequest, jail: Jail) -> tuple[str, Jail, int]:
     """(name, the jail as that user starts it, the uid the child runs as)."""
     if request.param == "unprivileged":
         return "unprivileged", dataclasses.replace(jail, user=(OTHER_UID, OTHER_UID)), OTHER_UID
+    if request.param == "root-kept":
+        return "root-kept", dataclasses.replace(jail, user=None), 0
     uid = jail.user[0] if jail.user else os.geteuid()
     return request.param, jail, uid
 
