@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import functools
+import math
 import sys
 from pathlib import Path
 from typing import Any, Callable, TypeVar
@@ -10,6 +11,7 @@ from typing import Any, Callable, TypeVar
 import click
 
 from ita.errors import ItaError
+from ita.seeds import SEED_MAX, SEED_MIN
 
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -35,3 +37,27 @@ def reports_errors(func: F) -> F:
             sys.exit(exc.exit_code)
 
     return wrapper  # type: ignore[return-value]
+
+
+class FiniteFloatRange(click.FloatRange):
+    """click.FloatRange that also refuses NaN and the infinities (NaN passes every bound
+    of a FloatRange, since it compares false with everything)."""
+
+    name = "finite float range"
+
+    def convert(self, value: Any, param: click.Parameter | None, ctx: click.Context | None) -> Any:
+        number = super().convert(value, param, ctx)
+        if not math.isfinite(number):
+            self.fail(f"{number} is not a finite number in the range {self._describe_range()}.", param, ctx)
+        return number
+
+
+#: every --seed takes this range (ita.seeds)
+SEED_TYPE = click.IntRange(SEED_MIN, SEED_MAX)
+
+
+def seed_option(default: int | None = 0, help: str = "Seed of the simulated workcell.",
+                required: bool = False) -> Callable[[F], F]:
+    """A --seed option: an integer from 0 to 2**32 - 1 (exit 2 with the range otherwise)."""
+    return click.option("--seed", type=SEED_TYPE, default=default, required=required,
+                        show_default=default is not None and not required, help=help)

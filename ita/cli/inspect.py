@@ -14,16 +14,18 @@ twice: STOP now.  Exit codes: 0 the run completed; 3 it was interrupted or stopp
 
 from __future__ import annotations
 
+import contextlib
 import json
 import shutil
 import sys
 import time
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
 import click
 
-from ita.cli.common import part_option, reports_errors
+from ita.cli.common import FiniteFloatRange, part_option, reports_errors, seed_option
 from ita.cli.runs import format_duration, runs_dir_option
 
 NOT_FINISHED = 3
@@ -135,10 +137,23 @@ def _run(session: Any, archive: Any, run_id: str, as_json: bool, view: LiveView)
         raise SystemExit(NOT_FINISHED)     # the summary said how to continue
 
 
+@contextlib.contextmanager
+def _closing(session: Any) -> Iterator[Any]:
+    """Close `session` (saving its MACROP store) at the end.  When the body failed, its
+    error is the one told: a failure to save after it (the same full disk) does not hide it."""
+    try:
+        yield session
+    except BaseException:
+        with contextlib.suppress(Exception):
+            session.close()
+        raise
+    session.close()
+
+
 @click.command("inspect")
 @part_option
 @click.option("--limit", type=click.IntRange(min=1), default=None, help="Only the first N measurements of the sequence.")
-@click.option("--seed", type=int, default=0, show_default=True, help="Seed of the simulated workcell.")
+@seed_option()
 @runs_dir_option
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON at the end.")
 @click.option("--faults", "fault_rate", type=float, default=0.0, show_default=True, metavar="RATE",
@@ -188,7 +203,7 @@ def inspect(part_dir: Path | None, limit: int | None, seed: int, runs_dir: Path 
     injection = InjectionPlan.parse(fault_rate, fault_kinds, scripts, seed)   # bad options fail before any work
     view = LiveView()
     session = open_session(part_dir, seed=seed, progress=lambda m: view.note(f"{m} ..."))
-    try:
+    with _closing(session):
         with Archive.open(archive_path(runs_dir)) as archive:
             settings: dict[str, Any] = {"network": network}
             if alarm_after is not None:
@@ -199,8 +214,6 @@ def inspect(part_dir: Path | None, limit: int | None, seed: int, runs_dir: Path 
             view.note(f"run {run_id}: {archive.run(run_id).total} measurements of {session.part.name} "
                       f"(set up in {session.setup_seconds:.1f} s)")
             _run(session, archive, run_id, as_json, view)
-    finally:
-        session.close()
 
 
 @click.command("continue")
@@ -225,11 +238,9 @@ def continue_(run: str, runs_dir: Path | None, as_json: bool) -> None:
         archive.resume_run(run_id)
         session = open_session(Path(part_arg) if part_arg else None, seed=info.seed or 0,
                                progress=lambda m: view.note(f"{m} ..."))
-        try:
+        with _closing(session):
             view.note(f"continuing run {run_id}: {info.done}/{info.total} done")
             _run(session, archive, run_id, as_json, view)
-        finally:
-            session.close()
 
 
 def monitor_text(state: dict, columns: int = 100) -> list[str]:
@@ -259,7 +270,8 @@ def monitor_text(state: dict, columns: int = 100) -> list[str]:
 @click.option("--stop", "send", flag_value="STOP", default=None, help="Send STOP: halt now.")
 @click.option("--interrupt", "send", flag_value="INTERRUPT", help="Send INTERRUPT: halt after the current plan.")
 @click.option("--once", is_flag=True, help="Print the summary once and leave.")
-@click.option("--interval", type=float, default=2.0, show_default=True, help="Seconds between refreshes.")
+@click.option("--interval", type=FiniteFloatRange(0.05, 3600.0), default=2.0, show_default=True,
+              help="Seconds between refreshes (0.05 to 3600).")
 @runs_dir_option
 @reports_errors
 def monitor(run: str, send: str | None, once: bool, interval: float, runs_dir: Path | None) -> None:

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import click
 
-from ita.cli.common import part_option, reports_errors
+from ita.cli.common import part_option, reports_errors, seed_option
 
 
 @click.command("measure")
@@ -27,7 +27,7 @@ from ita.cli.common import part_option, reports_errors
 @part_option
 @click.option("--render", type=click.Path(path_type=Path, dir_okay=False), default=None,
               help="Write the SLRA range image with patches and fitted features here (PNG).")
-@click.option("--seed", type=int, default=0, show_default=True, help="Seed of the simulated workcell.")
+@seed_option()
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
 @reports_errors
 def measure(meas_id: str, part_dir: Path | None, render: Path | None, seed: int, as_json: bool) -> None:

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import click
 
-from ita.cli.common import part_option, reports_errors
+from ita.cli.common import FiniteFloatRange, part_option, reports_errors, seed_option
 from ita.errors import InputError, Location
 
 
@@ -77,7 +77,7 @@ def render(part_dir: Path | None, output: Path, make_dirs: bool) -> None:
 @click.option("--params", "params_path", type=click.Path(path_type=Path, dir_okay=False, exists=True), default=None,
               help="A part.toml of the bulkhead generator (default: the built-in bulkhead's, bulkhead/part.toml): "
                    "other dimensions, flanges, stiffeners, holes, tolerances.")
-@click.option("--seed", type=int, default=None,
+@seed_option(default=None,
               help="The generator's seed (default: the parameter file's): another layout of lightening holes "
                    "and another as-built part.  Not the simulator's noise: that is `ita inspect --seed`.")
 @reports_errors
@@ -86,6 +86,10 @@ def new(directory: Path, params_path: Path | None, seed: int | None) -> None:
     features and its as-built truth, ready for `ita inspect --part DIRECTORY`.
 
     Families of parts for tests and studies: `ita part new ref --seed 7`."""
+    from ita.part.params import BulkheadParams
+
+    if params_path is not None:
+        BulkheadParams.load(params_path)  # ranges and constraints: refused at once, before the generator loads
     from ita.part.store import new_part
 
     made = new_part(directory, params_path, seed)
@@ -110,7 +114,7 @@ def build(output: Path | None) -> None:
 @part_option
 @click.option("--repeats", type=click.IntRange(min=2), default=4, show_default=True,
               help="Frames of each spec on the master, each after its own approach of the arm.")
-@click.option("--seed", type=int, default=0, show_default=True, help="Seed of the simulated frames' noise.")
+@seed_option(help="Seed of the simulated frames' noise.")
 @reports_errors
 def calibrate(part_dir: Path | None, repeats: int, seed: int) -> None:
     """Calibrate the laser sensor on the part's master (the substitution method): measure
@@ -142,10 +146,10 @@ def calibrate(part_dir: Path | None, repeats: int, seed: int) -> None:
 
 @part.command()
 @part_option
-@click.option("--seed", type=int, required=True, help="Seed of the deviations (another seed, another as-built part).")
-@click.option("--spread", type=float, default=0.25, show_default=True,
+@seed_option(default=None, required=True, help="Seed of the deviations (another seed, another as-built part).")
+@click.option("--spread", type=FiniteFloatRange(0.0, 1.0), default=0.25, show_default=True,
               help="One sigma of a deviation as a share of its tolerance.")
-@click.option("--out-of-tolerance", type=float, default=0.05, show_default=True,
+@click.option("--out-of-tolerance", type=FiniteFloatRange(0.0, 1.0), default=0.05, show_default=True,
               help="Share of the holes, and of the faces, pushed 1.15 to 1.6 tolerances off.")
 @reports_errors
 def asbuilt(part_dir: Path | None, seed: int, spread: float, out_of_tolerance: float) -> None:

@@ -23,10 +23,11 @@ from typing import Any
 
 import click
 
-from ita.cli.common import part_option, reports_errors
+from ita.cli.common import part_option, reports_errors, seed_option
 
 NO_PATH = 1
 DEFAULT_TOOL = "us_probe_1"
+MAX_PROBLEMS = 100_000  # problems `ita path problems` writes at most (--n)
 
 
 def _scene(part_dir: Path | None) -> tuple[Any, Any]:
@@ -43,8 +44,9 @@ def path() -> None:
 
 
 @path.command("problems")
-@click.option("--n", "count", type=click.IntRange(1), default=200, show_default=True, help="Problems to write.")
-@click.option("--seed", type=int, default=1, show_default=True)
+@click.option("--n", "count", type=click.IntRange(1, MAX_PROBLEMS), default=200, show_default=True,
+              help=f"Problems to write (at most {MAX_PROBLEMS:,}).")
+@seed_option(default=1, help="Seed of the random poses.")
 @click.option("-o", "--out", type=click.Path(path_type=Path, dir_okay=False), required=True)
 @part_option
 @reports_errors

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import click
 
-from ita.cli.common import reports_errors
+from ita.cli.common import FiniteFloatRange, reports_errors
 from ita.errors import InputError, Location
 
 NO_PLAN = 1
@@ -86,7 +86,7 @@ def pddl() -> None:
 @pddl.command()
 @click.argument("domain", type=click.Path(exists=True, dir_okay=False, path_type=Path))
 @click.argument("problem", type=click.Path(exists=True, dir_okay=False, path_type=Path))
-@click.option("--time-limit", type=click.FloatRange(min=0.001), default=60.0, show_default=True,
+@click.option("--time-limit", type=FiniteFloatRange(min=0.001), default=60.0, show_default=True,
               help="Give up after this many seconds (wall clock, reading and grounding included); "
                    "the solver runs in a process of its own that is stopped then.")
 @click.option("--max-depth", type=click.IntRange(min=1), default=60, show_default=True,

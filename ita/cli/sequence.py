@@ -28,7 +28,7 @@ from typing import TYPE_CHECKING, Any
 
 import click
 
-from ita.cli.common import part_option, reports_errors
+from ita.cli.common import FiniteFloatRange, part_option, reports_errors
 
 if TYPE_CHECKING:
     from ita.sequence.plan import PlanningContext, SequencePlan
@@ -338,7 +338,7 @@ def why(spec_id: str, part_dir: Path | None, tree: bool) -> None:
 @click.option("--method", type=click.Choice(["classic", "default"]), default="default", show_default=True,
               help="classic: the seed's convex hull insertion + 2-opt + Or-opt; "
                    "default: the fast-tsp library, within about 0.1 % of the optimum.")
-@click.option("--time-budget", type=click.FloatRange(min=0), default=None,
+@click.option("--time-budget", type=FiniteFloatRange(min=0), default=None,
               help="Wall-clock seconds for the default method to search (default: 1 ms a node, "
                    "0.05 to 0.9 s).  Above 20 nodes its tours may differ from run to run.")
 @click.option("--json", "as_json", is_flag=True, help="Print a JSON object instead of text.")

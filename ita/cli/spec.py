@@ -8,7 +8,7 @@ from pathlib import Path
 
 import click
 
-from ita.cli.common import part_option, reports_errors
+from ita.cli.common import FiniteFloatRange, part_option, reports_errors
 from ita.specs.model import KIND_DESCRIPTIONS, MeasurementKind, MeasurementSpec
 
 KIND_CHOICE = click.Choice([k.value for k in MeasurementKind])
@@ -215,7 +215,7 @@ def export_cmd(file: Path, kind: str | None, make_dirs: bool, part_dir: Path | N
 
 @spec.command("validate")
 @click.argument("file", required=False, type=click.Path(path_type=Path, dir_okay=False))
-@click.option("--max-distance", type=float, default=0.5, show_default=True,
+@click.option("--max-distance", type=FiniteFloatRange(min=0.0), default=0.5, show_default=True,
               help="How far (mm) a spec point may lie from the part's surface.")
 @part_option
 @reports_errors

@@ -1,0 +1,20 @@
+"""The range of a seed, wherever one is given: `--seed`, a part file's `part.seed`, a
+campaign's part and appraiser seeds.
+
+Seeds feed numpy's generators and are stored in the archive's INTEGER columns; an
+unsigned 32-bit integer suits both and every seed the project uses.
+"""
+
+from __future__ import annotations
+
+SEED_MIN = 0
+SEED_MAX = 2**32 - 1
+
+
+def seed_problem(value: object) -> str:
+    """Why `value` is not a seed ("" when it is one)."""
+    if isinstance(value, bool) or not isinstance(value, int):
+        return f"a seed is an integer from {SEED_MIN} to {SEED_MAX}, got {value!r}"
+    if not SEED_MIN <= value <= SEED_MAX:
+        return f"a seed is an integer from {SEED_MIN} to {SEED_MAX}, got {value}"
+    return ""
