@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import errno
+import os
 from dataclasses import dataclass
 
 
@@ -9,6 +11,11 @@ class ItaError(Exception):
     """Base class for ITA errors that a user can act on (the CLI prints them, exit code 2)."""
 
     exit_code = 2
+
+
+class ItaWarning(UserWarning):
+    """Base class for ITA's warnings: something a user should know that does not stop the
+    command (the CLI prints each as one line, `warning: ...`)."""
 
 
 @dataclass(frozen=True)
@@ -65,3 +72,33 @@ class QueryRefused(ItaError):
 
 class QueryLimitExceeded(ItaError):
     """A user goal ran past its time or inference limit."""
+
+
+#: errno -> what a write that failed with it says: the disk, the quota or the file-size limit is full
+_FULL = {errno.ENOSPC: "no space left on device", errno.EDQUOT: "no space left on device (disk quota exceeded)",
+         errno.EFBIG: "no space left for it: file too large (the file-size limit, ulimit -f)"}
+
+
+class NoSpaceLeft(ItaError):
+    """A write failed for want of room: the file system or the quota is full, or the
+    file-size limit was reached.  Names the file; whoever wrote it has removed what it left."""
+
+    def __init__(self, file: str, detail: str = _FULL[errno.ENOSPC]):
+        self.file = file
+        super().__init__(f"{file}: {detail}")
+
+    @classmethod
+    def of_errno(cls, file: str, code: int | None) -> NoSpaceLeft | None:
+        """The error for a write to `file` that failed with errno `code`; None when that
+        errno is not about room (a permission, a missing directory ...)."""
+        return cls(file, _FULL[code]) if code in _FULL else None
+
+    @classmethod
+    def of_message(cls, file: str, message: str) -> NoSpaceLeft | None:
+        """The error for a write to `file` whose failure `message` quotes the system's
+        reason (SWI-Prolog's I/O errors do: "... (No space left on device)"); None when
+        the reason is not about room."""
+        for code, detail in _FULL.items():
+            if os.strerror(code) in message:
+                return cls(file, detail)
+        return None

@@ -132,7 +132,7 @@ def test_a_result_and_its_events_are_written_together_or_not_at_all(archive: Arc
         raise sqlite3.OperationalError("disk on fire")
 
     monkeypatch.setattr(archive, "_insert_events", broken)
-    with pytest.raises(sqlite3.OperationalError):
+    with pytest.raises(store_mod.ArchiveError, match="cannot be written \\(disk on fire\\)"):
         archive.record_result(rid, thickness("a"), [Event("reply", "gauge", 1.0)])
     monkeypatch.undo()
     assert archive.results(rid) == [] and len(archive.events(rid)) == n_events

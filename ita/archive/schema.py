@@ -25,6 +25,7 @@ One database holds every run.  Tables:
 from __future__ import annotations
 
 import sqlite3
+from contextlib import suppress
 from datetime import UTC, datetime
 
 from ita.errors import ItaError
@@ -161,7 +162,9 @@ def ensure_schema(conn: sqlite3.Connection, path: str = "") -> int:
             conn.execute("INSERT INTO schema_version(version, applied) VALUES (?, ?)", (v, now))
         conn.execute("COMMIT")
     except BaseException:
-        conn.execute("ROLLBACK")
+        if conn.in_transaction:  # SQLite may have rolled back itself (a full disk)
+            with suppress(sqlite3.Error):
+                conn.execute("ROLLBACK")
         raise
     return SCHEMA_VERSION
 

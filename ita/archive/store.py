@@ -27,21 +27,34 @@ False: the first result stands.  A continued run asks `done_spec_ids` and skips 
 
 Readers (`ita runs`, `ita results`, the System Monitor) may read while a run writes: WAL
 lets readers and one writer proceed together; writers wait up to `busy_timeout` seconds.
+An archive this process may not write (its file or directory read-only) is opened
+read-only for the readers (create=False): it is listed and reported.
+
+Errors.  Every SQLite error, text that is not UTF-8 and stored value that does not decode
+(bad JSON, an unknown status, a frame that does not decompress), at open and in every
+method, is one ArchiveError naming the file: ArchiveUnreadable ("ARCHIVE: cannot be read
+(...)") for damage, ArchiveFull ("ARCHIVE: no space left on device"), ArchiveReadOnly, or
+"cannot be written (...)" for another failed write, whose transaction is rolled back.  The
+CLI and the web server each turn it into one line.
 """
 
 from __future__ import annotations
 
+import functools
 import json
 import os
 import secrets
 import socket
 import sqlite3
+import stat
 import time
-from collections.abc import Iterable, Iterator, Mapping, Sequence
-from contextlib import contextmanager
+import urllib.parse
+import zlib
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
+from contextlib import contextmanager, suppress
 from datetime import UTC, datetime
 from pathlib import Path
-from typing import Any, Self
+from typing import Any, Self, TypeVar
 
 from ita.archive.decision import Decision
 from ita.archive.frames import StoredFrame, decode, encode
@@ -56,8 +69,8 @@ from ita.archive.model import (
     RunStatus,
     StoredResult,
 )
-from ita.archive.schema import ensure_schema
-from ita.errors import ItaError
+from ita.archive.schema import SCHEMA_VERSION, SchemaError, ensure_schema, schema_version
+from ita.errors import ItaError, NoSpaceLeft
 from ita.paths import ita_home
 
 DB_FILE = "archive.sqlite"
@@ -78,6 +91,101 @@ class RunBusy(ArchiveError):
 
 class NoArchive(ArchiveError):
     """There is no archive database at the path (and it was not to be created)."""
+
+
+class ArchiveUnreadable(ArchiveError):
+    """The archive cannot be read: its file is damaged, is not an archive, or is not a file.
+
+    Raised for any damage SQLite reports, text that is not UTF-8 and stored values that do
+    not decode (bad JSON, an unknown status), at open and on every read: one line naming
+    the file, exit code 2.
+    """
+
+    def __init__(self, path: Path | str, reason: str):
+        self.path = Path(path)
+        self.reason = reason
+        super().__init__(f"{path}: cannot be read ({reason})")
+
+
+class NotAnArchive(ArchiveUnreadable, SchemaError):
+    """The file is an SQLite database, but not an ITA archive."""
+
+
+class ArchiveReadOnly(ArchiveError):
+    """A write to an archive that this process may only read (its file or directory is read-only)."""
+
+
+class ArchiveFull(NoSpaceLeft, ArchiveError):
+    """A write to the archive failed for want of room; the transaction was rolled back."""
+
+
+#: what a stored value that does not decode raises (json, enums, int(), zlib, numpy reshape)
+_DECODE_ERRORS = (ValueError, TypeError, KeyError, OverflowError, zlib.error)
+
+
+#: SQLite's I/O errors of writing (a file-size limit gives these where a full disk gives SQLITE_FULL)
+_WRITE_IOERRS = frozenset({sqlite3.SQLITE_IOERR_WRITE, sqlite3.SQLITE_IOERR_FSYNC, sqlite3.SQLITE_IOERR_DIR_FSYNC,
+                           sqlite3.SQLITE_IOERR_TRUNCATE, sqlite3.SQLITE_IOERR_SHMSIZE})
+
+
+def _database_error(path: Path, exc: sqlite3.DatabaseError, writing: bool = False) -> ArchiveError:
+    """The archive error a failed SQLite call stands for: full, read-only, busy, not
+    writable or unreadable (damage is unreadable, even met while `writing`)."""
+    extended = getattr(exc, "sqlite_errorcode", None) or 0
+    code = extended & 0xFF
+    if code == sqlite3.SQLITE_FULL:
+        return ArchiveFull(str(path))
+    if extended in _WRITE_IOERRS:
+        return ArchiveError(f"{path}: cannot be written ({exc}, {getattr(exc, 'sqlite_errorname', '')}: is the "
+                            "disk full, or the file-size limit reached?)")
+    if code == sqlite3.SQLITE_READONLY:
+        return ArchiveReadOnly(f"{path}: cannot be written (read-only: {exc})")
+    if code in (sqlite3.SQLITE_BUSY, sqlite3.SQLITE_LOCKED):
+        return ArchiveError(f"{path}: busy ({exc}); another process holds it, try again")
+    if writing and code not in (sqlite3.SQLITE_CORRUPT, sqlite3.SQLITE_NOTADB):
+        return ArchiveError(f"{path}: cannot be written ({exc})")
+    return ArchiveUnreadable(path, str(exc))
+
+
+def _unreadable(path: Path, exc: BaseException, writing: bool = False) -> ArchiveError:
+    """The archive error for `exc` met while reading, or while `writing`."""
+    if isinstance(exc, sqlite3.DatabaseError):
+        return _database_error(path, exc, writing)
+    if isinstance(exc, UnicodeDecodeError):
+        return ArchiveUnreadable(path, f"stored text is not UTF-8: {exc}")
+    return ArchiveUnreadable(path, f"a stored value is damaged: {type(exc).__name__}: {exc}")
+
+
+F = TypeVar("F", bound=Callable[..., Any])
+
+
+def _guarded(*decode_errors: type[BaseException], writing: bool = False) -> Callable[[F], F]:
+    """A method of Archive whose SQLite errors, text that is not UTF-8 and (for readers,
+    `decode_errors`) stored values that do not decode become one ArchiveError naming the
+    file.  The programming errors of a caller (sqlite3.ProgrammingError, InterfaceError)
+    pass through."""
+    caught = (sqlite3.DatabaseError, UnicodeDecodeError, *decode_errors)
+
+    def decorate(method: F) -> F:
+        @functools.wraps(method)
+        def wrapper(self: Archive, *args: Any, **kwargs: Any) -> Any:
+            try:
+                return method(self, *args, **kwargs)
+            except ItaError:
+                raise
+            except sqlite3.ProgrammingError:
+                raise
+            except caught as exc:
+                raise _unreadable(self.path, exc, writing) from exc
+
+        return wrapper  # type: ignore[return-value]
+
+    return decorate
+
+
+_reads = _guarded(*_DECODE_ERRORS)
+_writes = _guarded(writing=True)
+_updates = _guarded(*_DECODE_ERRORS, writing=True)  # a write of what it has just read
 
 
 def runs_dir(explicit: Path | str | None = None) -> Path:
@@ -138,30 +246,55 @@ class Archive:
     # ----------------------------------------------------------------- opening
     @classmethod
     def open(cls, path: Path | str | None = None, *, create: bool = True, durable: bool = False,
-             busy_timeout: float = 10.0) -> Archive:
+             busy_timeout: float = 10.0, read_only: bool | None = None) -> Archive:
         """Open (by default creating) the archive at `path` (default: `archive_path()`).
 
         durable: synchronous=FULL (survive power loss too) instead of NORMAL (survive a
-        killed process).  create=False raises NoArchive when there is no database yet.
-        Raises SchemaError for a database of a newer ITA, or one that is not an archive.
+        killed process).  create=False raises NoArchive when there is no database yet (or
+        its file is empty).  read_only: open for reading only, writing nothing beside it;
+        None (the default) chooses it for create=False when this process may not write the
+        file or its directory, so a read-only archive can still be listed and reported.
+        Raises ArchiveUnreadable for a file that is damaged, not an archive or not a
+        regular file, SchemaError for a database of a newer ITA.
         """
         path = Path(path) if path is not None else archive_path()
-        if not path.exists():
+        made = False  # this call makes the file: on failure it removes it again
+        try:
+            info = path.stat()
+        except FileNotFoundError:
             if not create:
-                raise NoArchive(f"no archive at {path} (no run has been recorded there)")
+                raise NoArchive(f"no archive at {path} (no run has been recorded there)") from None
             path.parent.mkdir(parents=True, exist_ok=True)
+            made = True
+        else:
+            if not stat.S_ISREG(info.st_mode):
+                raise ArchiveUnreadable(path, f"{_file_kind(info.st_mode)}, not a file")
+            if not create and info.st_size == 0:
+                raise NoArchive(f"no archive at {path} (the file is empty: no run has been recorded there)")
+        if read_only is None:
+            read_only = not create and not _may_write(path)
+        conn = None
         try:
-            conn = sqlite3.connect(str(path), timeout=busy_timeout, isolation_level=None)
+            conn = _connect(path, read_only, busy_timeout)
             conn.execute(f"PRAGMA busy_timeout = {int(busy_timeout * 1000)}")
-            conn.execute("PRAGMA journal_mode = WAL")
-            conn.execute(f"PRAGMA synchronous = {'FULL' if durable else 'NORMAL'}")
-            conn.execute("PRAGMA foreign_keys = ON")
-        except sqlite3.DatabaseError as exc:
-            raise ArchiveError(f"{path}: cannot open as an SQLite archive: {exc}") from None
-        try:
-            ensure_schema(conn, str(path))
-        except BaseException:
-            conn.close()
+            if read_only:
+                _check_readable_schema(conn, path)
+            else:
+                conn.execute("PRAGMA journal_mode = WAL")
+                conn.execute(f"PRAGMA synchronous = {'FULL' if durable else 'NORMAL'}")
+                conn.execute("PRAGMA foreign_keys = ON")
+                ensure_schema(conn, str(path))
+        except BaseException as exc:
+            if conn is not None:
+                conn.close()
+            if made:  # nothing left behind: not an empty database, nor its -wal and -shm
+                for leftover in (path, path.with_name(path.name + "-wal"), path.with_name(path.name + "-shm")):
+                    leftover.unlink(missing_ok=True)
+            if isinstance(exc, SchemaError) and "newer ITA" not in str(exc):
+                raise NotAnArchive(path, str(exc)) from None
+            if isinstance(exc, (sqlite3.DatabaseError, UnicodeDecodeError)) \
+                    and not isinstance(exc, sqlite3.ProgrammingError):
+                raise _unreadable(path, exc) from None
             raise
         return cls(conn, path)
 
@@ -180,16 +313,20 @@ class Archive:
         self._conn.execute("BEGIN IMMEDIATE")
         try:
             yield self._conn
+            self._conn.execute("COMMIT")
         except BaseException:
-            self._conn.execute("ROLLBACK")
+            if self._conn.in_transaction:  # SQLite may have rolled back itself (a full disk)
+                with suppress(sqlite3.Error):
+                    self._conn.execute("ROLLBACK")
             raise
-        self._conn.execute("COMMIT")
 
+    @_reads
     def integrity_check(self) -> str:
         """SQLite's PRAGMA integrity_check: "ok" when the file is sound."""
         return "\n".join(r[0] for r in self._conn.execute("PRAGMA integrity_check"))
 
     # -------------------------------------------------------------------- runs
+    @_writes
     def create_run(self, part: str, part_dir: Path | str | None = None, *, seed: int | None = None,
                    settings: Mapping[str, Any] | None = None, total: int | None = None,
                    run_id: str | None = None, pid: int | None = None, host: str | None = None,
@@ -213,6 +350,7 @@ class Archive:
                                                {"pid": pid, "host": host, "total": total})])
         return rid
 
+    @_writes
     def resume_run(self, run_id: str, *, pid: int | None = None, host: str | None = None,
                    sim_time: float | None = None, force: bool = False) -> RunInfo:
         """Take up a run again in this process (or `pid`): status RUNNING, a resume event.
@@ -243,6 +381,7 @@ class Archive:
                 "discarded_control": dropped})])
         return self.run(run_id)
 
+    @_writes
     def set_status(self, run_id: str, status: RunStatus | str, *, event: Event | None = None) -> None:
         """Set the run's status (with `event`, e.g. a stop event, in the same transaction).
 
@@ -257,22 +396,25 @@ class Archive:
             if event is not None:
                 self._insert_events(c, run_id, [event])
 
+    @_updates
     def update_totals(self, run_id: str, **values: Any) -> dict[str, Any]:
         """Merge `values` into the run's totals (a JSON object); returns the new totals."""
         with self._write() as c:
             row = c.execute("SELECT totals FROM runs WHERE id = ?", (run_id,)).fetchone()
             if row is None:
                 raise UnknownRun(f"no run {run_id!r}")
-            totals = json.loads(row[0])
+            totals = _stored_object(row[0])
             totals.update(values)
             c.execute("UPDATE runs SET totals = ? WHERE id = ?", (_json(totals), run_id))
         return json.loads(_json(totals))
 
+    @_reads
     def runs(self) -> list[RunInfo]:
         """Every run, in the order they were created."""
         rows = self._conn.execute(f"SELECT {_RUN_COLUMNS} FROM runs ORDER BY rowid").fetchall()
         return [self._run_info(r) for r in rows]
 
+    @_reads
     def run(self, run_id: str) -> RunInfo:
         """The run `run_id` (exact id); UnknownRun when there is none."""
         row = self._conn.execute(f"SELECT {_RUN_COLUMNS} FROM runs WHERE id = ?", (run_id,)).fetchone()
@@ -280,6 +422,7 @@ class Archive:
             raise UnknownRun(f"no run {run_id!r} in {self.path}")
         return self._run_info(row)
 
+    @_reads
     def resolve(self, ref: str) -> str:
         """The id of the run `ref` names: an exact id, a unique prefix of one, or "last"."""
         ref = ref.strip()
@@ -305,8 +448,9 @@ class Archive:
         rid = row[0]
         done = self._conn.execute("SELECT COUNT(*) FROM results WHERE run_id = ?", (rid,)).fetchone()[0]
         return RunInfo(rid, row[1], row[2], row[3], row[4], RunStatus(row[5]), row[6], row[7],
-                       json.loads(row[8]), json.loads(row[9]), row[10], int(done), self.last_sim_time(rid))
+                       _stored_object(row[8]), _stored_object(row[9]), row[10], int(done), self.last_sim_time(rid))
 
+    @_reads
     def last_sim_time(self, run_id: str) -> float | None:
         """The latest simulated time recorded in the run (events and result ends), or None.
 
@@ -318,6 +462,7 @@ class Archive:
         return max(known) if known else None
 
     # ----------------------------------------------------------------- results
+    @_writes
     def record_result(self, run_id: str, result: Result, events: Iterable[Event] = (), *,
                       details: Mapping[str, Any] | None = None, frames: Iterable[StoredFrame] = ()) -> bool:
         """Commit `result` and `events` (in order, after it) in one transaction.
@@ -352,6 +497,7 @@ class Archive:
                           "VALUES (?, ?, ?, ?, ?, ?)", (run_id, f.spec_id, f.n, *encode(f)))
         return True
 
+    @_writes
     def record_pending(self, run_id: str, spec_id: str, events: Iterable[Event] = (), *,
                        details: Mapping[str, Any] | None = None, frames: Iterable[StoredFrame] = ()) -> None:
         """Commit what a measurement whose result is not decided yet has made (its events,
@@ -371,26 +517,31 @@ class Archive:
                 c.execute("INSERT OR REPLACE INTO frames(run_id, spec_id, n, meta, range, intensity) "
                           "VALUES (?, ?, ?, ?, ?, ?)", (run_id, f.spec_id, f.n, *encode(f)))
 
+    @_reads
     def details(self, run_id: str, spec_id: str) -> dict[str, Any]:
         """What was kept beside the result of `spec_id` ({} when nothing)."""
         row = self._conn.execute("SELECT payload FROM details WHERE run_id = ? AND spec_id = ?",
                                  (run_id, spec_id)).fetchone()
-        return json.loads(row[0]) if row else {}
+        return _stored_object(row[0]) if row else {}
 
+    @_reads
     def frames(self, run_id: str, spec_id: str) -> list[StoredFrame]:
         """The range frames the plan of `spec_id` took, in order (n)."""
         rows = self._conn.execute("SELECT spec_id, n, meta, range, intensity FROM frames WHERE run_id = ? "
                                   "AND spec_id = ? ORDER BY n", (run_id, spec_id)).fetchall()
         return [decode(*r) for r in rows]
 
+    @_reads
     def frame_count(self, run_id: str) -> int:
         """How many range frames the run keeps."""
         return int(self._conn.execute("SELECT COUNT(*) FROM frames WHERE run_id = ?", (run_id,)).fetchone()[0])
 
+    @_reads
     def done_spec_ids(self, run_id: str) -> set[str]:
         """Ids of the specs that have a result in the run (any outcome): skip them on continue."""
         return {r[0] for r in self._conn.execute("SELECT spec_id FROM results WHERE run_id = ?", (run_id,))}
 
+    @_reads
     def results(self, run_id: str, *, failed_only: bool = False, after: int | None = None,
                 last: int | None = None) -> list[StoredResult]:
         """The run's results in the order recorded; failed_only: all but CONFORMS; after:
@@ -408,12 +559,14 @@ class Archive:
             rows = self._conn.execute(sql + " ORDER BY seq", args).fetchall()
         return [_stored_result(r) for r in rows]
 
+    @_reads
     def result(self, run_id: str, spec_id: str) -> StoredResult | None:
         """The result of `spec_id` in the run, or None."""
         row = self._conn.execute(f"SELECT {_RESULT_COLUMNS} FROM results WHERE run_id = ? AND spec_id = ?",
                                  (run_id, spec_id)).fetchone()
         return None if row is None else _stored_result(row)
 
+    @_reads
     def decision_counts(self, run_id: str) -> dict[str, int]:
         """Results per decision ("conforms", ...) and per unmeasured outcome ("not_done", ...)."""
         rows = self._conn.execute(
@@ -421,10 +574,12 @@ class Archive:
         return {k: n for k, n in rows}
 
     # ------------------------------------------------------------------ events
+    @_writes
     def record_event(self, run_id: str, event: Event) -> int:
         """Commit one event now; returns its seq."""
         return self.record_events(run_id, [event])[0]
 
+    @_writes
     def record_events(self, run_id: str, events: Iterable[Event]) -> list[int]:
         """Commit events in one transaction, in order; returns their seqs."""
         events = list(events)
@@ -447,6 +602,7 @@ class Archive:
              for s, e in zip(seqs, events)])
         return seqs
 
+    @_reads
     def events(self, run_id: str, *, kinds: Iterable[str] | None = None,
                spec_id: str | None = None, after: int | None = None, last: int | None = None) -> list[Event]:
         """The run's events in order (seq), optionally of some kinds, of one spec, with a
@@ -467,10 +623,11 @@ class Archive:
             rows = self._conn.execute(sql + " ORDER BY seq DESC LIMIT ?", [*args, int(last)]).fetchall()[::-1]
         else:
             rows = self._conn.execute(sql + " ORDER BY seq", args).fetchall()
-        return [Event(kind, stream, sim, json.loads(payload), spec, seq, wall)
+        return [Event(kind, stream, sim, _stored_object(payload), spec, seq, wall)
                 for seq, sim, wall, kind, stream, spec, payload in rows]
 
     # ----------------------------------------------------------------- control
+    @_writes
     def issue_control(self, run_id: str, command: ControlCommand | str) -> int:
         """Ask the process running `run_id` to STOP or INTERRUPT; returns the request id.
 
@@ -487,6 +644,7 @@ class Archive:
                             (run_id, command.value, time.time()))
             return int(cur.lastrowid)
 
+    @_updates
     def take_control(self, run_id: str) -> ControlRequest | None:
         """For the Top Level: the strongest pending request (STOP over INTERRUPT), or None.
 
@@ -503,11 +661,66 @@ class Archive:
         stops = [r for r in reqs if r.command is ControlCommand.STOP]
         return (stops or reqs)[0]
 
+    @_reads
     def pending_control(self, run_id: str) -> list[ControlRequest]:
         """Requests not yet taken, oldest first."""
         rows = self._conn.execute("SELECT id, run_id, command, issued, taken FROM control "
                                   "WHERE run_id = ? AND taken IS NULL ORDER BY id", (run_id,)).fetchall()
         return [ControlRequest(r[0], r[1], ControlCommand(r[2]), r[3], r[4]) for r in rows]
+
+
+def _stored_object(text: str | bytes) -> dict[str, Any]:
+    """A JSON object the archive stored (settings, totals, a payload); ValueError when the
+    text is not one (the reader that called it reports the archive damaged)."""
+    value = json.loads(text)
+    if not isinstance(value, dict):
+        raise ValueError(f"a JSON object was stored, not {type(value).__name__}")
+    return value
+
+
+def _may_write(path: Path) -> bool:
+    """Whether this process may write the archive file, and its directory (for -wal and -shm)."""
+    return os.access(path, os.W_OK) and os.access(path.parent, os.W_OK | os.X_OK)
+
+
+def _file_kind(mode: int) -> str:
+    """What a path that is not a regular file is, in words."""
+    for test, word in ((stat.S_ISDIR, "a directory"), (stat.S_ISFIFO, "a FIFO"), (stat.S_ISSOCK, "a socket"),
+                       (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device")):
+        if test(mode):
+            return word
+    return "not a regular file"
+
+
+def _connect(path: Path, read_only: bool, busy_timeout: float) -> sqlite3.Connection:
+    """A connection in autocommit mode; read_only: SQLite's mode=ro, and immutable=1 when
+    even that cannot open (a WAL archive in a read-only directory has no -shm to share)."""
+    if not read_only:
+        return sqlite3.connect(str(path), timeout=busy_timeout, isolation_level=None)
+    uri = "file:" + urllib.parse.quote(str(path))  # relative stays relative
+    conn = sqlite3.connect(f"{uri}?mode=ro", uri=True, timeout=busy_timeout, isolation_level=None)
+    try:
+        conn.execute("SELECT COUNT(*) FROM sqlite_master").fetchone()
+        return conn
+    except sqlite3.OperationalError as exc:
+        conn.close()
+        if (getattr(exc, "sqlite_errorcode", 0) or 0) & 0xFF not in (sqlite3.SQLITE_CANTOPEN,
+                                                                    sqlite3.SQLITE_READONLY):
+            raise
+    return sqlite3.connect(f"{uri}?immutable=1", uri=True, timeout=busy_timeout, isolation_level=None)
+
+
+def _check_readable_schema(conn: sqlite3.Connection, path: Path) -> None:
+    """For a read-only archive: its schema must be this ITA's (it cannot be migrated)."""
+    version = schema_version(conn)
+    if version == 0:
+        raise NoArchive(f"no archive at {path} (the database is empty: no run has been recorded there)")
+    if version > SCHEMA_VERSION:
+        raise SchemaError(f"{path}: schema version {version} was written by a newer ITA; "
+                          f"this one knows versions up to {SCHEMA_VERSION}")
+    if version < SCHEMA_VERSION:
+        raise ArchiveReadOnly(f"{path}: schema version {version} needs bringing up to version "
+                              f"{SCHEMA_VERSION}, and the archive is read-only here")
 
 
 def _stored_result(r: Sequence[Any]) -> StoredResult:
