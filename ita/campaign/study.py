@@ -30,8 +30,14 @@ from pathlib import Path
 from typing import Any
 
 from ita.errors import InputError, Location
+from ita.seeds import SEED_MAX
 
-__all__ = ["Campaign", "RunTask", "load_campaign"]
+__all__ = ["MAX_RUNS", "Campaign", "RunTask", "load_campaign"]
+
+#: runs a campaign may ask for (parts x appraisers x trials); a larger one is refused before anything is made
+MAX_RUNS = 100_000
+#: a campaign file is a few lines; a larger one is refused before it is parsed
+MAX_FILE_BYTES = 1 << 20
 
 def sim_seed(part_seed: int, appraiser: int, trial: int) -> int:
     """The simulator's seed of a run: a digest of its part, appraiser and trial (31 bits)."""
@@ -107,10 +113,10 @@ class Campaign:
         return out
 
 
-def _ints(value: Any, loc: Location, what: str, minimum: int = 0) -> tuple[int, ...]:
+def _ints(value: Any, loc: Location, what: str, minimum: int = 0, maximum: int = SEED_MAX) -> tuple[int, ...]:
     if not isinstance(value, list) or not value or not all(isinstance(v, int) and not isinstance(v, bool)
-                                                           and v >= minimum for v in value):
-        raise InputError([(loc, f"{what}: a non-empty list of integers >= {minimum}")])
+                                                           and minimum <= v <= maximum for v in value):
+        raise InputError([(loc, f"{what}: a non-empty list of integers from {minimum} to {maximum}")])
     if len(set(value)) != len(value):
         raise InputError([(loc, f"{what}: a seed is listed twice")])
     return tuple(value)
@@ -122,6 +128,9 @@ def load_campaign(path: Path) -> Campaign:
     loc = Location(str(path))
     if not path.is_file():
         raise InputError([(loc, "campaign file not found")])
+    if path.stat().st_size > MAX_FILE_BYTES:
+        raise InputError([(loc, f"{path.stat().st_size:,} bytes: a campaign file is at most {MAX_FILE_BYTES:,} "
+                                f"(it asks for at most {MAX_RUNS:,} runs)")])
     try:
         data = tomllib.loads(path.read_text(encoding="utf-8"))
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
@@ -151,6 +160,11 @@ def load_campaign(path: Path) -> Campaign:
     trials = appr.get("trials", 1)
     if not isinstance(trials, int) or isinstance(trials, bool) or not 1 <= trials < 1000:
         raise InputError([(field("appraisers.trials"), "an integer from 1 to 999")])
+    runs = len(part_seeds) * len(appraisers) * trials
+    if runs > MAX_RUNS:
+        raise InputError([(field("parts.seeds x appraisers.seeds x appraisers.trials"),
+                           f"{len(part_seeds):,} x {len(appraisers):,} x {trials} = {runs:,} runs; a campaign "
+                           f"runs at most {MAX_RUNS:,}")])
     params_path = None
     if "params" in parts:
         if not isinstance(parts["params"], str):
