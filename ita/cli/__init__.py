@@ -11,6 +11,9 @@ import contextlib
 import difflib
 import importlib
 import os
+import warnings
+from collections.abc import Callable
+from typing import Any
 
 import click
 
@@ -79,7 +82,9 @@ class LazyGroup(click.Group):
         import sqlite3
 
         try:
-            return super().invoke(ctx)
+            with warnings.catch_warnings():
+                warnings.showwarning = _one_line_warnings(warnings.showwarning)
+                return super().invoke(ctx)
         except BrokenPipeError:  # the reader went away (`ita ... | head`): stop quietly
             import sys
 
@@ -102,6 +107,21 @@ class LazyGroup(click.Group):
             hint = f" Did you mean {' or '.join(repr(c) for c in close)}?" if close else ""
             ctx.fail(f"No such command {name!r}.{hint} (ita --help lists them)")
         return super().resolve_command(ctx, args)
+
+
+def _one_line_warnings(show: Callable[..., None]) -> Callable[..., None]:
+    """A warnings.showwarning that shows ITA's own warnings as one line, `warning: ...`,
+    and hands any other to `show` (how Python showed them before)."""
+    from ita.errors import ItaWarning
+
+    def shown(message: Warning | str, category: type[Warning], filename: str, lineno: int,
+              file: Any = None, line: str | None = None) -> None:
+        if issubclass(category, ItaWarning):
+            click.echo(f"warning: {message}", err=True)
+        else:
+            show(message, category, filename, lineno, file, line)
+
+    return shown
 
 
 @click.group(cls=LazyGroup, context_settings={"help_option_names": ["-h", "--help"]})

@@ -1,8 +1,9 @@
 """Parameters of the parametric bulkhead, read from `bulkhead/part.toml`.
 
 One frozen dataclass per TOML table; `BulkheadParams.load(path)` checks that every table
-and key is known and every value has the right type, and raises InputError naming the
-file and the field otherwise.
+and key is known, every value has the right type and lies in its range, and the
+constraints between fields hold (`ita.part.limits`), and raises InputError naming the
+file, the field and its range otherwise: before anything is generated.
 """
 
 from __future__ import annotations
@@ -13,6 +14,7 @@ from pathlib import Path
 from typing import Any, get_type_hints
 
 from ita.errors import InputError, Location
+from ita.part.limits import cross_problems, range_problem
 
 
 @dataclass(frozen=True)
@@ -110,13 +112,14 @@ class BulkheadParams:
             data = tomllib.loads(Path(path).read_text(encoding="utf-8"))
         except FileNotFoundError:
             raise InputError([(Location(str(path)), "part parameters file not found")]) from None
-        except tomllib.TOMLDecodeError as exc:
+        except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
             raise InputError([(Location(str(path)), f"not valid TOML: {exc}")]) from None
         return cls.from_dict(data, str(path))
 
     @classmethod
     def from_dict(cls, data: dict[str, Any], file: str = "<part.toml>") -> "BulkheadParams":
-        """Build from parsed TOML tables; raises InputError listing every problem."""
+        """Build from parsed TOML tables; raises InputError listing every problem: of a
+        table, a key, a type, a range, and (when every field is good) between fields."""
         problems: list[tuple[Location, str]] = []
         tables: dict[str, Any] = {}
         hints = get_type_hints(cls)
@@ -130,7 +133,11 @@ class BulkheadParams:
             problems.append((Location(file, field=name), "unknown table"))
         if problems:
             raise InputError(problems)
-        return cls(**tables)
+        params = cls(**tables)
+        problems = cross_problems(params, file)
+        if problems:
+            raise InputError(problems)
+        return params
 
 
 def _section(kind: type, table: dict[str, Any], file: str, name: str,
@@ -144,6 +151,10 @@ def _section(kind: type, table: dict[str, Any], file: str, name: str,
             problems.append((loc, "missing key"))
             continue
         value, want = table[f.name], hints[f.name]
+        if any(isinstance(v, int) and abs(v) > 2**63 for v in (value if isinstance(value, list) else [value])):
+            raw = tuple(value) if isinstance(value, list) else value       # too large for a float
+            problems.append((loc, range_problem(kind.__name__, f.name, raw) or f"{value} is out of range"))
+            continue
         if want is float and isinstance(value, (int, float)) and not isinstance(value, bool):
             values[f.name] = float(value)
         elif want is int and isinstance(value, int) and not isinstance(value, bool):
@@ -156,6 +167,11 @@ def _section(kind: type, table: dict[str, Any], file: str, name: str,
             values[f.name] = tuple(float(v) for v in value)
         else:
             problems.append((loc, f"expected {getattr(want, '__name__', str(want))}, got {value!r}"))
+            continue
+        why = range_problem(kind.__name__, f.name, values[f.name])
+        if why:
+            problems.append((loc, why))
+            del values[f.name]
     for key in set(table) - {f.name for f in fields(kind)}:
         problems.append((Location(file, field=f"{name}.{key}"), "unknown key"))
     return kind(**values) if len(values) == len(fields(kind)) else None

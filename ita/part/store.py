@@ -12,6 +12,7 @@ beside it as specs.generated.csv, with a warning.
 
 Generation writes into a temporary directory, then renames it into place, under a file
 lock: a crash never leaves a half-written part, and racing processes generate it once.
+Ctrl-C or SIGTERM during generation removes the temporary directory on the way out.
 """
 
 from __future__ import annotations
@@ -22,7 +23,9 @@ import hashlib
 import json
 import os
 import shutil
+import signal
 import tempfile
+import threading
 import uuid
 import warnings
 from datetime import datetime, timezone
@@ -30,9 +33,9 @@ from pathlib import Path
 from typing import Any, Iterator
 
 import numpy as np
-import trimesh
 
-from ita.errors import InputError, Location
+from ita.errors import InputError, ItaWarning, Location
+from ita.part.meshfile import read_mesh
 from ita.part.model import Part, feature_from_dict, feature_to_dict
 from ita.paths import ita_home
 
@@ -49,7 +52,7 @@ BUILTIN_NAME = "bulkhead"
 GENERATOR_MODULES = ("geometry2d", "params", "model", "layout", "mesh", "specgen", "bulkhead", "truth")
 
 
-class PartWarning(UserWarning):
+class PartWarning(ItaWarning):
     """Something about a part the user should know but that does not stop the command."""
 
 
@@ -92,6 +95,27 @@ def _locked(lock_path: Path) -> Iterator[None]:
             yield
         finally:
             fcntl.flock(handle, fcntl.LOCK_UN)
+
+
+@contextlib.contextmanager
+def _terminated_as_exit() -> Iterator[None]:
+    """While a part is generated, SIGTERM raises SystemExit(143), as Ctrl-C raises
+    KeyboardInterrupt, so the `finally` that removes the temporary directory runs.  Only
+    in the main thread, and only where SIGTERM still has its default action (a handler
+    of the caller's is left alone)."""
+    if threading.current_thread() is not threading.main_thread() \
+            or signal.getsignal(signal.SIGTERM) is not signal.SIG_DFL:
+        yield
+        return
+
+    def stop(signum: int, _frame: Any) -> None:
+        raise SystemExit(128 + signum)
+
+    signal.signal(signal.SIGTERM, stop)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, signal.SIG_DFL)
 
 
 def _generate_into(path: Path, fp: str, params: Any = None) -> None:
@@ -145,19 +169,20 @@ def ensure_builtin() -> Path:
     with _locked(target.parent / f".{BUILTIN_NAME}.lock"):
         if _is_current(target, fp):
             return target
-        tmp = Path(tempfile.mkdtemp(prefix=f".{BUILTIN_NAME}-new-", dir=target.parent))
-        try:
-            _generate_into(tmp, fp)
-            if target.exists():
-                _keep_user_specs(target, tmp)
-                old = target.with_name(f".{BUILTIN_NAME}-old-{uuid.uuid4().hex}")
-                os.rename(target, old)
-                os.rename(tmp, target)
-                shutil.rmtree(old, ignore_errors=True)
-            else:
-                os.rename(tmp, target)
-        finally:
-            shutil.rmtree(tmp, ignore_errors=True)
+        with _terminated_as_exit():
+            tmp = Path(tempfile.mkdtemp(prefix=f".{BUILTIN_NAME}-new-", dir=target.parent))
+            try:
+                _generate_into(tmp, fp)
+                if target.exists():
+                    _keep_user_specs(target, tmp)
+                    old = target.with_name(f".{BUILTIN_NAME}-old-{uuid.uuid4().hex}")
+                    os.rename(target, old)
+                    os.rename(tmp, target)
+                    shutil.rmtree(old, ignore_errors=True)
+                else:
+                    os.rename(tmp, target)
+            finally:
+                shutil.rmtree(tmp, ignore_errors=True)
     return target
 
 
@@ -197,15 +222,16 @@ def new_part(out_dir: Path, params_path: Path | None = None, seed: int | None = 
     fp = hashlib.sha256(f"{fingerprint(source)} seed={params.part.seed}".encode()).hexdigest()
     out_dir.parent.mkdir(parents=True, exist_ok=True)
     tmp = out_dir.with_name(f".{out_dir.name}-{uuid.uuid4().hex}")
-    tmp.mkdir()
-    try:
-        _generate_into(tmp, fp, params)
-        _check_generated(tmp, source)
-        if out_dir.exists():
-            out_dir.rmdir()
-        os.rename(tmp, out_dir)
-    finally:
-        shutil.rmtree(tmp, ignore_errors=True)
+    with _terminated_as_exit():
+        tmp.mkdir()
+        try:
+            _generate_into(tmp, fp, params)
+            _check_generated(tmp, source)
+            if out_dir.exists():
+                out_dir.rmdir()
+            os.rename(tmp, out_dir)
+        finally:
+            shutil.rmtree(tmp, ignore_errors=True)
     return out_dir
 
 
@@ -276,53 +302,9 @@ def part_key(part: Part) -> str:
     return f"{part.name}-{h.hexdigest()[:12]}"
 
 
-def _nonfinite_vertices(mesh) -> int:
-    """How many vertices of `mesh` have a NaN or infinite coordinate."""
-    vertices = np.asarray(getattr(mesh, "vertices", np.zeros((0, 3))), dtype=float).reshape(-1, 3)
-    return int((~np.isfinite(vertices)).any(axis=1).sum())
-
-
-def _stl_problem(path: Path) -> str:
-    """Why `path`, an STL file, is neither a whole binary STL nor ASCII; "" when it may be."""
-    if path.suffix.lower() != ".stl":
-        return ""
-    try:
-        size = path.stat().st_size
-        with open(path, "rb") as handle:
-            head = handle.read(84)
-    except OSError as exc:
-        return exc.strerror or str(exc)
-    if head.lstrip().lower().startswith(b"solid"):
-        return ""  # ASCII STL (or a binary one whose header says solid: trimesh decides)
-    if size < 84:
-        return f"not an STL file: {size} bytes, shorter than a binary STL header"
-    count = int.from_bytes(head[80:84], "little")
-    if size != 84 + 50 * count:
-        return (f"damaged binary STL: the header announces {count} triangles ({84 + 50 * count} bytes) "
-                f"but the file has {size} bytes")
-    return ""
-
-
 def _read_part(path: Path) -> Part:
     mesh_path, specs_path = _find_files(path)
-    stl_problem = _stl_problem(mesh_path)
-    if stl_problem:
-        raise InputError([(Location(str(mesh_path)), f"cannot read mesh: {stl_problem}")])
-    try:
-        mesh = trimesh.load(mesh_path, force="mesh")
-    except ImportError:  # trimesh guessing a text encoding of a damaged file
-        raise InputError([(Location(str(mesh_path)), "cannot read mesh: the file is damaged or not a mesh "
-                                                      "of its type")]) from None
-    except Exception as exc:  # trimesh raises many kinds on bad files
-        raise InputError([(Location(str(mesh_path)), f"cannot read mesh: {exc}")]) from None
-    bad = _nonfinite_vertices(mesh)
-    if bad == 0 and len(getattr(mesh, "faces", ())) == 0:
-        with contextlib.suppress(Exception):  # processing drops faces with NaN corners: count them raw
-            bad = _nonfinite_vertices(trimesh.load(mesh_path, force="mesh", process=False))
-    if bad:
-        raise InputError([(Location(str(mesh_path)), f"mesh has {bad} vertices with NaN or infinite coordinates")])
-    if len(getattr(mesh, "faces", ())) == 0:
-        raise InputError([(Location(str(mesh_path)), "mesh has no triangles")])
+    mesh = read_mesh(mesh_path)
     extent = float(np.max(mesh.extents))
     if extent < MIN_PART_MM:
         raise InputError([(Location(str(mesh_path)), f"the mesh is {extent:.4g} units across: in metres? A part's "

@@ -15,7 +15,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, Sequence
@@ -26,6 +25,7 @@ import trimesh
 from ita.errors import InputError, Location
 from ita.part.bulkhead import GeneratedPart
 from ita.part.mesh import build_mesh
+from ita.part.meshfile import read_mesh
 from ita.part.model import Feature, FlangeSegment, Hole, HoleRole, Pocket, Stiffener, feature_from_dict, feature_to_dict
 from ita.part.params import Tolerance
 from ita.specs.model import MeasurementKind as K
@@ -232,12 +232,7 @@ def simulated_part(part_dir: Path, nominal: trimesh.Trimesh) -> SimulatedPart:
                              f"the generated part's as-built truth (seed {t.seed}); results are scored against it")
     own = asbuilt_mesh_path(part_dir)
     if own is not None:
-        try:
-            mesh = trimesh.load(own, force="mesh")
-        except Exception as exc:  # trimesh raises many kinds on bad files
-            raise InputError([(Location(str(own)), f"cannot read the as-built mesh: {exc}")]) from None
-        if len(getattr(mesh, "faces", ())) == 0:
-            raise InputError([(Location(str(own)), "the as-built mesh has no triangles")])
+        mesh = read_mesh(own, "the as-built mesh")
         gap = float(np.max(np.abs(np.asarray(mesh.bounds) - np.asarray(nominal.bounds))))
         if gap > 0.05 * float(np.max(nominal.extents)) + 5.0:
             raise InputError([(Location(str(own)), f"the as-built mesh's box is {gap:.1f} mm off the nominal's: "
@@ -409,8 +404,15 @@ def write_perturbed(part_dir: Path, mesh: trimesh.Trimesh, specs: Sequence[Measu
     if not made.is_watertight:
         raise InputError([(Location(str(part_dir)), "the redrilled as-built mesh is not watertight (holes too "
                                                     "close to each other or to an edge to redrill)")])
-    tmp = part_dir / f".{ASBUILT_STEM}-{seed}.stl"
-    made.export(tmp)
-    (part_dir / ASBUILT_STATEMENT).write_text(json.dumps(statement, indent=1, sort_keys=True))
-    os.replace(tmp, part_dir / f"{ASBUILT_STEM}.stl")
+    from ita.files.atomic import write_atomic, write_with
+
+    statement_path = part_dir / ASBUILT_STATEMENT
+    had_statement = statement_path.exists()
+    try:  # a failed write (a full disk) leaves neither a temporary file nor half a pair
+        write_atomic(statement_path, json.dumps(statement, indent=1, sort_keys=True))
+        write_with(part_dir / f"{ASBUILT_STEM}.stl", made.export, suffix=".stl")
+    except BaseException:
+        if not had_statement:
+            statement_path.unlink(missing_ok=True)
+        raise
     return part_dir / f"{ASBUILT_STEM}.stl"
