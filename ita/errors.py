@@ -91,7 +91,7 @@ class NoSpaceLeft(ItaError):
     def of_errno(cls, file: str, code: int | None) -> NoSpaceLeft | None:
         """The error for a write to `file` that failed with errno `code`; None when that
         errno is not about room (a permission, a missing directory ...)."""
-        return cls(file, _FULL[code]) if code in _FULL else None
+        return cls(file, _FULL[code]) if code is not None and code in _FULL else None
 
     @classmethod
     def of_message(cls, file: str, message: str) -> NoSpaceLeft | None:

@@ -153,9 +153,13 @@ reset_store(File) :-
 %!  save_store(+File) is det.
 %
 %   Write the open store File back to File (through a temporary file, so that a crash
-%   never leaves half a store).
+%   never leaves half a store).  When a write fails (a full disk, the file-size limit)
+%   the temporary file is removed, File is as it was, and the error names File.
 %
 %   @error existence_error(macrop_store, File) if File is not open
+%   @error macrop_store_write(File, Reason) when it cannot be written, Reason the
+%          system's (e.g. 'No space left on device'), in the formal term so that a
+%          caller that sees only the formal term (the Python bridge) still has it
 
 save_store(File) :-
     store_counts(File, Lookups, Hits, Misses),
@@ -164,10 +168,32 @@ save_store(File) :-
             ( counted(File, kb(Name), _), stored_hits(File, kb(Name), H) ),
             Written),
     atom_concat(File, '.tmp', Tmp),
-    setup_call_cleanup(open(Tmp, write, Out),
-                       write_store(Out, Lookups, Hits, Misses, Macrops, Written),
-                       close(Out)),
-    rename_file(Tmp, File).
+    open(Tmp, write, Out),
+    catch(( write_store(Out, Lookups, Hits, Misses, Macrops, Written),
+            close(Out),
+            rename_file(Tmp, File)
+          ),
+          Error,
+          ( close(Out, [force(true)]),
+            catch(delete_file(Tmp), _, true),
+            save_error(Error, File, Thrown),
+            throw(Thrown)
+          )).
+
+%   save_error(+Error, +File, -Thrown)
+%
+%   The error save_store/1 throws for Error: an I/O error names File (not the stream of
+%   its temporary file) with the system's reason; any other error is itself.
+
+save_error(error(io_error(_, _), context(_, Reason)), File,
+           error(macrop_store_write(File, Reason), context(save_store/1, _))) :-
+    atom(Reason), !.
+save_error(Error, _, Error).
+
+:- multifile prolog:error_message//1.
+
+prolog:error_message(macrop_store_write(File, Reason)) -->
+    [ 'cannot write the MACROP store ~w: ~w'-[File, Reason] ].
 
 write_store(Out, Lookups, Hits, Misses, Macrops, Written) :-
     format(Out, '%   Learned MACROPs of the ITA Operation Planner (prolog/macrop.pl, macrop_store.pl).~n', []),

@@ -61,4 +61,25 @@ test(a_term_that_is_no_store_term, error(domain_error(macrop_store_term(_), hell
 test(not_open, error(existence_error(macrop_store, '/nonexistent/y.pl'))) :-
     store_counts('/nonexistent/y.pl', _, _, _).
 
+% A full disk (the temporary file a link to /dev/full): the error names the store's file
+% and the system's reason, the temporary file is gone and the store's file is as it was.
+test(a_full_disk_names_the_file_and_leaves_no_temporary_file,
+     [ condition(access_file('/dev/full', exist)),
+       true(X == [File, 'No space left on device', false, kept])
+     ]) :-
+    store_file(File),
+    setup_call_cleanup(open(File, write, Out0), format(Out0, "store_counts(0, 0, 0).~n", []), close(Out0)),
+    load_store(File),
+    macrop_one(N, F),
+    store_macrop(File, N, F, _),
+    atom_concat(File, '.tmp', Tmp),
+    link_file('/dev/full', Tmp, symbolic),
+    catch(save_store(File), error(macrop_store_write(Named, Reason), _), true),
+    forget_store(File),
+    ( exists_file(Tmp) -> Left = true ; read_link(Tmp, _, _) -> Left = true ; Left = false ),
+    read_file_to_terms(File, Terms, []),
+    ( Terms == [store_counts(0, 0, 0)] -> Kept = kept ; Kept = changed ),
+    delete_file(File),
+    X = [Named, Reason, Left, Kept].
+
 :- end_tests(store).

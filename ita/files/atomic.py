@@ -14,7 +14,9 @@ rename.  Before anything is written the target is checked (:func:`output_path`):
 - a directory that cannot be written is an error naming it.
 
 Every refusal is an :class:`~ita.errors.InputError` naming the file (exit code 2), and
-nothing is written.  :func:`locked` serialises read-modify-write cycles of a store
+nothing is written.  A write that fails (a full disk: :class:`~ita.errors.NoSpaceLeft`,
+"FILE: no space left on device") removes its temporary file and leaves the target as it
+was.  :func:`locked` serialises read-modify-write cycles of a store
 (``specs.csv``...) between processes with ``fcntl.flock`` on a lock file beside it.
 """
 
@@ -28,7 +30,7 @@ import tempfile
 from collections.abc import Callable, Iterator
 from pathlib import Path
 
-from ita.errors import InputError, Location
+from ita.errors import InputError, Location, NoSpaceLeft
 
 __all__ = ["output_path", "write_atomic", "write_with", "locked"]
 
@@ -120,6 +122,9 @@ def write_with(path: Path | str, writer: Callable[[Path], None], *, what: str = 
         os.replace(tmp, target)
     except OSError as exc:
         tmp.unlink(missing_ok=True)
+        full = NoSpaceLeft.of_errno(str(target), exc.errno)
+        if full is not None:
+            raise full from None
         raise _refuse(target, what, f"cannot write it: {exc.strerror or exc}") from None
     except BaseException:
         tmp.unlink(missing_ok=True)

@@ -21,7 +21,7 @@ from operator import itemgetter
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Callable
 
-from ita.errors import ItaError
+from ita.errors import ItaError, NoSpaceLeft, PrologError
 from ita.logic.terms import Term, Var
 from ita.paths import ita_home
 from ita.planning.state import NOTHING, Place, PoseKind, QualitativePose, WorldState
@@ -469,9 +469,16 @@ class OperationPlanner:
         return learned
 
     def save(self) -> None:
-        """Write the store to its file (atomically)."""
+        """Write the store to its file (atomically); NoSpaceLeft naming it when the disk is
+        full (the store's temporary file removed, its file as it was)."""
         self.path.parent.mkdir(parents=True, exist_ok=True)
-        self.kb.once("macrop", "save_store", self._file)
+        try:
+            self.kb.once("macrop", "save_store", self._file)
+        except PrologError as exc:
+            full = NoSpaceLeft.of_message(str(self.path), exc.message)
+            if full is None:
+                raise
+            raise full from None
 
     def close(self) -> None:
         """Save the store and forget it."""
