@@ -1,14 +1,15 @@
 """The range of a seed, wherever one is given: `--seed`, a part file's `part.seed`, a
 campaign's part and appraiser seeds.
 
-Seeds feed numpy's generators and are stored in the archive's INTEGER columns; an
-unsigned 32-bit integer suits both and every seed the project uses.
+Seeds feed numpy's generators (any non-negative integer) and are stored in SQLite's
+INTEGER columns (signed 64-bit): 0 to 2^63 - 1 suits both, and is what the System
+Monitor's form takes too.
 """
 
 from __future__ import annotations
 
 SEED_MIN = 0
-SEED_MAX = 2**32 - 1
+SEED_MAX = 2**63 - 1
 
 
 def seed_problem(value: object) -> str:

@@ -58,6 +58,6 @@ SEED_TYPE = click.IntRange(SEED_MIN, SEED_MAX)
 
 def seed_option(default: int | None = 0, help: str = "Seed of the simulated workcell.",
                 required: bool = False) -> Callable[[F], F]:
-    """A --seed option: an integer from 0 to 2**32 - 1 (exit 2 with the range otherwise)."""
+    """A --seed option: an integer from 0 to 2**63 - 1 (exit 2 with the range otherwise)."""
     return click.option("--seed", type=SEED_TYPE, default=default, required=required,
                         show_default=default is not None and not required, help=help)

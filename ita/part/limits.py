@@ -49,7 +49,7 @@ class Bound:
 
 
 def _number(x: float) -> str:
-    """A bound as written in part.toml: whole numbers in full (a seed's 4294967295)."""
+    """A bound as written in part.toml: whole numbers in full (a seed's 9223372036854775807)."""
     return str(int(x)) if float(x).is_integer() else f"{x:g}"
 
 

@@ -21,8 +21,8 @@ from pathlib import Path
 from typing import Any
 
 from ita.errors import ItaError
+from ita.seeds import SEED_MAX
 
-SEED_MAX = 2**63 - 1
 START_FIELDS = ("part", "limit", "seed", "faults")
 CONTROL_FIELDS = ("command",)
 COMMANDS = ("STOP", "INTERRUPT", "CONTINUE")
