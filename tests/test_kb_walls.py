@@ -58,8 +58,21 @@ def _users() -> list[str]:
 
 
 @pytest.fixture(scope="module")
-def jail() -> Jail:
-    return SandboxFiles((), (), ENTRY).jail()
+def entry() -> Iterator[Path]:
+    """The fixture, copied where every user can read it (the checkout may lie in a
+    directory only its owner can enter, as CI's temporary clone does)."""
+    directory = Path(tempfile.mkdtemp(prefix="ita-walls-entry-"))
+    os.chmod(directory, 0o755)
+    copy = directory / ENTRY.name
+    shutil.copyfile(ENTRY, copy)
+    os.chmod(copy, 0o644)
+    yield copy
+    shutil.rmtree(directory)
+
+
+@pytest.fixture(scope="module")
+def jail(entry: Path) -> Jail:
+    return SandboxFiles((), (), entry).jail()
 
 
 @pytest.fixture(params=_users())
@@ -122,8 +135,9 @@ def _assert_no_connection(tcp: socket.socket, udp: socket.socket) -> None:
 def _run(goal: str, jail: Jail, time_limit: float = 5.0) -> str:
     """What the child sent back (its outcome and whatever it printed), or the error."""
     printed: list[str] = []
+    entry = Path(jail.mounts[0][0]) / ENTRY.name
     try:
-        result = query(goal, SandboxFiles((), (), ENTRY), SandboxLimits(time_limit=time_limit),
+        result = query(goal, SandboxFiles((), (), entry), SandboxLimits(time_limit=time_limit),
                        echo=printed.append, jail=jail)
         sent = " ".join(row[0] for row in result.rows)
     except ItaError as exc:
@@ -267,7 +281,7 @@ def test_an_honest_goal_still_answers(who, arena):
     assert sent.startswith("true") and "hello" in sent
 
 
-def test_without_the_walls_the_harm_happens(arena, who):
+def test_without_the_walls_the_harm_happens(arena, who, entry):
     """Control: the same fixture and goal, started as the same user with no walls,
     writes the file; so the tests above fail if the walls fall."""
     name, jail, uid = who
@@ -281,7 +295,7 @@ def test_without_the_walls_the_harm_happens(arena, who):
             os.setuid(uid)
 
     proc = subprocess.run([jail.program, "-q", "-f", "none", "--no-packs", "-g", "kb_sandbox:sandbox_main",
-                           "-t", "halt(4)", str(ENTRY)], input=request, capture_output=True, timeout=60,
+                           "-t", "halt(4)", str(entry)], input=request, capture_output=True, timeout=60,
                           preexec_fn=as_user, cwd="/")
     assert proc.returncode == 0, proc.stderr
     assert (arena.path / "control").read_text() == "x"
@@ -329,7 +343,8 @@ def test_a_kernel_without_user_namespaces_refuses_with_a_clear_error(tmp_path, j
     broken = dataclasses.replace(jail, bwrap=str(fake), user=None)
     goal = f"open('{marker}', write, S), close(S)"
     with pytest.raises(ItaError) as caught:
-        query(goal, SandboxFiles((), (), ENTRY), SandboxLimits(time_limit=5), jail=broken)
+        query(goal, SandboxFiles((), (), Path(jail.mounts[0][0]) / ENTRY.name), SandboxLimits(time_limit=5),
+              jail=broken)
     text = str(caught.value)
     assert "cannot confine the query process" in text and "user namespaces" in text, text
     assert "\n" not in text

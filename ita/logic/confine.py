@@ -7,8 +7,10 @@ a goal that got past every Prolog check:
 - **bubblewrap** (Debian's ``bubblewrap``, the unprivileged sandbox of Flatpak) starts
   ``swipl`` in new namespaces: a mount namespace that holds only SWI-Prolog (its binary,
   the shared libraries it loads, its own library) and the project's ``prolog/`` and
-  ``kb/`` directories, all read-only, on a read-only root (no ``/etc``, no ``/proc``, no
-  ``/dev``, no home directory, no temporary directory, no shell to run); a PID namespace,
+  ``kb/`` directories (under ``/ita``, not at their own paths, so that not even the names
+  of the directories above them are seen), all read-only, on a read-only root (no
+  ``/etc``, no ``/proc``, no ``/dev``, no home directory, no temporary directory, no
+  shell to run); a PID namespace,
   so every process inside dies with it (``--die-with-parent``: when the caller kills
   bwrap, the kernel kills the whole namespace); a network namespace with no interface but
   its own loopback; a user namespace with no capability, the goal running as ``nobody``;
@@ -58,6 +60,7 @@ __all__ = ["Unconfinable", "Jail", "RLimits", "set_limits", "seccomp_program", "
            "await_namespace_end"]
 
 NOBODY_ID = 65534  # the uid and gid the goal has inside its user namespace
+INSIDE = "/ita"    # where the project's directories are seen inside the jail
 
 # System calls a goal's process never needs; each fails with EPERM.
 DENIED = (
@@ -160,8 +163,11 @@ def _deny(filt: Any, seccomp: Any, action: int, name: str, *args: Any) -> None:
 class Jail:
     """How to start a program behind the walls (see the module's docstring).
 
-    `readable` are directories and files bound read-only at their own paths; `links`
-    are (target, path) symbolic links made inside (the shared libraries' names);
+    `readable` are SWI-Prolog's directories and files, bound read-only at their own
+    paths; `mounts` are the project's directories, each bound read-only under ``/ita``
+    where it stands to the others as outside (``kb/`` and ``prolog/`` as ``/ita/kb`` and
+    ``/ita/prolog``: their relative paths hold; :meth:`inside`, :meth:`outside` translate); `links` are (target,
+    path) symbolic links made inside (the shared libraries' names);
     `user` is the (uid, gid) the process becomes before bwrap starts (``nobody`` when
     ITA runs as root), or None to stay the caller.  Made once by :meth:`find` and used
     for every goal (a `kb shell` session pays for finding it once).
@@ -170,6 +176,7 @@ class Jail:
     bwrap: str
     program: str
     readable: tuple[str, ...]
+    mounts: tuple[tuple[str, str], ...]
     links: tuple[tuple[str, str], ...]
     user: tuple[int, int] | None
     seccomp: bytes
@@ -193,10 +200,27 @@ class Jail:
         libraries = _shared_libraries(real)
         home = _prolog_home(real)
         dirs = sorted({os.path.realpath(d) for d in directories})
-        readable = tuple(dict.fromkeys([home, *(lib for lib, _ in libraries), *dirs]))
+        readable = tuple(dict.fromkeys([home, *(lib for lib, _ in libraries)]))
+        top = os.path.commonpath(dirs) if dirs else "/"
+        mounts = tuple((d, os.path.normpath(os.path.join(INSIDE, os.path.relpath(d, top)))) for d in dirs)
         links = tuple(dict.fromkeys((lib, link) for lib, link in libraries if link != lib))
         user = _unprivileged([real, home, *dirs, *(str(f) for f in files)])
-        return Jail(bwrap, real, readable, links, user, seccomp_program())
+        return Jail(bwrap, real, readable, mounts, links, user, seccomp_program())
+
+    def inside(self, path: Path | str) -> str:
+        """Where the file `path` of a bound project directory is seen inside the jail."""
+        real = os.path.realpath(path)
+        for source, target in self.mounts:
+            if real == source or real.startswith(source + os.sep):
+                return target + real[len(source):]
+        raise Unconfinable(f"{path} is in no directory the query process may read")
+
+    def outside(self, text: str) -> str:
+        """`text` (a reply of the jailed process) with its paths of the bound project
+        directories written as they are outside."""
+        for source, target in self.mounts:
+            text = text.replace(target + "/", source + "/")
+        return text
 
     def command(self, args: Sequence[str], seccomp_fd: int, env: dict[str, str],
                 info_fd: int | None = None) -> list[str]:
@@ -212,6 +236,8 @@ class Jail:
                 command += ["--symlink", f"usr/{top}", f"/{top}"]  # Debian's merged /usr
         for path in self.readable:
             command += ["--ro-bind", path, path]
+        for source, target in self.mounts:
+            command += ["--ro-bind", source, target]
         for target, link in self.links:
             command += ["--symlink", target, link]
         command += ["--remount-ro", "/", "--chdir", "/", "--clearenv"]

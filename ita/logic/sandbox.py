@@ -200,8 +200,8 @@ def run_user_goal(action: str, goal: str, files: SandboxFiles, limits: SandboxLi
     request = {
         "action": action,
         "goal": goal,
-        "engine_files": [str(p) for p in files.engine_files],
-        "kb_files": [str(p) for p in files.kb_files],
+        "engine_files": [jail.inside(p) for p in files.engine_files],
+        "kb_files": [jail.inside(p) for p in files.kb_files],
         "bridge_modules": list(BRIDGE_MODULES),
         "limit": 100,
         "max_depth": 30,
@@ -210,7 +210,7 @@ def run_user_goal(action: str, goal: str, files: SandboxFiles, limits: SandboxLi
     }
     stack = max(1, limits.stack_bytes >> 20)
     args = ["-q", "-f", "none", "--no-packs", "--no-tty", f"--stack-limit={stack}m",
-            "-g", "kb_sandbox:sandbox_main", "-t", "halt(4)", str(files.entry)]
+            "-g", "kb_sandbox:sandbox_main", "-t", "halt(4)", jail.inside(files.entry)]
     env = {"LANG": "C.UTF-8", "LC_ALL": "C.UTF-8", "HOME": "/nonexistent"}
     cpu = int(limits.load_seconds + limits.time_limit + limits.grace) + 1
     seccomp = jail.seccomp_pipe()
@@ -231,9 +231,12 @@ def run_user_goal(action: str, goal: str, files: SandboxFiles, limits: SandboxLi
         os.close(info_w)
     confined = _Confined(child, info)
     try:
-        return _converse(confined, request, limits)
+        outcome = _converse(confined, request, limits)
+    except ItaError as exc:
+        raise _outside(exc, jail) from None
     finally:
         confined.stop()
+    return Outcome(_outside_json(outcome.reply, jail), jail.outside(outcome.printed))
 
 
 class _Confined:
@@ -421,3 +424,31 @@ def _wall_failure(stderr: str) -> Unconfinable | None:
                 "AppArmor restriction on them), or run ITA as root")
     return Unconfinable(f"cannot confine the query process ({line[:200]}){hint}; "
                         "no goal runs without its walls")
+
+
+def _outside_json(value: Any, jail: Jail) -> Any:
+    """A reply with the jail's paths written as they are outside (proof trees' files)."""
+    if isinstance(value, str):
+        return jail.outside(value)
+    if isinstance(value, list):
+        return [_outside_json(v, jail) for v in value]
+    if isinstance(value, dict):
+        return {k: _outside_json(v, jail) for k, v in value.items()}
+    return value
+
+
+def _outside(exc: ItaError, jail: Jail) -> ItaError:
+    """The error with the jail's paths written as they are outside (a load error's file)."""
+    if isinstance(exc, KBLoadError):
+        return KBLoadError([(Location(jail.outside(loc.file), loc.line, loc.column, loc.field),
+                             jail.outside(message)) for loc, message in exc.problems])
+    if isinstance(exc, PrologError):
+        return PrologError(exc.goal, jail.outside(exc.message))
+    text = str(exc)
+    fixed = jail.outside(text)
+    if fixed == text:
+        return exc
+    try:
+        return type(exc)(fixed)
+    except TypeError:
+        return exc
