@@ -149,8 +149,8 @@ def recovery(args: argparse.Namespace) -> dict:
     from ita.logic.terms import Term, Var
     from ita.planning import NoPlanError, WorldState
     from ita.sim.faults import FaultSet
-    from ita.toplevel import MeasureStatus, measure_one, open_session
-    from ita.toplevel.measure import execute_measurement
+    from ita.task import MeasureStatus, measure_one, open_session
+    from ita.task.measure import execute_measurement
 
     session = open_session(None, seed=args.seed)
     bench = TestBench(session)

@@ -45,7 +45,8 @@ from ita.sim.slra import SlraParams, SlraScene, pose_error, simulate_frame
 from ita.specs.io import read_specs
 from ita.specs.model import MeasurementKind as K
 from ita.vision.calibration import SlraCalibration
-from ita.vision.context import SLRA_KINDS, VisionContext
+from ita.vision.context import SLRA_KINDS
+from ita.vision.for_part import vision_context
 from ita.vision.measure import measure_frames
 from ita.vision.scan import frames_for, scan_for
 from ita.workcell import load_workcell, workcell_for
@@ -82,7 +83,7 @@ def run(kinds, limit, repeats, seed, render_dir=None, match="", pixels=None, par
     t0 = time.perf_counter()
     scene = SlraScene.from_truth(part.directory, wc)
     scene_s = time.perf_counter() - t0
-    ctx = VisionContext.from_part(part, wc, specs=specs)
+    ctx = vision_context(part, wc, specs=specs)
     if raw:      # as the calibration study measures: the measurers' own type-B terms, no correction
         ctx = replace(ctx, calibration=SlraCalibration())
     if pixels is not None:

@@ -8,12 +8,12 @@ import pytest
 
 from ita.planning import WorldState
 from ita.sim.faults import FaultSet
-from ita.toplevel import MeasureStatus, measure_one
+from ita.task import MeasureStatus, measure_one
 
 
 @pytest.fixture(scope="module")
 def session(builtin_part):
-    from ita.toplevel import open_session
+    from ita.task import open_session
 
     s = open_session(None, seed=11)
     yield s
@@ -150,7 +150,7 @@ def _term(name: str, *args):
 def test_replanning_and_repair_each_give_a_valid_plan_from_a_mid_plan_failure(session, arm):
     """A plan stopped at its measuring step: plan repair keeps its unfinished steps after a
     prefix for their preconditions; replanning plans afresh; both measure."""
-    from ita.toplevel.measure import execute_measurement
+    from ita.task.measure import execute_measurement
 
     spec_id = _first(session, "us_probe_1", "web_thickness", skip=11)
     session.kb.once("world", "reset_world")
@@ -193,7 +193,8 @@ def test_a_run_with_a_broken_probe_finishes_its_thicknesses_with_the_spare(sessi
     Sequence Planner resequences to the spare, every thickness is measured with it."""
     from ita.archive import Archive
     from ita.sim.inject import FaultInjector, InjectionPlan
-    from ita.toplevel import RunSignals, TopLevel, open_session
+    from ita.task import open_session
+    from ita.toplevel import RunSignals, TopLevel
 
     session = open_session(None, seed=11)     # a fresh cell: the arm at home with no tool
     probe = next(g for g in session.plan.groups if g.tool == "us_probe_1")

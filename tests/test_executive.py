@@ -19,7 +19,14 @@ from ita.executive import (
     split,
 )
 from ita.logic.terms import Term, Var
-from ita.planning import OperationPlanner, Place, PlanStep, PoseKind, QualitativePose, WorldState
+from ita.planning import (
+    OperationPlanner,
+    Place,
+    PlanStep,
+    PoseKind,
+    QualitativePose,
+    WorldState,
+)
 from ita.sim.world import SimClock
 from ita.specs.model import MeasurementKind, MeasurementSpec
 

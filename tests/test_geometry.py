@@ -90,12 +90,12 @@ def test_slra_view_groups_share_one_frame(prepared, builtin_part) -> None:
     # window much wider than its own (a fastener's diameter does not share the wide frame
     # its position needs: its pixels would be three times coarser)
     from ita.geometry import GROUP_GROWTH
-    from ita.vision.context import VisionContext
+    from ita.vision.for_part import vision_context
     from ita.vision.scan import scan_for
 
     kinds = {tuple(sorted(ctx.spec(m).kind.value for m in g.members)) for g in mkb.groups.values()}
     assert ("flange_height", "flange_width") in kinds
-    vctx = VisionContext.from_part(builtin_part, ctx.workcell, specs=list(ctx.specs))
+    vctx = vision_context(builtin_part, ctx.workcell, specs=list(ctx.specs))
     def width_mm(fov_deg: float, standoff_m: float) -> float:
         return 2000.0 * standoff_m * np.tan(np.radians(fov_deg) / 2)
 
@@ -109,12 +109,12 @@ def test_view_group_pixels_are_the_most_a_member_asks_for(prepared, builtin_part
     """Every group's frame has, per axis, the most pixels any member's `scan_for` asks for;
     the bulkhead's small fastener holes (5 mm) get finer position frames than ctx.shape."""
     from ita.geometry.build import group_pixels
-    from ita.vision.context import VisionContext
+    from ita.vision.for_part import vision_context
     from ita.vision.scan import scan_for
 
     assert group_pixels([(256, 256), (384, 256), (128, 512)]) == (384, 512)
     ctx, _, mkb, _ = prepared
-    vctx = VisionContext.from_part(builtin_part, ctx.workcell, specs=list(ctx.specs))
+    vctx = vision_context(builtin_part, ctx.workcell, specs=list(ctx.specs))
     finer = 0
     for g in mkb.groups.values():
         asked = [scan_for(ctx.spec(m), vctx).shape for m in g.members]
@@ -144,13 +144,13 @@ def test_shared_frame_measures_every_member(prepared, builtin_part) -> None:
     from ita.part.truth import load_truth
     from ita.sensors.slra_frame import ScanGeometry
     from ita.sim.slra import SlraParams, SlraScene, simulate_frame
-    from ita.vision.context import VisionContext
+    from ita.vision.for_part import vision_context
     from ita.vision.measure import measure
 
     ctx, _, mkb, _ = prepared
     cell = ctx.workcell
     scene = SlraScene.from_truth(builtin_part.directory, cell)
-    vctx = VisionContext.from_part(builtin_part, cell, specs=list(ctx.specs))
+    vctx = vision_context(builtin_part, cell, specs=list(ctx.specs))
     truth = load_truth(builtin_part.directory).values
     rng = np.random.default_rng(3)
     shared = [g for g in mkb.groups.values() if len(g.members) > 1]

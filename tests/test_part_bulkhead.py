@@ -12,7 +12,13 @@ import trimesh
 
 from ita.part.bulkhead import generate, load_params
 from ita.part.mesh import build_mesh
-from ita.part.model import FeatureKind, Hole, HoleRole, feature_from_dict, feature_to_dict
+from ita.part.model import (
+    FeatureKind,
+    Hole,
+    HoleRole,
+    feature_from_dict,
+    feature_to_dict,
+)
 from ita.specs.model import MeasurementKind as K
 
 HOLE_KINDS = {K.HOLE_DIAMETER, K.HOLE_POSITION}

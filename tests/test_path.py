@@ -18,7 +18,13 @@ from ita.errors import InputError
 from ita.kinematics import arm_model, link_segments, move_time, tcp_poses
 from ita.path.lift import Effort, Lifter, path_free, segments_free
 from ita.path.motion import ConfigChecker, MotionChecker, sweep_bounds
-from ita.path.planner import HOME, PathFailure, PathPlanner, PlannerSettings, planners_for
+from ita.path.planner import (
+    HOME,
+    PathFailure,
+    PathPlanner,
+    PlannerSettings,
+    planners_for,
+)
 from ita.path.problems import (
     Problem,
     generate_problems,

@@ -7,7 +7,6 @@ import pytest
 
 from ita.kinematics import flange_poses, move_time
 from ita.robot import (
-    CONTROLLER,
     MotionStatus,
     RobotController,
     TimedTrajectory,
@@ -15,7 +14,7 @@ from ita.robot import (
     from_waypoints,
 )
 from ita.robot.waypoints import profile_position, profile_time
-from ita.sim.faults import Fault, FaultSet
+from ita.sim.faults import CONTROLLER, Fault, FaultSet
 from ita.sim.world import SimWorld
 
 READY = np.array([0.0, 0.057, 0.614, 0.0, 0.114, 1.571])
@@ -214,7 +213,7 @@ def test_a_step_back_along_the_line_of_sight_keeps_the_tool_s_orientation():
     """joint_translation moves the TCP 80 mm back exactly and does not turn it; the
     position-only least-norm step (joint_offset) turns it by a degree or more there."""
     from ita.kinematics import arm_model
-    from ita.robot import joint_offset, joint_translation
+    from ita.kinematics.settle import joint_offset, joint_translation
     from ita.workcell import load_workcell
 
     wc = load_workcell()

@@ -8,12 +8,12 @@ import pytest
 
 from ita.devices import ScanData, measured_values
 from ita.planning import WorldState
-from ita.toplevel import MeasureStatus, measure_one
+from ita.task import MeasureStatus, measure_one
 
 
 @pytest.fixture(scope="module")
 def session(builtin_part):
-    from ita.toplevel import open_session
+    from ita.task import open_session
 
     s = open_session(None, seed=5)
     yield s
@@ -71,7 +71,7 @@ def test_both_slras_broken_a_rib_width_is_planned_executed_and_measured_with_the
     thickness of the rib through its side wall, not its height from the top)."""
     from ita.scoring import true_values
     from ita.sequence.plan import build_plan
-    from ita.toplevel import open_session
+    from ita.task import open_session
 
     session = open_session(rib_cell_part, seed=5)
     kb = session.kb

@@ -27,7 +27,7 @@ def runs(tmp_path_factory, builtin_part) -> Path:
 @pytest.fixture(scope="module")
 def session(builtin_part):
     """One loaded system for the in-process runs of this module."""
-    from ita.toplevel import open_session
+    from ita.task import open_session
 
     s = open_session(None, seed=2)
     yield s
@@ -169,7 +169,7 @@ def test_a_run_whose_measurements_all_fail_stops_itself_with_an_alarm(runs, monk
     import json
 
     import ita.toplevel.loop as loop
-    from ita.toplevel.measure import MeasureOutcome, MeasureStatus
+    from ita.task.measure import MeasureOutcome, MeasureStatus
 
     def nothing_works(session, spec_id, state, tool=None):
         t = session.world.clock.now
@@ -214,7 +214,7 @@ def test_a_member_another_frame_could_not_measure_gets_its_own_view(runs, monkey
         return out
 
     monkeypatch.setattr(loop, "measure_one", first_member_spoilt)
-    from ita.toplevel import open_session
+    from ita.task import open_session
 
     session = open_session(None, seed=2)      # a fresh cell: the arm at home with no tool
     group = next(g for g in session.plan.groups if g.tool.startswith("slra"))
@@ -239,7 +239,7 @@ def test_a_lightening_hole_position_takes_only_the_frames_its_decision_needs(ses
 
     from ita.planning.state import WorldState
     from ita.sequence.next_step import the_arm
-    from ita.toplevel.measure import MeasureStatus, measure_one
+    from ita.task.measure import MeasureStatus, measure_one
 
     spec_id = next(i for i in session.specs if i.startswith("HP-LH-"))
     spec = session.specs[spec_id]
@@ -269,7 +269,7 @@ def test_a_rescan_from_the_second_stand_off_measures_from_the_pose_the_arm_repor
     from ita.part.truth import load_truth
     from ita.planning.state import WorldState
     from ita.sequence.next_step import the_arm
-    from ita.toplevel.measure import MeasureStatus, execute_goals, measure_one
+    from ita.task.measure import MeasureStatus, execute_goals, measure_one
 
     truth = load_truth(builtin_part.directory).values
     spec_id = "FH-OFL03-1"

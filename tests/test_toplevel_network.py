@@ -35,7 +35,8 @@ def test_killed_before_its_network_is_solved_continue_loses_and_repeats_nothing(
     # `ita inspect --network` would run them
     child = f"""
 from ita.archive import Archive, archive_path
-from ita.toplevel import RunSignals, TopLevel, open_session
+from ita.toplevel import RunSignals, TopLevel
+from ita.task import open_session
 session = open_session(None, seed=4)
 ids = list(next(g for g in session.plan.groups if g.tool.startswith("slra")).order[:12])
 with Archive.open(archive_path({str(runs)!r})) as archive:

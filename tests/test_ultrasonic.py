@@ -27,8 +27,8 @@ from ita.sensors.ultrasonic import (
     interpret,
     velocity_calibration,
 )
-from ita.sim.faults import Fault, FaultSet
-from ita.sim.ultrasonic import GAUGE, ProbePhysics, TriangleIndex, UltrasonicSim
+from ita.sim.faults import GAUGE, Fault, FaultSet
+from ita.sim.ultrasonic import ProbePhysics, TriangleIndex, UltrasonicSim
 from ita.sim.world import SimWorld
 from ita.specs.io import read_specs
 

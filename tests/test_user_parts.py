@@ -41,12 +41,12 @@ def test_the_plate_s_features_are_found_on_its_mesh_in_both_directions(plate):
 
 
 def test_a_side_hole_is_measured_in_a_frame_along_its_axis(plate):
-    from ita.vision.context import VisionContext
+    from ita.vision.for_part import vision_context
     from ita.workcell import workcell_for
 
     part = load_part(plate)
     cell = workcell_for(part.directory, part.mesh.bounds)
-    ctx = VisionContext.from_part(part, cell)
+    ctx = vision_context(part, cell)
     spec = next(s for s in __import__("ita.specs.io", fromlist=["x"]).read_specs(part.specs_path) if s.id == "HP-S1")
     local_ctx, local_spec, hole = along_axis(ctx, spec, part.feature("S1"))
     assert hole.axis == (0.0, 0.0, 1.0) and local_spec.normal == (0.0, 0.0, 1.0)

@@ -105,7 +105,7 @@ def test_calibrated_diameters_of_the_built_in_part_are_closer_to_the_truth_with_
     from ita.part.truth import load_truth
     from ita.sim.slra import SlraParams, SlraScene, pose_error, simulate_frame
     from ita.specs.io import read_specs
-    from ita.vision.context import VisionContext
+    from ita.vision.for_part import vision_context
     from ita.vision.measure import measure
     from ita.vision.scan import scan_for
     from ita.workcell import load_workcell
@@ -113,7 +113,7 @@ def test_calibrated_diameters_of_the_built_in_part_are_closer_to_the_truth_with_
     wc = load_workcell()
     specs = [s for s in read_specs(builtin_part.specs_path) if s.kind is K.HOLE_DIAMETER and "-OF-" in s.id][:40]
     truth = load_truth(builtin_part.directory).values
-    ctx = VisionContext.from_part(builtin_part, wc)
+    ctx = vision_context(builtin_part, wc)
     raw_ctx = replace(ctx, calibration=SlraCalibration())
     scene = SlraScene.from_truth(builtin_part.directory, wc)
     rng = np.random.default_rng(5)

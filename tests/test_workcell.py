@@ -11,7 +11,14 @@ import pytest
 
 from ita.errors import InputError
 from ita.specs.model import Tool
-from ita.workcell import Reach, Workcell, default_workcell_path, frames, load_workcell, reach_report
+from ita.workcell import (
+    Reach,
+    Workcell,
+    default_workcell_path,
+    frames,
+    load_workcell,
+    reach_report,
+)
 
 
 @pytest.fixture(scope="module")

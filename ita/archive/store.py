@@ -69,7 +69,12 @@ from ita.archive.model import (
     RunStatus,
     StoredResult,
 )
-from ita.archive.schema import SCHEMA_VERSION, SchemaError, ensure_schema, schema_version
+from ita.archive.schema import (
+    SCHEMA_VERSION,
+    SchemaError,
+    ensure_schema,
+    schema_version,
+)
 from ita.errors import ItaError, NoSpaceLeft
 from ita.paths import ita_home
 

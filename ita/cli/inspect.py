@@ -198,7 +198,8 @@ def inspect(part_dir: Path | None, limit: int | None, seed: int, runs_dir: Path 
     """
     from ita.archive import Archive, archive_path
     from ita.sim.inject import InjectionPlan
-    from ita.toplevel import open_session, start_run
+    from ita.task import open_session
+    from ita.toplevel import start_run
 
     injection = InjectionPlan.parse(fault_rate, fault_kinds, scripts, seed)   # bad options fail before any work
     view = LiveView()
@@ -228,7 +229,7 @@ def continue_(run: str, runs_dir: Path | None, as_json: bool) -> None:
     Exit codes as `ita inspect`: 0 completed, 3 stopped or interrupted again, 2 bad input.
     """
     from ita.archive import Archive, archive_path
-    from ita.toplevel import open_session
+    from ita.task import open_session
 
     view = LiveView()
     with Archive.open(archive_path(runs_dir), create=False) as archive:

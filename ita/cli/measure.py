@@ -3,7 +3,7 @@
     ita measure HD-OF-101 [--render scan.png] [--part DIR] [--seed S] [--json]
 
 The arm starts at home with no tool; the measurement takes the same round trip as in a
-run (ita.toplevel.measure.measure_one): the tool the sequence plan chose, the Operation
+run (ita.task.measure.measure_one): the tool the sequence plan chose, the Operation
 Planner's plan (MACROP lookup first), the Executive on the simulated devices (Path
 Planner and controller, gauge, SLRA and Vision), the value back in the devices' replies.
 The value, its uncertainty, the nominal, the tolerance and the ISO 14253-1 decision are
@@ -39,7 +39,7 @@ def measure(meas_id: str, part_dir: Path | None, render: Path | None, seed: int,
     from ita.planning import WorldState
     from ita.sequence.next_step import the_arm
     from ita.specs.io import read_specs
-    from ita.toplevel import MeasureStatus, measure_one, open_session
+    from ita.task import MeasureStatus, measure_one, open_session
 
     part = load_part(part_dir)
     if meas_id not in {s.id for s in read_specs(part.specs_path)}:   # before loading the world

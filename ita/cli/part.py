@@ -126,11 +126,11 @@ def calibrate(part_dir: Path | None, repeats: int, seed: int) -> None:
     this makes it again now.  The cell's calibration stands for generated bulkheads only:
     a generated bulkhead is refused here.  The master is measured the way a run measures
     (the MKB's views), so the part is prepared first when it needs to be."""
+    from ita.offline.master import ensure_master_calibration
     from ita.offline.prepare import prepare_inspection
     from ita.part.store import load_part
     from ita.sequence.plan import planning_context
-    from ita.sim.master import ensure_master_calibration
-    from ita.vision.context import part_calibration_path
+    from ita.vision.for_part import part_calibration_path
 
     part = load_part(part_dir)
     if part_dir is None or part.metadata.get("generator") == "ita.part.bulkhead":

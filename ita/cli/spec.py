@@ -87,9 +87,9 @@ def spec() -> None:
 @reports_errors
 def list_cmd(kind: str | None, as_json: bool, part_dir: Path | None) -> None:
     """List the part's specs."""
-    from ita.specs import service
+    from ita.part import specfile
 
-    specs = service.load(_load_part(part_dir))
+    specs = specfile.load(_load_part(part_dir))
     if kind:
         specs = [s for s in specs if s.kind.value == kind]
     if as_json:
@@ -110,10 +110,10 @@ def list_cmd(kind: str | None, as_json: bool, part_dir: Path | None) -> None:
 def show_cmd(spec_id: str, as_json: bool, part_dir: Path | None) -> None:
     """Show every field of spec SPEC_ID."""
     from ita.errors import InputError, Location
-    from ita.specs import service
+    from ita.part import specfile
 
     part = _load_part(part_dir)
-    found = [s for s in service.load(part) if s.id == spec_id]
+    found = [s for s in specfile.load(part) if s.id == spec_id]
     if not found:
         raise InputError([(Location(str(part.specs_path)), f"no spec with id {spec_id!r}")])
     s = found[0]
@@ -142,9 +142,9 @@ def show_cmd(spec_id: str, as_json: bool, part_dir: Path | None) -> None:
 @reports_errors
 def add_cmd(spec_id: str, part_dir: Path | None, **fields: str | None) -> None:
     """Add a spec (all fields but --direction and --note are required)."""
-    from ita.specs import service
+    from ita.part import specfile
 
-    new = service.add(_load_part(part_dir), {"id": spec_id, **to_columns(fields)})
+    new = specfile.add(_load_part(part_dir), {"id": spec_id, **to_columns(fields)})
     click.echo(f"added {new.id}")
 
 
@@ -156,14 +156,14 @@ def add_cmd(spec_id: str, part_dir: Path | None, **fields: str | None) -> None:
 @reports_errors
 def edit_cmd(spec_id: str, new_id: str | None, part_dir: Path | None, **fields: str | None) -> None:
     """Change fields of spec SPEC_ID, e.g. `ita spec edit WT-P01-1 --nominal 2.6`."""
-    from ita.specs import service
+    from ita.part import specfile
 
     changes = to_columns(fields)
     if new_id is not None:
         changes["id"] = new_id
     if not changes:
         raise click.UsageError("nothing to change: give at least one --FIELD VALUE")
-    edited = service.change(_load_part(part_dir), spec_id, changes)
+    edited = specfile.change(_load_part(part_dir), spec_id, changes)
     click.echo(f"edited {edited.id}")
 
 
@@ -173,9 +173,9 @@ def edit_cmd(spec_id: str, new_id: str | None, part_dir: Path | None, **fields: 
 @reports_errors
 def remove_cmd(spec_ids: tuple[str, ...], part_dir: Path | None) -> None:
     """Remove the specs SPEC_IDS."""
-    from ita.specs import service
+    from ita.part import specfile
 
-    left = service.remove(_load_part(part_dir), list(spec_ids))
+    left = specfile.remove(_load_part(part_dir), list(spec_ids))
     click.echo(f"removed {len(spec_ids)}; {left} specs left")
 
 
@@ -187,9 +187,9 @@ def remove_cmd(spec_ids: tuple[str, ...], part_dir: Path | None) -> None:
 @reports_errors
 def import_cmd(file: Path, replace_all: bool, part_dir: Path | None) -> None:
     """Import the specs of FILE (CSV, same schema); all rows or none."""
-    from ita.specs import service
+    from ita.part import specfile
 
-    n = service.import_file(_load_part(part_dir), file, replace_all=replace_all)
+    n = specfile.import_file(_load_part(part_dir), file, replace_all=replace_all)
     click.echo(f"imported {n} specs from {file}")
 
 
@@ -203,13 +203,13 @@ def export_cmd(file: Path, kind: str | None, make_dirs: bool, part_dir: Path | N
     """Write the part's specs to FILE (CSV), atomically.
 
     Refuses to write over anything that is not a regular file (a device, a FIFO...)."""
-    from ita.specs import service
+    from ita.part import specfile
 
     part = _load_part(part_dir)
-    specs = service.load(part)
+    specs = specfile.load(part)
     if kind:
         specs = [s for s in specs if s.kind.value == kind]
-    n = service.export_file(part, file, specs, make_dirs=make_dirs)
+    n = specfile.export_file(part, file, specs, make_dirs=make_dirs)
     click.echo(f"exported {n} specs to {file}")
 
 
@@ -224,7 +224,7 @@ def validate_cmd(file: Path | None, max_distance: float, part_dir: Path | None) 
 
     The points are checked against the mesh in chunks, so memory stays bounded however
     long the file (a million rows in under 2 GB); at most 1000 problems are listed."""
-    from ita.specs import service
+    from ita.part import specfile
 
-    n = service.validate_file(_load_part(part_dir), file, max_distance)
+    n = specfile.validate_file(_load_part(part_dir), file, max_distance)
     click.echo(f"ok: {n} specs valid")

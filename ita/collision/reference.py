@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from ita.bullet import import_pybullet
 from ita.collision.arm import urdf_tubes  # noqa: F401  (its home was here; tests import it from here)
 from ita.workcell.frames import homogeneous, matrix_to_quaternion, quaternion_to_matrix
 from ita.workcell.model import Workcell
@@ -42,8 +43,6 @@ class BulletScene:
     LINKS = ("base_link", "link1", "link2", "link3", "link4", "link5", "link6", "flange")
 
     def __init__(self, cell: Workcell, part_mesh: Any | None = None, parked_tools: bool = True) -> None:
-        from ita.sim.quiet import import_pybullet
-
         p = import_pybullet()
         self.p = p
         self.cid = p.connect(p.DIRECT)

@@ -35,6 +35,7 @@ from ita.devices.data import ArmPath
 from ita.executive.adapters import Completion, PoseResolver
 from ita.executive.commands import Command, Reply, Wait
 from ita.kinematics import flange_poses
+from ita.kinematics.settle import joint_translation
 from ita.logic.terms import Term
 from ita.robot import RobotController, ToolChanger, from_waypoints
 
@@ -149,7 +150,6 @@ class ArmDevice:
     def _backed_off(self, q: np.ndarray) -> list[np.ndarray]:
         """Configurations with the tool moved straight back along its axis, away from the
         part, by :data:`BACK_OFF_M` steps, keeping its orientation."""
-        from ita.robot.controller import joint_translation
 
         world = self.world
         tcp = world.held_tool.tcp.matrix() if world.held_tool is not None else np.eye(4)

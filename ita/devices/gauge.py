@@ -46,7 +46,12 @@ class GaugeCommands:
         return Reply.normal("DONE")
 
     def measure(self, command: Command) -> Reply:
-        from ita.sensors.ultrasonic import GaugeException, GaugeFailure, Reading, check_expected
+        from ita.sensors.ultrasonic import (
+            GaugeException,
+            GaugeFailure,
+            Reading,
+            check_expected,
+        )
 
         spec_id = spec_of_message(command.message)
         spec = self.specs.get(spec_id or "")

@@ -47,9 +47,9 @@ from ita.devices.data import MeasuredValue, ScanData, spec_of_message
 from ita.executive.adapters import Completion, PoseResolver
 from ita.executive.commands import Command, Reply, Wait
 from ita.kinematics.fk import flange_poses
+from ita.kinematics.settle import joint_translation
 from ita.logic.terms import Term
 from ita.robot import RobotController, from_waypoints
-from ita.robot.controller import joint_translation
 from ita.sensors.slra_frame import ScanGeometry
 from ita.sim.faults import Fault
 from ita.sim.slra import SlraParams, simulate_frame
@@ -208,8 +208,6 @@ class SlraDevice:
                                           f"calibration block: {valid.mean():.0%} valid pixels"))
 
     def _rescan(self, command: Command, now: float) -> Completion:
-        from ita.robot.controller import joint_translation
-
         world = self.world
         tool = world.held_tool
         spec_id = spec_of_message(command.message) or ""

@@ -37,8 +37,13 @@ from ita.executive.adapters import Completion, PoseResolver
 from ita.executive.commands import Command, Reply
 from ita.logic.terms import Term
 from ita.robot import from_waypoints
-from ita.sensors.ultrasonic import GaugeException, GaugeSpec, interpret, velocity_calibration
-from ita.sim.faults import Fault
+from ita.sensors.ultrasonic import (
+    GaugeException,
+    GaugeSpec,
+    interpret,
+    velocity_calibration,
+)
+from ita.sim.faults import CONTROLLER, GAUGE, STATION, Fault
 
 __all__ = ["CAL_BLOCK_U_MM", "CAL_STEP_MM", "SECONDS", "StationCommands"]
 
@@ -89,7 +94,6 @@ class StationCommands:
         self.world.clock.advance(SECONDS[name])
 
     def _silent(self) -> bool:
-        from ita.robot.controller import CONTROLLER
 
         return self.world.faults.has(Fault.CONTROLLER_SILENT, CONTROLLER)
 
@@ -133,7 +137,6 @@ class StationCommands:
         return Reply.normal(Term("LEVEL", (float(self.gauge_sim.station_level()),)))
 
     def refill(self, command: Command) -> Reply | Completion:
-        from ita.sim.ultrasonic import STATION
 
         self._wait("REFILL")
         self.world.faults = self.world.faults.without(Fault.EMPTY_COUPLANT, STATION)
@@ -162,14 +165,12 @@ class StationCommands:
         return Reply.normal("READY")
 
     def reset(self, command: Command) -> Reply | Completion:
-        from ita.robot.controller import CONTROLLER
 
         self._wait("RESET")
         self.world.faults = self.world.faults.without(Fault.CONTROLLER_SILENT, CONTROLLER)
         return Reply.normal("DONE")
 
     def reseat(self, command: Command) -> Reply | Completion:
-        from ita.sim.ultrasonic import GAUGE
 
         self._wait("RESEAT")
         device = str(command.args[0])

@@ -79,7 +79,7 @@ def classify_reply(kind: str, payload: Any) -> str | None:
 
 def classify(outcome: Any, *, held: str | None, tool: str | None, slra_class: str = "slra_tool",
              tool_class: str | None = None) -> Classified | None:
-    """The exception of a failed measurement's round trip (ita.toplevel.measure
+    """The exception of a failed measurement's round trip (ita.task.measure
     .MeasureOutcome with a failed report), in the context of the tool in hand `held`
     and the measurement's `tool` (of class `tool_class`); None when it did not fail
     with an exception reply or a time-out, or kb/faults.pl has no word for it."""

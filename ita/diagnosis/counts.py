@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from ita.errors import InputError, Location
+from ita.files.atomic import write_json_atomic
 from ita.paths import ita_home
 
 __all__ = ["FaultCounts", "counts_path"]
@@ -72,7 +73,5 @@ class FaultCounts:
 
     def save(self, path: Path | None = None) -> Path:
         """Store the counts atomically."""
-        from ita.sequence.store import write_json_atomic
-
         return write_json_atomic(path or counts_path(), {"causes": dict(sorted(self.causes.items())),
                                                          "exceptions": dict(sorted(self.exceptions.items()))})

@@ -44,10 +44,10 @@ from ita.diagnosis.knowledge import FaultKnowledge
 from ita.diagnosis.tests import Situation, TestBench, TestRun
 from ita.logic.terms import Term, Var
 from ita.planning.operation import format_term
-from ita.toplevel.measure import MeasureOutcome, MeasureStatus, execute_measurement
+from ita.task.measure import MeasureOutcome, MeasureStatus, execute_measurement
 
 if TYPE_CHECKING:
-    from ita.toplevel.session import Session
+    from ita.task.session import Session
 
 __all__ = ["PERSON_SECONDS", "Diagnosis", "ExceptionHandler", "Handled"]
 
@@ -348,7 +348,7 @@ class ExceptionHandler:
         tool the rules choose now (none: not done): by plan repair or by replanning, as
         kb/faults.pl recovery_way/3 says from the two plans' lengths."""
         from ita.planning import NoPlanError
-        from ita.toplevel.measure import placement_problem
+        from ita.task.measure import placement_problem
 
         s = self.session
         arm = situation.state.arm

@@ -42,12 +42,12 @@ from ita.diagnosis.classify import classify_reply
 from ita.logic.terms import Term
 from ita.planning.state import WorldState
 from ita.specs.model import Tool, is_ultrasonic
-from ita.toplevel.measure import MeasureOutcome, MeasureStatus, execute_goals, measure_one
+from ita.task.measure import MeasureOutcome, MeasureStatus, execute_goals, measure_one
 
 if TYPE_CHECKING:
     from ita.executive import ExecutionReport
     from ita.planning import OperationPlan
-    from ita.toplevel.session import Session
+    from ita.task.session import Session
 
 __all__ = ["Situation", "TestBench", "TestRun"]
 
@@ -257,7 +257,7 @@ class TestBench:
 
     def execute_goals(self, goals: list[Any], state: WorldState, *, name: str = ""
                       ) -> tuple[Any, Any, WorldState, str]:
-        """Plan `goals` from `state` and run the plan (ita.toplevel.measure.execute_goals)."""
+        """Plan `goals` from `state` and run the plan (ita.task.measure.execute_goals)."""
         return execute_goals(self.session, goals, state, name=name)
 
     def _outcome(self, test: str, report: Any) -> str:

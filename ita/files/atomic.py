@@ -24,15 +24,17 @@ from __future__ import annotations
 
 import contextlib
 import fcntl
+import json
 import os
 import stat
 import tempfile
 from collections.abc import Callable, Iterator
 from pathlib import Path
+from typing import Any
 
 from ita.errors import InputError, Location, NoSpaceLeft
 
-__all__ = ["output_path", "write_atomic", "write_with", "locked"]
+__all__ = ["output_path", "write_atomic", "write_json_atomic", "write_with", "locked", "store_name"]
 
 
 def _refuse(path: Path | str, what: str, message: str) -> InputError:
@@ -99,6 +101,18 @@ def write_atomic(path: Path | str, content: str | bytes, *, what: str = "",
             os.fsync(handle.fileno())
 
     return write_with(path, dump, what=what, make_dirs=make_dirs)
+
+
+def write_json_atomic(path: Path | str, data: Any, *, what: str = "") -> Path:
+    """Write `data` as JSON (indented, one trailing newline) to `path` atomically, making
+    its directory when missing (a store); returns the file written."""
+    return write_atomic(path, json.dumps(data, indent=1) + "\n", what=what, make_dirs=True)
+
+
+def store_name(name: str) -> str:
+    """`name` (a part's) as a file name of a store: letters, digits, ``-``, ``_`` and
+    ``.`` kept, anything else ``_`` (``part`` when nothing is left)."""
+    return "".join(c if c.isalnum() or c in "-_." else "_" for c in name) or "part"
 
 
 def write_with(path: Path | str, writer: Callable[[Path], None], *, what: str = "",

@@ -39,7 +39,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ita.collision import TIP_CLEARANCE, arm_tubes
-from ita.geometry.configurations import ROLLS, candidate_poses, contact_poses, measurement_configurations
+from ita.geometry.configurations import (
+    ROLLS,
+    candidate_poses,
+    contact_poses,
+    measurement_configurations,
+)
 from ita.geometry.mkb import MKB_VERSION, MeasurementKB, MkbEntry, ViewGroup
 from ita.kinematics import (
     arm_model,
@@ -54,7 +59,7 @@ from ita.kinematics import (
 )
 from ita.path import planners_for as make
 from ita.specs.model import MeasurementSpec
-from ita.vision.context import VisionContext
+from ita.vision.for_part import vision_context
 from ita.vision.scan import MAX_RASTER, MIN_HOLE_PIXELS, RASTER_STEP, scan_for
 
 if TYPE_CHECKING:
@@ -463,7 +468,7 @@ def build_mkb(
                 found = _probe_entries(cell, tool, tool_specs, planner)
             else:
                 if "vctx" not in vctx_cache:
-                    vctx_cache["vctx"] = VisionContext.from_part(part, cell, tool=tool_name, specs=list(specs))
+                    vctx_cache["vctx"] = vision_context(part, cell, tool=tool_name, specs=list(specs))
                 found, made = _slra_entries(cell, tool, tool_specs, vctx_cache["vctx"], planner)
                 groups.update({g.id: g for g in made})
             entries.update({e.spec_id: e for e in found})

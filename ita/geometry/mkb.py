@@ -35,6 +35,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from ita.files.atomic import store_name, write_json_atomic
 from ita.paths import ita_home
 
 FloatArray = NDArray[np.float64]
@@ -225,14 +226,11 @@ class MeasurementKB:
 
 def mkb_path(part_name: str) -> Path:
     """Where the MKB of part `part_name` is stored: ``ita_home()/mkb/<part>.json``."""
-    safe = "".join(c if c.isalnum() or c in "-_." else "_" for c in part_name) or "part"
-    return ita_home() / "mkb" / f"{safe}.json"
+    return ita_home() / "mkb" / f"{store_name(part_name)}.json"
 
 
 def save_mkb(mkb: MeasurementKB, path: Path | None = None) -> Path:
     """Store `mkb` atomically (default :func:`mkb_path`); returns the path."""
-    from ita.sequence.store import write_json_atomic
-
     return write_json_atomic(path or mkb_path(mkb.part), mkb.to_dict())
 
 

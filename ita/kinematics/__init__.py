@@ -15,7 +15,12 @@ every angle in radians.
     cost = move_time_matrix(model, q[found])                           # (m, m) seconds
 """
 
-from ita.kinematics.choice import choose_centred, choose_nearest, limit_margin, reachable
+from ita.kinematics.choice import (
+    choose_centred,
+    choose_nearest,
+    limit_margin,
+    reachable,
+)
 from ita.kinematics.fk import (
     JOINT_LIMIT_TOL,
     ArmModel,
@@ -28,7 +33,14 @@ from ita.kinematics.fk import (
     link_segments,
     tcp_poses,
 )
-from ita.kinematics.ik import IK_STATUS_DESCRIPTIONS, IKSolutions, IKStatus, ik_flange, ik_tool, slot_count
+from ita.kinematics.ik import (
+    IK_STATUS_DESCRIPTIONS,
+    IKSolutions,
+    IKStatus,
+    ik_flange,
+    ik_tool,
+    slot_count,
+)
 from ita.kinematics.timing import joint_times, move_time, move_time_matrix
 from ita.kinematics.tool_poses import (
     DEFAULT_ROLLS,

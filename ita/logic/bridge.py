@@ -80,7 +80,9 @@ class _Engine:
     """
 
     def __init__(self) -> None:
-        from pyswip import core  # the one pyswip import of the project (initialises Prolog)
+        from pyswip import (
+            core,  # the one pyswip import of the project (initialises Prolog)
+        )
 
         self._core = core
         self._lock = threading.RLock()

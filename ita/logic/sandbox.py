@@ -42,8 +42,21 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from ita.errors import ItaError, KBLoadError, Location, PrologError, QueryLimitExceeded, QueryRefused
-from ita.logic.confine import Jail, RLimits, Unconfinable, await_namespace_end, namespace_pid
+from ita.errors import (
+    ItaError,
+    KBLoadError,
+    Location,
+    PrologError,
+    QueryLimitExceeded,
+    QueryRefused,
+)
+from ita.logic.confine import (
+    Jail,
+    RLimits,
+    Unconfinable,
+    await_namespace_end,
+    namespace_pid,
+)
 from ita.logic.model import ProofNode, QueryResult
 from ita.paths import resource_dir
 

@@ -142,7 +142,7 @@ def prepare_inspection(ctx: Any, part: Any, *, progress: Callable[[str], None] =
 
     The plan is reused when its specs digest is current; the MKB when its digest (specs
     and workcell) is.  `force` remakes both.  `calibrate`: a user part's SLRA calibration
-    on its master is made when missing or stale (ita.sim.master).
+    on its master is made when missing or stale (ita.offline.master).
     """
     from dataclasses import replace as _replace
 
@@ -198,7 +198,7 @@ def prepare_inspection(ctx: Any, part: Any, *, progress: Callable[[str], None] =
         save_plan(plan)
         mkb = make_mkb(plan, reuse=mkb)
     cannot = list(plan.cannot) + [(e.spec_id, e.status) for e in mkb.problems()]
-    from ita.sim.master import ensure_master_calibration
+    from ita.offline.master import ensure_master_calibration
 
     calibration = ensure_master_calibration(part, ctx.workcell, ctx.part_name, progress, force, mkb=mkb) \
         if calibrate else "not checked"
@@ -259,9 +259,9 @@ def prepare(part_dir: Path | None, progress: Callable[[str], None] = lambda _msg
     """
     from ita.logic.bridge import KnowledgeBase
     from ita.offline.spec_reach import spec_reach
+    from ita.part import specfile
     from ita.part.store import load_part
     from ita.part.summary import summarize
-    from ita.specs import service
     from ita.workcell import workcell_for
 
     seconds: list[tuple[str, float]] = []
@@ -274,8 +274,8 @@ def prepare(part_dir: Path | None, progress: Callable[[str], None] = lambda _msg
         return value
 
     part = step("part", "building/loading the part", lambda: load_part(part_dir))
-    step("specs", "validating the specs against the part", lambda: service.validate_file(part))
-    specs = service.load(part)
+    step("specs", "validating the specs against the part", lambda: specfile.validate_file(part))
+    specs = specfile.load(part)
     kb = step("knowledge_bases", "loading the knowledge bases", KnowledgeBase)
     diagnostics = step("kb_check", "checking the knowledge bases", kb.check)
     predicates = kb.list_predicates()

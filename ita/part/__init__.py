@@ -6,7 +6,16 @@ Public entry points: `load_part(dir | None)` (ita.part.store), `generate(params)
 and the scoring may import; this package does not import it.
 """
 
-from ita.part.model import Feature, FeatureKind, FlangeSegment, Hole, HoleRole, Part, Pocket, Stiffener
+from ita.part.model import (
+    Feature,
+    FeatureKind,
+    FlangeSegment,
+    Hole,
+    HoleRole,
+    Part,
+    Pocket,
+    Stiffener,
+)
 
 __all__ = [
     "Feature", "FeatureKind", "FlangeSegment", "Hole", "HoleRole", "Part", "Pocket", "Stiffener",

@@ -239,10 +239,10 @@ def _check_generated(tmp: Path, params_path: Path) -> None:
     """A generated part whose specs leave its own surface (parameters the layout does not
     fit: an opening across the ribs, ribs too close for a pocket) is refused, naming the
     parameter file and the first specs that are off."""
-    from ita.specs import service
+    from ita.part import specfile
 
     try:
-        service.validate_file(load_part(tmp))
+        specfile.validate_file(load_part(tmp))
     except InputError as exc:
         problems = list(exc.problems)
         raise InputError([(Location(str(params_path)), f"these parameters make a part whose specs leave its surface "

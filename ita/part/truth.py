@@ -26,7 +26,16 @@ from ita.errors import InputError, Location
 from ita.part.bulkhead import GeneratedPart
 from ita.part.mesh import build_mesh
 from ita.part.meshfile import read_mesh
-from ita.part.model import Feature, FlangeSegment, Hole, HoleRole, Pocket, Stiffener, feature_from_dict, feature_to_dict
+from ita.part.model import (
+    Feature,
+    FlangeSegment,
+    Hole,
+    HoleRole,
+    Pocket,
+    Stiffener,
+    feature_from_dict,
+    feature_to_dict,
+)
 from ita.part.params import Tolerance
 from ita.specs.model import MeasurementKind as K
 from ita.specs.model import MeasurementSpec

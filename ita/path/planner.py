@@ -42,7 +42,15 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ita.collision import ArmChecker, ArmTubes, RegionTree, arm_tubes, build_tree, self_pairs, tool_tube
+from ita.collision import (
+    ArmChecker,
+    ArmTubes,
+    RegionTree,
+    arm_tubes,
+    build_tree,
+    self_pairs,
+    tool_tube,
+)
 from ita.kinematics import (
     ArmModel,
     arm_model,
@@ -53,7 +61,12 @@ from ita.kinematics import (
 from ita.path.lift import Effort, Lifter, lever_arms, lift_route
 from ita.path.motion import ConfigChecker, MotionChecker
 from ita.path.sampling import rrt_connect
-from ita.path.smooth import estimate_durations, reshape_path, shortcut, time_parameterize
+from ita.path.smooth import (
+    estimate_durations,
+    reshape_path,
+    shortcut,
+    time_parameterize,
+)
 from ita.path.trajectory import TimedTrajectory
 from ita.path.visibility import VisibilityGraph, build_graph
 from ita.workcell.model import HOME_Q, ToolSpec, Workcell

@@ -22,6 +22,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Callable
 
 from ita.errors import ItaError, NoSpaceLeft, PrologError
+from ita.files.atomic import store_name
 from ita.logic.terms import Term, Var
 from ita.paths import ita_home
 from ita.planning.state import NOTHING, Place, PoseKind, QualitativePose, WorldState
@@ -45,8 +46,7 @@ __all__ = [
 
 def store_path(part_name: str) -> Path:
     """Where the learned MACROPs of part `part_name` live: ``$ITA_HOME/macrops/<name>.pl``."""
-    safe = "".join(c if c.isalnum() or c in "-_." else "_" for c in part_name) or "part"
-    return ita_home() / "macrops" / f"{safe}.pl"
+    return ita_home() / "macrops" / f"{store_name(part_name)}.pl"
 
 
 class NoPlanError(ItaError):

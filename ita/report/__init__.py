@@ -22,7 +22,15 @@ from typing import Any
 
 from ita.archive.store import Archive
 from ita.errors import InputError, Location
-from ita.report.data import GOAL_HOURS, MANUAL_HOURS, ReportData, Summary, Verdict, collect, summarize
+from ita.report.data import (
+    GOAL_HOURS,
+    MANUAL_HOURS,
+    ReportData,
+    Summary,
+    Verdict,
+    collect,
+    summarize,
+)
 
 __all__ = ["FORMATS", "GOAL_HOURS", "MANUAL_HOURS", "ReportData", "Summary", "Verdict", "build_pdf",
            "build_report", "collect", "report_format", "summarize", "write_report"]

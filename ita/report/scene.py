@@ -42,15 +42,15 @@ class PartScene:
     def load(cls, part_dir: Path | str | None) -> PartScene:
         """The scene of the part in `part_dir` (None: the built-in bulkhead)."""
         from ita.kinematics import arm_model
+        from ita.part import specfile
         from ita.part.store import load_part
-        from ita.specs import service
         from ita.workcell import workcell_for
 
         part = load_part(None if part_dir is None else Path(part_dir))
         mesh = part.mesh
         cell = workcell_for(part.directory, part.mesh.bounds)
         return cls(part.directory, (np.asarray(mesh.vertices, dtype=float), np.asarray(mesh.faces, dtype=int)),
-                   tuple(service.load(part)), cell, arm_model(cell.arm))
+                   tuple(specfile.load(part)), cell, arm_model(cell.arm))
 
     def boxes(self) -> list[tuple[np.ndarray, np.ndarray]]:
         """The workcell's fixed boxes as meshes (world m), the floor left out."""

@@ -9,25 +9,15 @@ Every command answers with a `MotionReply`: DONE with the time taken, or an exce
 (BUMP, TIMEOUT, JOINT_LIMIT, REJECTED) saying what went wrong; nothing is raised.
 """
 
-from ita.robot.controller import (
-    CONTROLLER,
-    MotionReply,
-    MotionStatus,
-    RobotController,
-    joint_offset,
-    joint_translation,
-)
+from ita.robot.controller import MotionReply, MotionStatus, RobotController
 from ita.robot.toolchanger import ToolChanger
 from ita.robot.waypoints import TimedTrajectory, from_waypoints
 
 __all__ = [
-    "CONTROLLER",
     "MotionReply",
     "MotionStatus",
     "RobotController",
     "TimedTrajectory",
     "ToolChanger",
     "from_waypoints",
-    "joint_offset",
-    "joint_translation",
 ]

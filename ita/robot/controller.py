@@ -27,15 +27,15 @@ from dataclasses import dataclass, replace
 from enum import Enum
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import NDArray
 
-from ita.kinematics import JOINT_LIMIT_TOL, ArmModel, flange_poses, frame_segments, link_frames
+from ita.kinematics import JOINT_LIMIT_TOL, frame_segments, link_frames
+from ita.kinematics.settle import settled
 from ita.robot.waypoints import TimedTrajectory
-from ita.sim.faults import Fault
+from ita.sim.faults import CONTROLLER, Fault
 from ita.sim.world import Contact, SimWorld, tool_shapes
 
 FloatArray = NDArray[np.float64]
-CONTROLLER = "controller"       # the fault target naming the robot controller
 _START_TOLERANCE = 0.01         # rad: how far a trajectory may start from the arm's joints
 _SPEED_TOLERANCE = 1e-6         # relative: a speed this little over the limit is rounding
 
@@ -263,54 +263,6 @@ class RobotController:
         """The held tool's TCP (4, 4) in the flange frame (the flange without a tool)."""
         tool = self.world.held_tool
         return tool.tcp.matrix() if tool is not None else np.eye(4)
-
-
-def settled(model: ArmModel, q: ArrayLike, tcp: ArrayLike, offset: ArrayLike) -> FloatArray:
-    """The joints (6,) an arm sent to q settles at when its TCP (4, 4 in the flange frame)
-    ends off by the world offset (3,) m: the least-norm joint change (joint_offset), which
-    turns the tool a little too, never past a joint's limit.  The SLRA's calibration on a
-    part's master draws its frames' pose errors through this too (ita.sim.master)."""
-    q = np.asarray(q, dtype=float)
-    return np.clip(q + joint_offset(model, q, tcp, offset), model.lower, model.upper)
-
-
-def joint_offset(model: ArmModel, q: ArrayLike, tcp: ArrayLike, offset: ArrayLike) -> FloatArray:
-    """The least-norm joint change (6,) that moves the TCP (4, 4 in the flange frame) at
-    joints q (6,) by the small world offset (3,) m (position Jacobian pseudo-inverse)."""
-    q = np.asarray(q, dtype=float)
-    eps = 1e-6
-    qs = np.vstack([q, q + eps * np.eye(model.dof)])
-    points = (flange_poses(model, qs) @ np.asarray(tcp, dtype=float))[:, :3, 3]
-    jac = ((points[1:] - points[0]) / eps).T                     # (3, 6)
-    return np.linalg.pinv(jac) @ np.asarray(offset, dtype=float)
-
-
-def joint_translation(model: ArmModel, q: ArrayLike, tcp: ArrayLike, offset: ArrayLike,
-                      iterations: int = 5) -> FloatArray:
-    """The joint change (6,) that moves the TCP (4, 4 in the flange frame) at joints q (6,)
-    by the world offset (3,) m keeping its orientation: Newton steps on the position and
-    rotation error together (a least-norm position step alone turns the tool by a degree or
-    two over a few centimetres)."""
-    q0 = np.asarray(q, dtype=float)
-    tcp = np.asarray(tcp, dtype=float)
-    start = flange_poses(model, q0[None])[0] @ tcp
-    target, rot0 = start[:3, 3] + np.asarray(offset, dtype=float), start[:3, :3]
-
-    def error(pose: FloatArray) -> FloatArray:
-        m = rot0.T @ pose[:3, :3]
-        return np.concatenate([pose[:3, 3] - target, 0.5 * np.array([m[2, 1] - m[1, 2], m[0, 2] - m[2, 0],
-                                                                       m[1, 0] - m[0, 1]])])
-
-    eps = 1e-6
-    qk = q0.copy()
-    for _ in range(iterations):
-        poses = flange_poses(model, np.vstack([qk, qk + eps * np.eye(model.dof)])) @ tcp
-        e0 = error(poses[0])
-        if float(np.abs(e0).max()) < 1e-9:
-            break
-        jac = np.stack([(error(p) - e0) / eps for p in poses[1:]], axis=1)       # (6, 6)
-        qk = qk - np.linalg.pinv(jac) @ e0
-    return qk - q0
 
 
 def _unit(v: FloatArray) -> FloatArray:

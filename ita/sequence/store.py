@@ -20,6 +20,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from ita.errors import InputError, ItaError, Location
+from ita.files.atomic import store_name, write_json_atomic
 from ita.paths import ita_home
 from ita.sequence.plan import PLAN_VERSION, PlannedGroup, SequencePlan
 
@@ -53,8 +54,7 @@ def plans_dir() -> Path:
 
 def plan_path(part_name: str) -> Path:
     """Where the plan of part `part_name` is stored."""
-    safe = "".join(c if c.isalnum() or c in "-_." else "_" for c in part_name) or "part"
-    return plans_dir() / f"{safe}.json"
+    return plans_dir() / f"{store_name(part_name)}.json"
 
 
 def tool_marks_path() -> Path:
@@ -62,13 +62,6 @@ def tool_marks_path() -> Path:
     path = ita_home() / "world"
     path.mkdir(parents=True, exist_ok=True)
     return path / "tools.json"
-
-
-def write_json_atomic(path: Path, data: Any) -> Path:
-    """Write `data` as JSON to `path` atomically (ita.files.atomic); returns the path."""
-    from ita.files.atomic import write_atomic
-
-    return write_atomic(path, json.dumps(data, indent=1) + "\n", make_dirs=True)
 
 
 def _read_json(path: Path) -> Any:

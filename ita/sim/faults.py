@@ -29,6 +29,11 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 from enum import Enum
 
+#: the fault targets that are no tool: the robot controller, the gauge box, the couplant station
+CONTROLLER = "controller"
+GAUGE = "us_gauge"
+STATION = "couplant_station"
+
 
 class Fault(str, Enum):
     """A fault that can be switched on.  The value is the spelling in files and Prolog."""

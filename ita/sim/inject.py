@@ -31,7 +31,7 @@ from typing import Any
 import numpy as np
 
 from ita.errors import InputError, Location
-from ita.sim.faults import Fault
+from ita.sim.faults import CONTROLLER, GAUGE, STATION, Fault
 
 __all__ = ["INJECTABLE", "InjectionPlan", "FaultInjector", "Scripted", "injected_log"]
 
@@ -156,9 +156,6 @@ class FaultInjector:
         self._switch_on(fault, target, command)
 
     def _default_target(self, fault: str, kind: str) -> str | None:
-        from ita.robot.controller import CONTROLLER
-        from ita.sim.ultrasonic import GAUGE, STATION
-
         held = self.world.held
         if fault in ("broken_probe", "worn_probe", "dry_couplant"):
             tool = self.world.held_tool

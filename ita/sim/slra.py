@@ -49,7 +49,12 @@ from scipy.special import ndtr
 
 from ita.cores import SecondCore
 from ita.part.model import Hole
-from ita.sensors.slra_frame import SPEED_OF_LIGHT, RangeFrame, ScanGeometry, rotate_directions
+from ita.sensors.slra_frame import (
+    SPEED_OF_LIGHT,
+    RangeFrame,
+    ScanGeometry,
+    rotate_directions,
+)
 from ita.workcell.model import Box, PartPlacement, Workcell
 
 FloatArray = NDArray[np.float64]

@@ -50,12 +50,10 @@ from ita.sensors.ultrasonic import (
     Dispensed,
     RawEcho,
 )
-from ita.sim.faults import Fault
+from ita.sim.faults import GAUGE, STATION, Fault
 from ita.sim.world import CouplantSpot, SimWorld
 
 FloatArray = NDArray[np.float64]
-GAUGE = "us_gauge"          # the fault target naming the gauge box
-STATION = "couplant_station"  # the fault target naming the couplant station
 _LEAD_MM = 30.0             # the ray starts this far before the free tip
 
 

@@ -35,9 +35,9 @@ import numpy as np
 import trimesh
 from numpy.typing import NDArray
 
+from ita.bullet import import_pybullet
 from ita.kinematics import ArmModel, arm_model, flange_poses, link_frames
 from ita.sim.faults import FaultSet
-from ita.sim.quiet import import_pybullet
 from ita.workcell import Box, Pose, ToolSpec, Workcell, load_workcell
 from ita.workcell.frames import matrix_to_quaternion
 from ita.workcell.model import TIP_CLEARANCE

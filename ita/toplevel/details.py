@@ -26,8 +26,8 @@ from ita.archive import StoredFrame
 from ita.devices.data import ArmPath, MeasuredValue, ScanData, arm_paths
 
 if TYPE_CHECKING:
-    from ita.toplevel.measure import MeasureOutcome
-    from ita.toplevel.session import Session
+    from ita.task.measure import MeasureOutcome
+    from ita.task.session import Session
 
 __all__ = ["MeasurementDetails", "measurement_details", "vision_overlay"]
 

@@ -9,7 +9,7 @@ The loop (seed, "Top Level"): the next measurement from the Sequence Planner
 the Operation Planner with the tool the Sequence Planner chose (MACROP lookup first), from
 the world state the previous plan left; its execution by the Plan Executive on the
 devices (ita.devices), the Geometric Reasoner resolving the plan's qualitative poses from
-the MKB (one round trip: :func:`ita.toplevel.measure.measure_one`); the result to the
+the MKB (one round trip: :func:`ita.task.measure.measure_one`); the result to the
 archive the moment it exists, with the plan's events, in one transaction.  An exception
 reply or a time-out: the measurement is recorded not done with the reason, the world
 state is taken from the steps that did complete, the arm is freed if it is stuck, and the
@@ -59,18 +59,24 @@ from ita.devices.stations import CAL_STEP_MM
 from ita.logic.terms import Term
 from ita.planning.state import WorldState
 from ita.sequence.next_step import next_step, the_arm
+from ita.task.measure import (
+    MeasureOutcome,
+    MeasureStatus,
+    execute_goals,
+    measure_one,
+    placement_problem,
+)
 from ita.toplevel.details import measurement_details
 from ita.toplevel.events import archive_events
 from ita.toplevel.heights import EVENT_KIND as HEIGHT_EVENT
 from ita.toplevel.heights import HEIGHT_KINDS, HeightPending, decide_height, web_specs
-from ita.toplevel.measure import MeasureOutcome, MeasureStatus, execute_goals, measure_one, placement_problem
 from ita.toplevel.network import EVENT_KIND, Pending, decide, network_key
 from ita.toplevel.signals import RunSignals, StopNow
 
 if TYPE_CHECKING:
     from ita.archive import Archive
     from ita.sequence.next_step import Step
-    from ita.toplevel.session import Session
+    from ita.task.session import Session
 
 __all__ = ["Progress", "RunSummary", "TopLevel", "start_run", "why_uncertain"]
 

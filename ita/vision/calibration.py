@@ -107,7 +107,7 @@ def class_of(kind: K, feature: Any, diagnostics: Mapping[str, Any]) -> str | Non
 
 
 def spec_class(spec_id: str) -> str:
-    """The class of one spec of a part calibrated on its own master (ita.sim.master)."""
+    """The class of one spec of a part calibrated on its own master (ita.offline.master)."""
     return f"spec/{spec_id}"
 
 

@@ -11,15 +11,20 @@ import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from enum import Enum
-from typing import Any, Union
+from typing import TYPE_CHECKING, Any, Union
 
 import numpy as np
 from numpy.typing import NDArray
 
 from ita.part import geometry2d as g2
+from ita.part.infer import MeshRays
 from ita.part.model import Feature, Hole, HoleRole, Pocket
 from ita.specs.model import MeasurementKind as K
+from ita.vision.patches import Views
 from ita.workcell.model import PartPlacement
+
+if TYPE_CHECKING:
+    from ita.vision.calibration import SlraCalibration
 
 FloatArray = NDArray[np.float64]
 
@@ -172,31 +177,9 @@ class VisionContext:
     shape: tuple[int, int] = (256, 256)
     pose_datum_frames: int = POSE_DATUM_FRAMES
     diameter_tolerances: Mapping[str, float] = field(default_factory=dict)
-    calibration: Any = None
-    floor: Any = None
-    views: Any = field(default_factory=lambda: _views(), compare=False, repr=False)
-
-    @classmethod
-    def from_part(cls, part: Any, workcell: Any, tool: str = "slra_1", specs: Any = None) -> VisionContext:
-        """Context of a loaded Part in a Workcell (specs: default read from the part), with
-        the cell's SLRA calibration."""
-        from ita.specs.io import read_specs
-        from ita.vision.calibration import SlraCalibration
-
-        specs = read_specs(part.specs_path) if specs is None else specs
-        t = workcell.tool(tool)
-        web = [s.upper for s in specs if s.kind is K.WEB_THICKNESS]
-        zones = {s.feature: s.upper for s in specs if s.kind is K.HOLE_POSITION}
-        diameters = {s.feature: (s.upper - s.lower) / 2 for s in specs if s.kind is K.HOLE_DIAMETER}
-        features = {f.id: f for f in part.features}
-        floor = None if any(isinstance(f, Pocket) for f in features.values()) else MeshFloor(part.mesh)
-        # the cell's calibration stands for generated bulkheads (its reference workpieces);
-        # another part has its own, on its master (ita part calibrate), or none
-        calibration = (SlraCalibration.load() if _like_the_references(part) else
-                       SlraCalibration.load(part_calibration_path(part.directory)))
-        return cls(features, workcell.part, t.standoff_nominal, tuple(t.fov_deg),
-                   max(web) if web else 0.127, zones, workcell.arm.repeatability_m / 3,
-                   diameter_tolerances=diameters, calibration=calibration, floor=floor)
+    calibration: SlraCalibration | None = None
+    floor: MeshFloor | None = None
+    views: Views = field(default_factory=Views, compare=False, repr=False)
 
     def pockets(self) -> list[Pocket]:
         return [f for f in self.features.values() if isinstance(f, Pocket)]
@@ -217,32 +200,10 @@ class VisionContext:
         return None if self.floor is None else self.floor.region(xy)
 
 
-def _views() -> Any:
-    """A fresh cache of Views (ita.vision.patches.Views: the frames of one view group)."""
-    from ita.vision.patches import Views
-
-    return Views()
-
-
-def part_calibration_path(part_directory: Any) -> Any:
-    """A user part's own SLRA calibration, made on its master (`ita part calibrate`)."""
-    from pathlib import Path
-
-    return Path(part_directory) / "slra_calibration.json"
-
-
-def _like_the_references(part: Any) -> bool:
-    """Whether the part is of the kind the SLRA's calibration study measured: a bulkhead
-    from the generator (part.json says so), not a user's own mesh."""
-    return (getattr(part, "metadata", None) or {}).get("generator") == "ita.part.bulkhead"
-
-
 class MeshFloor:
     """Heights of a nominal mesh's upward faces seen from above (mm, part frame)."""
 
     def __init__(self, mesh: Any):
-        from ita.part.infer import MeshRays
-
         self.top = float(np.asarray(mesh.bounds)[1, 2]) + 10.0
         self.rays = MeshRays(mesh)
 

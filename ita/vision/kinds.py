@@ -31,7 +31,15 @@ from ita.vision.fit import (
 )
 from ita.vision.patches import Patch, View, nominal_points
 from ita.vision.register import neighbour_rims, register_on_rims, rib_beneath
-from ita.vision.rims import edge_sigma, fit_edge, fit_face, fit_rim, frame_uv, free_edge, rect_patch
+from ita.vision.rims import (
+    edge_sigma,
+    fit_edge,
+    fit_face,
+    fit_rim,
+    frame_uv,
+    free_edge,
+    rect_patch,
+)
 
 FloatArray = NDArray[np.float64]
 

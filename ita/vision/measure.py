@@ -6,7 +6,7 @@ Modules: :mod:`~ita.vision.context` (context, replies, constants), :mod:`~ita.vi
 :mod:`~ita.vision.register` (fastener registration on neighbours), :mod:`~ita.vision.kinds`
 (the measurers per kind); this module measures a spec in one frame or several.
 
-    ctx = VisionContext.from_part(part, workcell)
+    ctx = vision_context(part, workcell)
     geometry = scan_for(spec, ctx)             # the window Vision wants the SLRA to scan
     plan = frames_for(spec, ctx)               # how many approaches (frames) it needs
     reply = measure(frame, spec, ctx)          # VisionResult | VisionException
@@ -83,7 +83,14 @@ from ita.sensors.slra_frame import RangeFrame
 from ita.specs.model import MeasurementKind as K
 from ita.specs.model import MeasurementSpec
 from ita.vision.calibration import SlraCalibration
-from ita.vision.context import VisionContext, VisionException, VisionFail, VisionFailure, VisionReply, VisionResult
+from ita.vision.context import (
+    VisionContext,
+    VisionException,
+    VisionFail,
+    VisionFailure,
+    VisionReply,
+    VisionResult,
+)
 from ita.vision.kinds import MEASURERS
 
 FloatArray = NDArray[np.float64]

@@ -40,7 +40,13 @@ from starlette.applications import Starlette
 from starlette.concurrency import run_in_threadpool
 from starlette.middleware import Middleware
 from starlette.requests import Request
-from starlette.responses import FileResponse, HTMLResponse, JSONResponse, Response, StreamingResponse
+from starlette.responses import (
+    FileResponse,
+    HTMLResponse,
+    JSONResponse,
+    Response,
+    StreamingResponse,
+)
 from starlette.routing import Route
 
 from ita.archive import Archive, ArchiveError, NoArchive, UnknownRun, archive_path
@@ -48,7 +54,13 @@ from ita.errors import InputError, ItaError
 from ita.report.assets import asset_path
 from ita.report.data import COLUMNS, STATUS_COLOURS, collect, jsonable, result_row
 from ita.web import pages
-from ita.web.bodies import BadRequest, control_command, json_object, spec_count, start_request
+from ita.web.bodies import (
+    BadRequest,
+    control_command,
+    json_object,
+    spec_count,
+    start_request,
+)
 from ita.web.guard import LOG, Guard, printable
 from ita.web.runner import Processes
 

@@ -8,6 +8,7 @@ from typing import Mapping, Protocol, Sequence
 
 from ita.errors import InputError, Location
 from ita.files.atomic import locked
+from ita.part.infer import infer_features
 from ita.specs import edit
 from ita.specs.io import read_spec_table, write_specs
 from ita.specs.model import MeasurementSpec
@@ -51,8 +52,6 @@ def feature_problems(part: PartLike, specs: Sequence[MeasurementSpec], file: str
 
 def _unfound(part: PartLike, specs: Sequence[MeasurementSpec]) -> tuple:
     """ita.part.infer.NotFound of `specs` against the part's features.json and its mesh."""
-    from ita.part.infer import infer_features
-
     found = set(getattr(part, "found", ()))
     known = {f.id: f for f in getattr(part, "features", ()) if f.id not in found}
     return infer_features(part.mesh, specs, known)[1]

@@ -7,7 +7,7 @@ from collections import Counter
 import numpy as np
 import pytest
 
-from ita.sim.master import MIN_KIND_FRAMES, repeats_for, scatter_pools, spec_classes
+from ita.offline.master import MIN_KIND_FRAMES, repeats_for, scatter_pools, spec_classes
 from ita.specs.model import MeasurementKind as K
 from ita.specs.model import MeasurementSpec
 
@@ -46,8 +46,8 @@ def test_the_masters_frames_are_posed_as_the_controller_settles():
     axis) through the controller's own least-norm joint change, which turns the tool too
     (more than the drawn rotation the master used before, at such a pose)."""
     from ita.kinematics import arm_model, flange_poses
-    from ita.robot.controller import settled
-    from ita.sim.master import ROTATION_SIGMA, _settled_pose
+    from ita.kinematics.settle import settled
+    from ita.offline.master import ROTATION_SIGMA, _settled_pose
     from ita.workcell import load_workcell
 
     cell = load_workcell()

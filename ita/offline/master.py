@@ -23,6 +23,7 @@ tolerances, far smaller than the features; a perturbed as-built part measures it
 
 from __future__ import annotations
 
+import json
 import math
 from collections import Counter, defaultdict
 from collections.abc import Callable, Sequence
@@ -31,6 +32,7 @@ from typing import Any
 
 import numpy as np
 
+from ita.files.atomic import write_json_atomic
 from ita.kinematics.tool_poses import measurement_poses
 from ita.sensors.slra_frame import ScanGeometry
 from ita.sim.slra import SlraParams, SlraScene, pose_error, simulate_frame
@@ -45,7 +47,11 @@ from ita.vision.calibration import (
     coverage_level,
     spec_class,
 )
-from ita.vision.context import VisionContext
+from ita.vision.for_part import (
+    like_the_references,
+    part_calibration_path,
+    vision_context,
+)
 from ita.vision.measure import measure_frames
 from ita.vision.scan import scan_for
 
@@ -71,7 +77,7 @@ def master_errors(part: Any, workcell: Any, specs: Sequence[MeasurementSpec], re
     features = {f.id: f for f in part.features}
     certificate = mesh_values(part.mesh, specs, features)
     scene = SlraScene(part.mesh, workcell.part, tuple(workcell.static_boxes()))
-    ctx = replace(VisionContext.from_part(part, workcell, specs=list(specs)), calibration=SlraCalibration())
+    ctx = replace(vision_context(part, workcell, specs=list(specs)), calibration=SlraCalibration())
     tool = next(t for t in workcell.tools if t.tool_class.value == "slra_tool")
     params = SlraParams()
     rng = np.random.default_rng([seed, 7])
@@ -115,7 +121,7 @@ def _settled_pose(workcell: Any, tool: Any) -> Callable[[Any, Any, np.random.Gen
     turns the tool too: 0.12 to 0.15 mrad rms at the box's views, where the drawn rotation
     of ROTATION_SIGMA per axis gives 0.09); without, a drawn translation and rotation."""
     from ita.kinematics import arm_model, flange_poses
-    from ita.robot.controller import settled
+    from ita.kinematics.settle import settled
 
     model, tcp = arm_model(workcell.arm), tool.tcp.matrix()
     sigma = workcell.arm.repeatability_m / 3
@@ -197,7 +203,7 @@ def calibrate_on_master(part: Any, workcell: Any, repeats: int = 4, seed: int = 
     classes = spec_classes(errors, pools)
     per_pool = Counter(pools.values())
     planned = {s.id: repeats_for([pools[s.id]], per_pool, repeats) for s in measured}
-    provenance = {"what": "SLRA calibration on the part's master (ita.sim.master): per spec, the bias measured "
+    provenance = {"what": "SLRA calibration on the part's master (ita.offline.master): per spec, the bias measured "
                           "on the nominal part, corrected",
                   "made_by": f"ita part calibrate --repeats {repeats} --seed {seed}", "part": part.name,
                   "made": datetime.now(timezone.utc).isoformat(timespec="seconds"),
@@ -211,12 +217,8 @@ def ensure_master_calibration(part: Any, workcell: Any, key: str, progress: Call
     """Calibrate a user part on its master when its calibration is missing or was made for
     other content (`key`: ita.part.store.part_key: mesh, specs, features, workcell); what
     was done, in words.  A generated bulkhead has the cell's calibration."""
-    import json
 
-    from ita.files.atomic import write_atomic
-    from ita.vision.context import _like_the_references, part_calibration_path
-
-    if _like_the_references(part):
+    if like_the_references(part):
         return "the cell's (made on generated bulkheads)"
     path = part_calibration_path(part.directory)
     if not force and path.is_file():
@@ -232,7 +234,7 @@ def ensure_master_calibration(part: Any, workcell: Any, key: str, progress: Call
     progress("calibrating the SLRA on the part's master")
     calibration = calibrate_on_master(part, workcell, repeats, seed, progress, mkb)
     data = {**calibration.to_dict(), "part_key": key, "mkb_digest": getattr(mkb, "digest", None), "method": METHOD}
-    write_atomic(path, json.dumps(data, indent=1) + "\n", what="calibration")
+    write_json_atomic(path, data, what="calibration")
     failed = calibration.provenance.get("failed_frames", 0)
     return (f"the part's own, on its master ({len(calibration.classes)} specs, made now"
             + (f"; {failed} frames failed" if failed else "") + ")")

@@ -22,6 +22,7 @@ from ita.executive import PlanExecutive
 from ita.geometry import GeometricReasoner
 from ita.logic.bridge import KnowledgeBase
 from ita.offline.prepare import prepare_inspection
+from ita.part.specfile import check_measurable
 from ita.part.store import load_part
 from ita.path import planners_for
 from ita.planning import OperationPlanner, store_path
@@ -31,8 +32,7 @@ from ita.sequence.store import apply_tool_marks, load_tool_marks
 from ita.sim.slra import SlraScene
 from ita.sim.ultrasonic import UltrasonicSim
 from ita.sim.world import SimWorld, simulated_part
-from ita.specs.service import check_measurable
-from ita.vision.context import VisionContext
+from ita.vision.for_part import vision_context
 
 if TYPE_CHECKING:
     from ita.devices import ArmDevice, SlraDevice
@@ -123,7 +123,7 @@ def open_session(part_dir: Path | None = None, *, seed: int = 0,
         arm = ArmDevice(world, reasoner, planners_for(cell, part), extra=gauge.handlers)
         arm.add_handlers(StationCommands(world, reasoner, arm.controller, gauge_sim, gauge=ut).handlers, "station_s")
         slra_tools = [t for t in cell.tools if t.tool_class.value == "slra_tool"]
-        vctx = VisionContext.from_part(part, cell, tool=slra_tools[0].name if slra_tools else "slra_1",
+        vctx = vision_context(part, cell, tool=slra_tools[0].name if slra_tools else "slra_1",
                                        specs=list(ctx.specs))
         scene = SlraScene.from_simulated(simulated, cell)
         slra = SlraDevice(world, scene, reasoner, vctx, specs, np.random.default_rng([seed, 21]))

@@ -28,7 +28,7 @@ from ita.planning.state import NOTHING, Place, PoseKind, QualitativePose, WorldS
 if TYPE_CHECKING:
     from ita.executive import ExecutionReport
     from ita.planning import OperationPlan
-    from ita.toplevel.session import Session
+    from ita.task.session import Session
 
 __all__ = ["MeasureOutcome", "MeasureStatus", "execute_goals", "execute_measurement", "measure_one",
            "placement_problem", "state_after"]

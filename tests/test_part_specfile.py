@@ -12,7 +12,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from ita.errors import InputError
-from ita.specs import service
+from ita.part import specfile
 from ita.specs.io import COLUMNS, read_specs
 
 HEADER = ",".join(COLUMNS)
@@ -42,14 +42,14 @@ def part(tmp_path: Path) -> Plate:
 
 
 def test_validate_accepts_points_on_the_surface(part: Plate) -> None:
-    assert service.validate_file(part) == 3
+    assert specfile.validate_file(part) == 3
 
 
 def test_point_off_the_surface_is_rejected_with_its_line(part: Plate, tmp_path: Path) -> None:
     other = tmp_path / "other.csv"
     other.write_text("\n".join([HEADER, ROWS[0], ROWS[1].replace(",2.5,0,0,1", ",9.5,0,0,1", 1)]))
     with pytest.raises(InputError) as info:
-        service.validate_file(part, other)
+        specfile.validate_file(part, other)
     (loc, msg), = info.value.problems
     assert (loc.file, loc.line) == (str(other), 3)
     assert "WT-2 is 7.000 mm from the part's surface" in msg
@@ -57,11 +57,11 @@ def test_point_off_the_surface_is_rejected_with_its_line(part: Plate, tmp_path: 
 
 def test_hole_centre_may_lie_within_the_hole_radius(part: Plate) -> None:
     # the centre on the entry face is the hole's radius (3 mm) from the nearest surface
-    service.add(part, {"id": "HP-1", "kind": "hole_position", "feature": "H1", "x": "80",
+    specfile.add(part, {"id": "HP-1", "kind": "hole_position", "feature": "H1", "x": "80",
                        "y": "10", "z": "2.5", "nx": "0", "ny": "0", "nz": "1", "nominal": "0",
                        "lower": "0", "upper": "0.5", "datum": "A|B|C"})
     with pytest.raises(InputError, match="from the part's surface"):
-        service.add(part, {"id": "HP-2", "kind": "hole_position", "feature": "H1", "x": "80",
+        specfile.add(part, {"id": "HP-2", "kind": "hole_position", "feature": "H1", "x": "80",
                            "y": "10", "z": "9.0", "nx": "0", "ny": "0", "nz": "1", "nominal": "0",
                            "lower": "0", "upper": "0.5", "datum": "A|B|C"})
 
@@ -71,7 +71,7 @@ def test_a_hole_spec_where_the_mesh_has_no_hole_is_rejected_naming_it(part: Plat
     other.write_text("\n".join([HEADER, *ROWS, "HD-2,hole_diameter,H2,30,30,2.5,0,0,1,6.0,-0.05,0.05,A,,,,",
                                 "HD-3,hole_diameter,H3,80,10,2.5,0,0,1,8.0,-0.05,0.05,A,,,,"]) + "\n")
     with pytest.raises(InputError) as info:
-        service.validate_file(part, other)
+        specfile.validate_file(part, other)
     (loc2, msg2), (loc3, msg3) = info.value.problems
     assert (loc2.line, loc2.field, loc3.line) == (5, "feature", 6)
     assert "HD-2: feature 'H2' not found" in msg2 and "no hole at (30.0, 30.0, 2.5)" in msg2
@@ -79,26 +79,26 @@ def test_a_hole_spec_where_the_mesh_has_no_hole_is_rejected_naming_it(part: Plat
 
 
 def test_add_edit_remove(part: Plate) -> None:
-    service.add(part, {"id": "WT-3", "kind": "web_thickness", "feature": "P02", "x": "5",
+    specfile.add(part, {"id": "WT-3", "kind": "web_thickness", "feature": "P02", "x": "5",
                        "y": "5", "z": "2.5", "nx": "0", "ny": "0", "nz": "1", "nominal": "2.5",
                        "lower": "-0.127", "upper": "0.127", "datum": "A"})
-    service.change(part, "WT-3", {"nominal": "2.6", "id": "WT-33"})
+    specfile.change(part, "WT-3", {"nominal": "2.6", "id": "WT-33"})
     specs = {s.id: s for s in read_specs(part.specs_path)}
     assert specs["WT-33"].nominal == 2.6 and "WT-3" not in specs
-    assert service.remove(part, ["WT-33", "WT-1"]) == 2
+    assert specfile.remove(part, ["WT-33", "WT-1"]) == 2
 
 
 @pytest.mark.parametrize(
     "operation",
     [
-        lambda p: service.add(p, {"id": "WT-1", "kind": "web_thickness", "feature": "P",
+        lambda p: specfile.add(p, {"id": "WT-1", "kind": "web_thickness", "feature": "P",
                                   "x": "1", "y": "1", "z": "2.5", "nx": "0", "ny": "0", "nz": "1",
                                   "nominal": "2.5", "lower": "-0.1", "upper": "0.1", "datum": "A"}),
-        lambda p: service.change(p, "WT-1", {"lower": "0.3"}),
-        lambda p: service.change(p, "WT-1", {"z": "40"}),
-        lambda p: service.change(p, "WT-1", {"id": "WT-2"}),
-        lambda p: service.change(p, "NOPE", {"nominal": "1"}),
-        lambda p: service.remove(p, ["WT-1", "NOPE"]),
+        lambda p: specfile.change(p, "WT-1", {"lower": "0.3"}),
+        lambda p: specfile.change(p, "WT-1", {"z": "40"}),
+        lambda p: specfile.change(p, "WT-1", {"id": "WT-2"}),
+        lambda p: specfile.change(p, "NOPE", {"nominal": "1"}),
+        lambda p: specfile.remove(p, ["WT-1", "NOPE"]),
     ],
 )
 def test_rejected_changes_write_nothing(part: Plate, operation) -> None:
@@ -111,11 +111,11 @@ def test_rejected_changes_write_nothing(part: Plate, operation) -> None:
 def test_import_merges_and_refuses_existing_ids(part: Plate, tmp_path: Path) -> None:
     new = tmp_path / "new.csv"
     new.write_text("\n".join([HEADER, ROWS[0].replace("WT-1", "WT-9")]))
-    assert service.import_file(part, new) == 1
+    assert specfile.import_file(part, new) == 1
     assert len(read_specs(part.specs_path)) == 4
     with pytest.raises(InputError, match="already exists"):
-        service.import_file(part, new)
-    assert service.import_file(part, new, replace_all=True) == 1
+        specfile.import_file(part, new)
+    assert specfile.import_file(part, new, replace_all=True) == 1
     assert [s.id for s in read_specs(part.specs_path)] == ["WT-9"]
 
 
@@ -140,7 +140,7 @@ def test_malformed_imports_never_crash_nor_write(part: Plate, tmp_path: Path, ro
     bad.write_bytes(header.encode() + b"\n" + buf.getvalue().encode("utf-8", "surrogatepass") + raw)
     before = part.specs_path.read_bytes()
     try:
-        n = service.import_file(part, bad)
+        n = specfile.import_file(part, bad)
     except InputError as exc:
         assert exc.problems and all(str(loc).startswith(str(bad)) for loc, _ in exc.problems)
         assert part.specs_path.read_bytes() == before
