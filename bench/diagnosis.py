@@ -288,7 +288,9 @@ def _inspect(home: Path, runs: Path, seed: int, extra: list[str], limit: int | N
 
 def _scored(home: Path, runs: Path, run_id: str) -> dict:
     from ita.archive import Archive, archive_path
-    from ita.scoring import compare, diagnosis_score, injected_faults, true_values
+    from ita.scoring.compare import compare
+    from ita.scoring.diagnoses import diagnosis_score
+    from ita.scoring.truth import injected_faults, true_values
 
     os.environ["ITA_HOME"] = str(home)
     with Archive.open(archive_path(runs), create=False) as archive:

@@ -75,7 +75,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--all", action="store_true", help="pool every run of the runs directory")
     args = parser.parse_args(argv)
     from ita.part.store import load_part
-    from ita.scoring import true_values
+    from ita.scoring.truth import true_values
 
     archive, run_id = _open(args.run)
     rows, results = [], []

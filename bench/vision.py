@@ -39,7 +39,7 @@ import numpy as np
 from ita.kinematics.tool_poses import measurement_poses
 from ita.part.model import Hole
 from ita.part.store import load_part
-from ita.scoring import true_values
+from ita.scoring.truth import true_values
 from ita.sensors.slra_frame import ScanGeometry
 from ita.sim.slra import SlraParams, SlraScene, pose_error, simulate_frame
 from ita.specs.io import read_specs

@@ -46,3 +46,13 @@ def ita_home() -> Path:
         home = base / "ita"
     home.mkdir(parents=True, exist_ok=True)
     return home
+
+
+#: the built-in part's name, and its directory's under ``ita_home()/parts``
+BUILTIN_NAME = "bulkhead"
+
+
+def builtin_dir() -> Path:
+    """Where the built-in bulkhead is materialised: ``ita_home()/parts/bulkhead``
+    (:func:`ita.part.store.ensure_builtin` makes it there)."""
+    return ita_home() / "parts" / BUILTIN_NAME

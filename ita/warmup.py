@@ -16,11 +16,20 @@ from collections.abc import Callable
 
 import numpy as np
 
+from ita.collision import Regions
+from ita.kinematics import link_segments
+from ita.part.model import Hole, HoleRole
+from ita.path.planner import workcell_planner
+from ita.sensors.slra_frame import ScanGeometry
+from ita.sequence.tour import solve_tour
+from ita.sim.slra import SlraParams, SlraScene, simulate_frame
+from ita.vision.fit import fit_circle, fit_circle_fixed_radius
+from ita.workcell import load_workcell
+from ita.workcell.model import PartPlacement
+
 
 def warm_tours() -> None:
     """Compile the classic ordering's kernels (closed tours and open paths, with and without coordinates)."""
-    from ita.sequence.tour import solve_tour
-
     rng = np.random.default_rng(0)
     coords = rng.random((12, 2))
     cost = np.linalg.norm(coords[:, None] - coords[None], axis=-1)
@@ -32,11 +41,6 @@ def warm_paths() -> None:
     """Compile forward kinematics and the path planner's collision and motion kernels: the
     default workcell's planners (bare, and holding a probe) each moving the arm from home
     to one side and past a beam (a subgoal is needed)."""
-    from ita.collision import Regions
-    from ita.kinematics import link_segments
-    from ita.path.planner import workcell_planner
-    from ita.workcell import load_workcell
-
     cell = load_workcell()
     home = np.asarray(cell.arm.home, dtype=float)
     for held in (None, cell.tools[0].name):
@@ -52,12 +56,6 @@ def warm_frames() -> None:
     (hits, holes, mixed pixels, phase noise), in halves on a second core where there is
     one, and a circle fit to its rim's points."""
     import trimesh
-
-    from ita.part.model import Hole, HoleRole
-    from ita.sensors.slra_frame import ScanGeometry
-    from ita.sim.slra import SlraParams, SlraScene, simulate_frame
-    from ita.vision.fit import fit_circle, fit_circle_fixed_radius
-    from ita.workcell.model import PartPlacement
 
     placement = PartPlacement(0.001, ((1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)), (0.0, 0.0, 0.0),
                               (-500.0, -500.0, -100.0), (500.0, 500.0, 100.0))

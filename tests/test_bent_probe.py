@@ -83,7 +83,7 @@ def test_a_resequencing_keeps_the_walls_on_the_bent_probe(prepared, knowledge_ba
 
 def test_a_run_measures_the_four_walls_with_the_bent_probe(builtin_part, tmp_path) -> None:
     from ita.archive import Archive
-    from ita.scoring import true_values
+    from ita.scoring.truth import true_values
     from ita.task import open_session
     from ita.toplevel import RunSignals, TopLevel
 

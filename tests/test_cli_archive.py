@@ -128,8 +128,8 @@ def test_unknown_and_ambiguous_runs_exit_2(runs_dir: Path) -> None:
 
 
 def test_report_of_a_run_of_the_builtin_part_is_scored(builtin_part, tmp_path: Path) -> None:
-    from ita import scoring
     from ita.part import specfile
+    from ita.scoring import truth as scoring
 
     specs = specfile.load(builtin_part)[:40]
     truth = scoring.true_values(builtin_part.directory)

@@ -101,7 +101,7 @@ def test_a_broken_bent_probe_is_diagnosed_and_replaced_from_the_stores(session, 
 
 
 def _truth(session) -> dict[str, float]:
-    from ita.scoring import true_values
+    from ita.scoring.truth import true_values
 
     return true_values(session.part.directory)
 

@@ -69,7 +69,7 @@ def test_both_slras_broken_a_rib_width_is_planned_executed_and_measured_with_the
     """The regression of the tool passed down: the rules move rib widths to the probe when
     no SLRA works, and the operation level must plan, execute and measure with it (the
     thickness of the rib through its side wall, not its height from the top)."""
-    from ita.scoring import true_values
+    from ita.scoring.truth import true_values
     from ita.sequence.plan import build_plan
     from ita.task import open_session
 

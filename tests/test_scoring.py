@@ -7,7 +7,7 @@ import math
 import pytest
 
 from ita.archive import Outcome, Result
-from ita.scoring import compare
+from ita.scoring.compare import compare
 
 
 def res(spec_id: str, value: float | None, u: float = 0.01) -> Result:
@@ -38,7 +38,7 @@ def test_error_statistics() -> None:
 
 
 def test_an_obstacle_found_against_the_arm_names_the_injected_obstacle() -> None:
-    from ita.scoring import diagnosis_score
+    from ita.scoring.diagnoses import diagnosis_score
 
     injected = [{"sim_time": 10.0, "cause": "obstacle", "target": "obstacle_1", "cleared_time": None},
                 {"sim_time": 5.0, "cause": "dirty_window", "target": "slra_1", "cleared_time": 8.0}]

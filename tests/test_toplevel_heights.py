@@ -74,7 +74,7 @@ def test_a_height_is_decided_with_its_web_measured_before_or_after_it(tmp_path, 
     Measured after them (the plan's order) it is decided at once; measured first, it waits
     (an archive event) and is decided when the last of them is done.  Either way its value
     holds the web's measured thickness, and its U is a fraction of what the tolerance gave."""
-    from ita.scoring import true_values
+    from ita.scoring.truth import true_values
     from ita.task import open_session
     from ita.toplevel import RunSignals, TopLevel
     from ita.toplevel.heights import web_specs

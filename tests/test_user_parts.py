@@ -104,7 +104,7 @@ def test_a_lone_found_hole_takes_the_pose_for_datum(plate):
 
 
 def test_an_asbuilt_plate_calibrated_on_its_master_is_scored_without_false_accepts(plate, tmp_path, ita_home):
-    from ita.scoring import true_values, truth_source
+    from ita.scoring.truth import true_values, truth_source
 
     part = tmp_path / "asbuilt-plate"
     shutil.copytree(plate, part)
@@ -166,7 +166,7 @@ def test_a_bad_user_part_is_refused_before_any_work_naming_file_and_line(plate, 
 def test_a_package_mesh_scaled_to_millimetres_is_inspected_and_reported(tmp_path, ita_home):
     from user_parts import make_scaled_mesh_part
 
-    from ita.scoring import true_values
+    from ita.scoring.truth import true_values
 
     part = make_scaled_mesh_part(tmp_path / "box")
     runs = tmp_path / "runs"
@@ -194,7 +194,7 @@ def test_a_smaller_bulkhead_from_its_mesh_and_specs_only(tmp_path, ita_home):
     from test_cli_part import small_bulkhead_params
 
     from ita.paths import resource_dir
-    from ita.scoring import true_values
+    from ita.scoring.truth import true_values
 
     params = tmp_path / "small.toml"
     params.write_text(small_bulkhead_params((resource_dir("bulkhead") / "part.toml").read_text()))

@@ -28,6 +28,7 @@ from ita.campaign.runner import run_task
 from ita.campaign.store import CAMPAIGN_FILE, CampaignStore
 from ita.campaign.study import Campaign, RunTask
 from ita.errors import ItaError
+from ita.part.store import new_part
 
 __all__ = ["prepare_parts", "run_campaign"]
 
@@ -35,8 +36,6 @@ __all__ = ["prepare_parts", "run_campaign"]
 def prepare_parts(campaign: Campaign, tasks: list[RunTask], progress: Callable[[str], None]) -> None:
     """Make each part the tasks need (`ita part new`) and prepare it once (`ita prepare`
     into the part's own ITA_HOME), so that every run of it starts from the same plan."""
-    from ita.part.store import new_part
-
     seen: set[str] = set()
     for t in tasks:
         if t.part_dir in seen:

@@ -21,14 +21,14 @@ import numpy as np
 
 from ita.campaign.grr import gauge_rr, upper_bound
 from ita.campaign.store import CAMPAIGN_FILE, CampaignStore
+from ita.files.atomic import write_atomic
+from ita.scoring.truth import has_true_values, true_values
 
 __all__ = ["campaign_report", "format_report", "plot_kinds"]
 
 
 def _truths(out_dir: Path) -> dict[int, dict[str, float]]:
     """Part seed -> spec id -> true value, for the parts the campaign made."""
-    from ita.scoring import has_true_values, true_values
-
     out: dict[int, dict[str, float]] = {}
     for d in sorted((out_dir / "parts").glob("part-*")):
         seed = int(d.name.split("-")[1])
@@ -133,8 +133,6 @@ def plot_kinds(out_dir: Path, rep: dict[str, Any], plots_dir: Path) -> list[Path
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
-
-    from ita.files.atomic import write_atomic
 
     with CampaignStore.open(Path(out_dir) / CAMPAIGN_FILE, create=False) as store:
         results = store.results()

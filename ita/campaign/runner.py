@@ -23,6 +23,11 @@ import time
 from pathlib import Path
 from typing import Any
 
+from ita.archive import Archive, archive_path
+from ita.part.store import new_part
+from ita.scoring.diagnoses import diagnosis_score
+from ita.scoring.truth import injected_faults
+
 __all__ = ["RunFailed", "run_task"]
 
 #: a run that takes longer than this (s) is stopped and recorded as failed
@@ -37,8 +42,6 @@ def _part(task: dict, tmp: Path) -> Path:
     part_dir = Path(task["part_dir"])
     if (part_dir / "specs.csv").is_file():
         return part_dir
-    from ita.part.store import new_part
-
     params = None
     if task.get("params_text"):
         params = tmp / "params.toml"
@@ -48,9 +51,6 @@ def _part(task: dict, tmp: Path) -> Path:
 
 def run_task(task: dict) -> dict[str, Any]:
     """Run one campaign task (RunTask.to_dict()); its record (see the module doc)."""
-    from ita.archive import Archive, archive_path
-    from ita.scoring import diagnosis_score, injected_faults
-
     t0 = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix="ita-campaign-run-") as tmp_name:
         tmp = Path(tmp_name)

@@ -30,6 +30,7 @@ from pathlib import Path
 from typing import Any
 
 from ita.errors import InputError, Location
+from ita.part.params import BulkheadParams
 from ita.seeds import SEED_MAX
 
 __all__ = ["MAX_RUNS", "Campaign", "RunTask", "load_campaign"]
@@ -172,8 +173,6 @@ def load_campaign(path: Path) -> Campaign:
         params_path = (path.parent / parts["params"]).resolve()
         if not params_path.is_file():
             raise InputError([(field("parts.params"), f"{params_path}: not found")])
-        from ita.part.params import BulkheadParams
-
         BulkheadParams.load(params_path)        # its own errors name its own fields
     limit = c.get("limit")
     if limit is not None and (not isinstance(limit, int) or isinstance(limit, bool) or limit < 1):

@@ -65,7 +65,7 @@ def report(run: str, output: Path, no_score: bool, make_dirs: bool, part_dir: Pa
         scene = run_scene(info.part_dir if info.part_dir else None, part_dir)
         values = injected = None
         if not no_score and info.settings.get("simulated", True):
-            from ita import scoring
+            from ita.scoring import truth as scoring
 
             source = str(part_dir) if part_dir is not None else info.part_dir
             injected = scoring.injected_faults(archive.path.parent, run_id)

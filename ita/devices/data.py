@@ -16,6 +16,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from ita.executive.commands import Command, Reply
+from ita.logic.terms import Term
 
 __all__ = ["ArmPath", "MeasuredValue", "ScanData", "arm_paths", "measured_values", "scan_frames", "spec_of_message"]
 
@@ -78,8 +79,6 @@ class ArmPath:
 
 def spec_of_message(message: Any) -> str | None:
     """The measurement id a message's qualitative parameters name (``...(meas(Id))``)."""
-    from ita.logic.terms import Term
-
     def walk(value: Any) -> str | None:
         if isinstance(value, Term):
             if value.name == "meas" and len(value.args) == 1:

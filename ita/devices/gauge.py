@@ -22,6 +22,7 @@ from typing import Any
 from ita.devices.data import MeasuredValue, spec_of_message
 from ita.executive.commands import Command, Reply
 from ita.logic.terms import Term
+from ita.sensors.ultrasonic import GaugeException, GaugeFailure, Reading, check_expected
 
 __all__ = ["IMPLAUSIBLE_TOLERANCES", "GaugeCommands"]
 
@@ -46,13 +47,6 @@ class GaugeCommands:
         return Reply.normal("DONE")
 
     def measure(self, command: Command) -> Reply:
-        from ita.sensors.ultrasonic import (
-            GaugeException,
-            GaugeFailure,
-            Reading,
-            check_expected,
-        )
-
         spec_id = spec_of_message(command.message)
         spec = self.specs.get(spec_id or "")
         raw = self.gauge.measure()

@@ -42,6 +42,8 @@ from typing import Any
 
 import numpy as np
 
+from ita.archive.decision import decide
+from ita.archive.model import BOUNDED_BELOW
 from ita.devices.arm import RETRACT_SPEED, exception_reply
 from ita.devices.data import MeasuredValue, ScanData, spec_of_message
 from ita.executive.adapters import Completion, PoseResolver
@@ -254,9 +256,6 @@ class SlraDevice:
     def _decided(self, group: Any, frames: Sequence[Any]) -> tuple[bool, float]:
         """Whether the frames so far decide every member of `group` that asks for several
         (each conforms or does not, with its U), and Vision's time to find out."""
-        from ita.archive.decision import decide
-        from ita.archive.model import BOUNDED_BELOW
-
         took = 0.0
         for m in self._members(group, group.anchor):
             spec = self.specs.get(m)

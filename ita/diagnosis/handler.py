@@ -43,8 +43,16 @@ from ita.diagnosis.counts import FaultCounts
 from ita.diagnosis.knowledge import FaultKnowledge
 from ita.diagnosis.tests import Situation, TestBench, TestRun
 from ita.logic.terms import Term, Var
+from ita.planning import NoPlanError
 from ita.planning.operation import format_term
-from ita.task.measure import MeasureOutcome, MeasureStatus, execute_measurement
+from ita.sequence.plan import choose_tool
+from ita.sim.faults import Fault
+from ita.task.measure import (
+    MeasureOutcome,
+    MeasureStatus,
+    execute_measurement,
+    placement_problem,
+)
 
 if TYPE_CHECKING:
     from ita.task.session import Session
@@ -305,8 +313,6 @@ class ExceptionHandler:
             if what == "remove_obstacle":
                 for obstacle in list(s.world.obstacles):
                     s.world.remove_obstacle(obstacle)
-                from ita.sim.faults import Fault
-
                 s.world.faults = s.world.faults.without(Fault.OBSTACLE)
             return [f"person called: {what} ({PERSON_SECONDS.get(what, 300.0):.0f} s)"], situation, None
         if name == "replace_if_no_spare":
@@ -314,8 +320,6 @@ class ExceptionHandler:
             tool_class = s.ctx.workcell.tool(tool).tool_class.value
             if s.kb.holds("world", "usable", situation.state.arm, tool_class, Var("_T")):
                 return [], situation, None
-            from ita.sim.faults import Fault
-
             s.world.clock.advance(PERSON_SECONDS["replace_tool"])
             s.kb.once("world", "set_tool_condition", tool, "ok")
             s.world.faults = s.world.faults.without(Fault.BROKEN_PROBE, tool).without(Fault.WORN_PROBE, tool)
@@ -347,15 +351,10 @@ class ExceptionHandler:
         """Take the measurement again with the same tool when it is usable, else with the
         tool the rules choose now (none: not done): by plan repair or by replanning, as
         kb/faults.pl recovery_way/3 says from the two plans' lengths."""
-        from ita.planning import NoPlanError
-        from ita.task.measure import placement_problem
-
         s = self.session
         arm = situation.state.arm
         tool = situation.tool
         if not s.kb.holds("world", "usable", arm, situation.tool_class, tool):
-            from ita.sequence.plan import choose_tool
-
             chosen = choose_tool(s.ctx, situation.spec_id)
             if chosen.tool is None:
                 return None, f"not done: no tool left ({chosen.reason})"

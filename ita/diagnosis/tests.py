@@ -38,9 +38,13 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ita.devices.data import MeasuredValue
+from ita.devices.stations import CAL_STEP_MM
 from ita.diagnosis.classify import classify_reply
-from ita.logic.terms import Term
+from ita.kinematics import move_time
+from ita.logic.terms import Term, Var
+from ita.part.model import Hole, HoleRole
 from ita.planning.state import WorldState
+from ita.sequence.cost import rack_seconds
 from ita.specs.model import Tool, is_ultrasonic
 from ita.task.measure import MeasureOutcome, MeasureStatus, execute_goals, measure_one
 
@@ -149,8 +153,6 @@ class TestBench:
 
     # -- which tests apply, and what they cost ------------------------------------------------
     def _reference_spec(self) -> str | None:
-        from ita.part.model import Hole, HoleRole
-
         features = {f.id: f for f in self.session.part.features}
         for spec in self.session.ctx.specs:
             f = features.get(spec.feature)
@@ -165,8 +167,6 @@ class TestBench:
         if situation.tool_class == tool_class or (tool_class == Tool.ULTRASONIC.value
                                                   and is_ultrasonic(situation.tool_class)):
             return situation.tool
-        from ita.logic.terms import Var
-
         found = self.session.kb.once("world", "usable", situation.state.arm, tool_class, Var("T"))
         return str(found["T"]) if found else None
 
@@ -206,16 +206,12 @@ class TestBench:
         if need_class is not None:
             tool = self._tool_of(need_class, situation)
             if tool != held:
-                from ita.sequence.cost import rack_seconds
-
                 setup += rack_seconds(self.session.ctx.workcell, held, tool) + 2 * self._move_to_rack(held or tool)
         if place is not None:
             setup += self._move_s(place, tool)
         return base + setup
 
     def _move_to_rack(self, tool: str | None) -> float:
-        from ita.kinematics import move_time
-
         if tool is None:
             return 0.0
         slot = self.session.ctx.workcell.slot_of(tool).name
@@ -223,8 +219,6 @@ class TestBench:
         return 0.0 if q is None else float(move_time(self.session.world.model, self.session.world.q, q))
 
     def _move_s(self, place: str, tool: str | None) -> float:
-        from ita.kinematics import move_time
-
         try:
             q = self.session.reasoner.station(place, tool).q
         except KeyError:
@@ -278,8 +272,6 @@ class TestBench:
             return "not_run"                     # the test's own moves failed: nothing learnt
         last = report.outcomes[-1]
         if test == "read_cal_block":
-            from ita.devices.stations import CAL_STEP_MM
-
             value = float(last.reply.payload.args[0])
             block = CAL_STEP_MM
             if abs(value - block) <= CAL_TOLERANCE * block:

@@ -38,6 +38,10 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
+import ita.collision.build as collision_rules
+import ita.collision.mesh_cover as cover_rules
+import ita.vision.context as context_rules
+import ita.vision.scan as scan_rules
 from ita.collision import TIP_CLEARANCE, arm_tubes
 from ita.geometry.configurations import (
     ROLLS,
@@ -98,11 +102,6 @@ def mkb_digest(specs_digest: str, cell: Workcell) -> str:
     (ita.collision.build and its mesh cover, ita.collision.mesh_cover), so a changed rule never meets a stored MKB made with the old one.
     (The part's mesh is in the store's key, ita.part.store.part_key.)"""
     from pathlib import Path
-
-    import ita.collision.build as collision_rules
-    import ita.collision.mesh_cover as cover_rules
-    import ita.vision.context as context_rules
-    import ita.vision.scan as scan_rules
 
     raster = f"{MIN_HOLE_PIXELS},{RASTER_STEP},{MAX_RASTER},{SHORT_APPROACH_M},{COUPLANT_OFFSET_M},{APPROACH_MARGIN_M}"
     rules = hashlib.sha256(b"".join(Path(m.__file__).read_bytes()

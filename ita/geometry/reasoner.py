@@ -14,7 +14,9 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
+from ita.geometry.build import PRESS_M
 from ita.geometry.mkb import MeasurementKB, MkbEntry
+from ita.kinematics import arm_model, choose_nearest, ik_tool
 from ita.logic.terms import Term
 from ita.specs.model import MeasurementSpec
 
@@ -131,9 +133,6 @@ class GeometricReasoner:
         return self._stations[key]
 
     def _station(self, name: str, tool: str | None, contact: bool) -> Target:
-        from ita.geometry.build import PRESS_M
-        from ita.kinematics import arm_model, choose_nearest, ik_tool
-
         box = getattr(self.cell, name)
         top = np.asarray(box.pose.position, dtype=float) + np.array([0.0, 0.0, box.size[2] / 2.0])
         spec = self.cell.tool(tool) if tool is not None else None

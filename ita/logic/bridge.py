@@ -33,8 +33,10 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from ita.errors import KBLoadError, Location, PrologError
+from ita.logic import sandbox
 from ita.logic.model import Diagnostic, PredicateDoc, ProofNode, QueryResult, Severity
 from ita.logic.pldoc import doc_comments
+from ita.logic.sandbox import SandboxFiles
 from ita.logic.terms import Str, Term, Var, read_term
 from ita.paths import resource_dir
 
@@ -404,8 +406,6 @@ class KnowledgeBase:
         :class:`~ita.errors.QueryLimitExceeded` when a limit stops it, and
         :class:`~ita.errors.PrologError` when the goal raises an error.
         """
-        from ita.logic import sandbox
-
         return sandbox.query(text, self._sandbox_files(),
                              sandbox.SandboxLimits(float(time_limit), int(inference_limit)), int(limit))
 
@@ -422,14 +422,10 @@ class KnowledgeBase:
         expanded clause by clause, everything else is a leaf.  Same safety and errors
         as :meth:`run_user_query` (the goal runs in a child process).
         """
-        from ita.logic import sandbox
-
         return sandbox.explain(text, self._sandbox_files(),
                                sandbox.SandboxLimits(float(time_limit), int(inference_limit)), int(max_depth))
 
     def _sandbox_files(self) -> "SandboxFiles":
-        from ita.logic.sandbox import SandboxFiles
-
         return SandboxFiles(tuple(self.engine_files), tuple(self.kb_files))
 
     def check(self) -> list[Diagnostic]:

@@ -33,7 +33,10 @@ from typing import Any
 import numpy as np
 
 from ita.files.atomic import write_json_atomic
+from ita.kinematics import arm_model, flange_poses
+from ita.kinematics.settle import settled
 from ita.kinematics.tool_poses import measurement_poses
+from ita.part.truth import mesh_values
 from ita.sensors.slra_frame import ScanGeometry
 from ita.sim.slra import SlraParams, SlraScene, pose_error, simulate_frame
 from ita.specs.io import read_specs
@@ -71,8 +74,6 @@ def master_errors(part: Any, workcell: Any, specs: Sequence[MeasurementSpec], re
     pose, the group's window and pixels: one frame serves every member); without, a frame
     of the spec's own window square on to it."""
     from dataclasses import replace
-
-    from ita.part.truth import mesh_values
 
     features = {f.id: f for f in part.features}
     certificate = mesh_values(part.mesh, specs, features)
@@ -120,9 +121,6 @@ def _settled_pose(workcell: Any, tool: Any) -> Callable[[Any, Any, np.random.Gen
     offset of repeatability / 3 per axis, reached by the least-norm joint change, which
     turns the tool too: 0.12 to 0.15 mrad rms at the box's views, where the drawn rotation
     of ROTATION_SIGMA per axis gives 0.09); without, a drawn translation and rotation."""
-    from ita.kinematics import arm_model, flange_poses
-    from ita.kinematics.settle import settled
-
     model, tcp = arm_model(workcell.arm), tool.tcp.matrix()
     sigma = workcell.arm.repeatability_m / 3
 

@@ -18,7 +18,26 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from ita.part.summary import PartSummary
+from ita.errors import ItaError
+from ita.geometry import build_mkb, load_mkb, mkb_digest, mkb_path, save_mkb
+from ita.logic.bridge import KnowledgeBase
+from ita.offline.master import ensure_master_calibration
+from ita.offline.spec_reach import spec_reach
+from ita.part import specfile
+from ita.part.store import load_part
+from ita.part.summary import PartSummary, summarize
+from ita.planning import NoPlanError, OperationPlanner, WorldState, store_path
+from ita.sequence.next_step import the_arm
+from ita.sequence.partition import alternative_tools
+from ita.sequence.plan import build_plan, planning_context, with_mkb
+from ita.sequence.store import (
+    apply_tool_marks,
+    load_plan,
+    load_tool_marks,
+    plan_path,
+    save_plan,
+)
+from ita.workcell import workcell_for
 
 #: times the plan and the MKB are made again with what the MKB could not place
 PLACEMENT_ROUNDS = 2
@@ -124,8 +143,6 @@ def cannot_lines(cannot: Any, indent: str = "  ", width: int = 92) -> list[str]:
 def stored_cannot(plan: Any, part_name: str) -> list[tuple[str, str]]:
     """What cannot be done by the stored plan and MKB of a part: the plan's cannot-be-done
     group (tool rules) and the measurements the MKB could not place (as `prepare` says)."""
-    from ita.geometry import load_mkb
-
     cannot = list(plan.cannot)
     mkb = load_mkb(part_name)
     if mkb is not None:
@@ -145,11 +162,6 @@ def prepare_inspection(ctx: Any, part: Any, *, progress: Callable[[str], None] =
     on its master is made when missing or stale (ita.offline.master).
     """
     from dataclasses import replace as _replace
-
-    from ita.errors import ItaError
-    from ita.geometry import build_mkb, load_mkb, mkb_digest, mkb_path, save_mkb
-    from ita.sequence.plan import build_plan, with_mkb
-    from ita.sequence.store import load_plan, plan_path, save_plan
 
     plan = None
     if not force:
@@ -171,8 +183,6 @@ def prepare_inspection(ctx: Any, part: Any, *, progress: Callable[[str], None] =
     mkb_rebuilt = mkb is None
 
     def make_mkb(plan: Any, reuse: Any = None) -> Any:
-        from ita.sequence.partition import alternative_tools
-
         tools = {i: g.tool for g in plan.groups for i in g.order}
         others = alternative_tools(ctx.kb, ctx.workcell, ctx.specs, ctx.feature_kinds, tools)
         made = build_mkb(ctx.workcell, part, ctx.specs, tools, part_name=ctx.part_name, digest=digest,
@@ -198,8 +208,6 @@ def prepare_inspection(ctx: Any, part: Any, *, progress: Callable[[str], None] =
         save_plan(plan)
         mkb = make_mkb(plan, reuse=mkb)
     cannot = list(plan.cannot) + [(e.spec_id, e.status) for e in mkb.problems()]
-    from ita.offline.master import ensure_master_calibration
-
     calibration = ensure_master_calibration(part, ctx.workcell, ctx.part_name, progress, force, mkb=mkb) \
         if calibrate else "not checked"
     macrops = {"planned": 0, "lookups": 0, "hits": 0, "learned": 0, "no_plan": 0}
@@ -225,9 +233,6 @@ def warm_macrops(ctx: Any, plan: Any, mkb: Any) -> tuple[dict[str, int], list[st
     """Plan every placed measurement in sequence order (each from the state the one before
     leaves), so the MACROP store holds what the run will look up.  Returns the counts and
     the ids that have no plan."""
-    from ita.planning import NoPlanError, OperationPlanner, WorldState, store_path
-    from ita.sequence.next_step import the_arm
-
     state = WorldState(arm=the_arm(ctx.kb))
     planned = learned = 0
     no_plan: list[str] = []
@@ -257,13 +262,6 @@ def prepare(part_dir: Path | None, progress: Callable[[str], None] = lambda _msg
 
     Raises InputError (with file, line, field) when the part or its specs are bad.
     """
-    from ita.logic.bridge import KnowledgeBase
-    from ita.offline.spec_reach import spec_reach
-    from ita.part import specfile
-    from ita.part.store import load_part
-    from ita.part.summary import summarize
-    from ita.workcell import workcell_for
-
     seconds: list[tuple[str, float]] = []
 
     def step(name: str, message: str, func: Callable[[], Any]) -> Any:
@@ -284,9 +282,6 @@ def prepare(part_dir: Path | None, progress: Callable[[str], None] = lambda _msg
     summary = summarize(part, specs, unreachable=reach.n_unreachable)
     prep = None
     if inspection and not diagnostics:
-        from ita.sequence.plan import planning_context
-        from ita.sequence.store import apply_tool_marks, load_tool_marks
-
         apply_tool_marks(kb, load_tool_marks())
         ctx = planning_context(part_dir, kb=kb, part=part)
         _, _, prep = step("inspection", "preparing the inspection (sequence plan, MKB, MACROPs)",

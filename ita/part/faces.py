@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 import trimesh
 
+from ita.part.infer import MeshRays
 from ita.specs.model import MeasurementKind as K
 from ita.specs.model import MeasurementSpec
 
@@ -51,8 +52,6 @@ def spec_faces(mesh: trimesh.Trimesh, specs: Sequence[MeasurementSpec]) -> dict[
         ids.append(s.id)
     if not ids:
         return {}
-    from ita.part.infer import MeshRays
-
     _, face = MeshRays(mesh).hits(np.asarray(origins), np.asarray(dirs))
     return {sid: int(f) for sid, f in zip(ids, face) if f >= 0}
 

@@ -20,6 +20,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 from ita.errors import Location
+from ita.part.geometry2d import RoundedRect
 from ita.seeds import SEED_MAX, SEED_MIN
 
 if TYPE_CHECKING:
@@ -148,8 +149,6 @@ def cross_problems(p: BulkheadParams, file: str) -> Problems:
 def _flange_problems(name: str, f: Flange, p: BulkheadParams, say: Any) -> None:
     """The constraints of one flange: its cap beyond its wall, above the web, a hole on the
     cap, and a bounded number of fastener holes along its contour."""
-    from ita.part.geometry2d import RoundedRect
-
     if f.cap_width <= f.wall_thickness:
         say(f"{name}.cap_width", f"{f.cap_width:g} must be more than {name}.wall_thickness ({f.wall_thickness:g})")
     elif f.fastener_diameter >= f.cap_width - f.wall_thickness:

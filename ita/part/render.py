@@ -12,6 +12,7 @@ from typing import Sequence
 
 import numpy as np
 
+from ita.files.atomic import output_path, write_with
 from ita.part.model import Part
 from ita.specs.model import MeasurementKind, MeasurementSpec
 
@@ -38,8 +39,6 @@ def render_part(part: Part, specs: Sequence[MeasurementSpec], path: Path,
                 dpi: int = 150, title: str | None = None, make_dirs: bool = False) -> Path:
     """Draw `part` from +Z with `specs` on it into the PNG `path` (exactly that name, written
     atomically; see ita.files.atomic for what is refused); returns the path written."""
-    from ita.files.atomic import output_path, write_with
-
     output_path(path, what="-o", make_dirs=make_dirs)  # refuse before the drawing work
     import matplotlib
 

@@ -35,9 +35,14 @@ from typing import Any, Iterator
 import numpy as np
 
 from ita.errors import InputError, ItaWarning, Location
+from ita.part import specfile
+from ita.part import truth as truth_mod
+from ita.part.bulkhead import default_params_path, generate, load_params
+from ita.part.infer import infer_features
 from ita.part.meshfile import read_mesh
 from ita.part.model import Part, feature_from_dict, feature_to_dict
-from ita.paths import ita_home
+from ita.paths import BUILTIN_NAME, builtin_dir
+from ita.specs.io import read_specs, write_specs
 
 PART_FILE = "part.json"
 MESH_FILE = "nominal.stl"
@@ -48,7 +53,6 @@ MESH_SUFFIXES = (".stl", ".obj", ".ply")
 ASBUILT_STEM = "asbuilt"  # asbuilt.stl beside the nominal mesh is the as-built part (the simulator's)
 MIN_PART_MM = 5.0         # a mesh smaller than this across is taken for one in metres
 MAX_PART_MM = 20000.0     # and larger than this (20 m) for one in micrometres
-BUILTIN_NAME = "bulkhead"
 GENERATOR_MODULES = ("geometry2d", "params", "model", "layout", "mesh", "specgen", "bulkhead", "truth")
 
 
@@ -67,11 +71,6 @@ def fingerprint(params_path: Path) -> str:
     for name in GENERATOR_MODULES:
         h.update((here / f"{name}.py").read_bytes())
     return h.hexdigest()
-
-
-def builtin_dir() -> Path:
-    """Where the built-in bulkhead is materialised: ita_home()/parts/bulkhead."""
-    return ita_home() / "parts" / BUILTIN_NAME
 
 
 def _metadata(path: Path) -> dict[str, Any]:
@@ -121,10 +120,6 @@ def _terminated_as_exit() -> Iterator[None]:
 def _generate_into(path: Path, fp: str, params: Any = None) -> None:
     """Generate a bulkhead (nominal and truth) into the empty directory `path`: of
     `params` (ita.part.params.BulkheadParams), default the built-in part.toml's."""
-    from ita.part import truth as truth_mod  # the store is one of the two truth writers
-    from ita.part.bulkhead import default_params_path, generate, load_params
-    from ita.specs.io import write_specs
-
     params = params if params is not None else load_params(default_params_path())
     part = generate(params)
     part.mesh.export(path / MESH_FILE)
@@ -160,8 +155,6 @@ def _keep_user_specs(old: Path, new: Path) -> None:
 
 def ensure_builtin() -> Path:
     """Materialise the built-in bulkhead if missing or stale; returns its directory."""
-    from ita.part.bulkhead import default_params_path
-
     target = builtin_dir()
     fp = fingerprint(default_params_path())
     if _is_current(target, fp):
@@ -210,8 +203,6 @@ def new_part(out_dir: Path, params_path: Path | None = None, seed: int | None = 
     does.  Returns `out_dir`."""
     from dataclasses import replace as dc_replace
 
-    from ita.part.bulkhead import default_params_path, load_params
-
     out_dir = Path(out_dir)
     if out_dir.exists() and (not out_dir.is_dir() or any(out_dir.iterdir())):
         raise InputError([(Location(str(out_dir)), "exists and is not an empty directory")])
@@ -239,8 +230,6 @@ def _check_generated(tmp: Path, params_path: Path) -> None:
     """A generated part whose specs leave its own surface (parameters the layout does not
     fit: an opening across the ribs, ribs too close for a pocket) is refused, naming the
     parameter file and the first specs that are off."""
-    from ita.part import specfile
-
     try:
         specfile.validate_file(load_part(tmp))
     except InputError as exc:
@@ -254,9 +243,6 @@ def make_asbuilt(part_dir: Path, seed: int, spread: float = 0.25, out_of_toleran
     """Give the user part in `part_dir` an as-built mesh the program makes: its specs' holes
     redrilled off nominal, seeded (ita.part.truth.perturbed_asbuilt); asbuilt.stl and the
     statement asbuilt.json beside the nominal mesh.  Returns the mesh's path."""
-    from ita.part import truth as truth_mod  # the store is one of the two truth writers
-    from ita.specs.io import read_specs
-
     part = load_part(part_dir)
     if part.metadata.get("generator") == "ita.part.bulkhead":
         raise InputError([(Location(str(part.directory)), "a generated bulkhead has its as-built truth already "
@@ -331,9 +317,6 @@ def _found_features(mesh, specs_path: Path, features: tuple) -> tuple[tuple, tup
     """The features the specs name that `features` lacks, found on the mesh, and the specs
     whose feature is not there (ita.part.infer); none while the specs file is unreadable
     (the spec commands that mend it report that)."""
-    from ita.part.infer import infer_features
-    from ita.specs.io import read_specs
-
     try:
         specs = read_specs(specs_path)
     except (InputError, OSError, ValueError):

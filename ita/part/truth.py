@@ -23,7 +23,10 @@ import numpy as np
 import trimesh
 
 from ita.errors import InputError, Location
+from ita.files.atomic import write_atomic, write_with
 from ita.part.bulkhead import GeneratedPart
+from ita.part.faces import offset_faces
+from ita.part.infer import INSIDE_MM, MeshRays, basis, ring
 from ita.part.mesh import build_mesh
 from ita.part.meshfile import read_mesh
 from ita.part.model import (
@@ -262,8 +265,6 @@ def mesh_values(mesh: trimesh.Trimesh, specs: Sequence[MeasurementSpec], feature
     to the face's edge along the spec's direction, a height from the top face under the
     point, a width across it, a thickness through it.  Specs whose geometry the rays do not
     find are left out (scored as having no truth)."""
-    from ita.part.infer import INSIDE_MM, MeshRays, ring
-
     rays = MeshRays(mesh)
     out: dict[str, float] = {}
     circles: dict[str, tuple[np.ndarray, float, np.ndarray]] = {}
@@ -369,8 +370,6 @@ def perturbed_asbuilt(mesh: trimesh.Trimesh, specs: Sequence[MeasurementSpec], f
             ang = float(rng.uniform(0, 2 * math.pi))
             r = size * mine[K.HOLE_POSITION].upper / 2
             devs[hid]["du"], devs[hid]["dv"] = r * math.cos(ang), r * math.sin(ang)
-    from ita.part.infer import MeshRays, basis
-
     rays = MeshRays(mesh)
     plugs, cutters, statement = [], [], {}
     for h in holes:
@@ -392,8 +391,6 @@ def perturbed_asbuilt(mesh: trimesh.Trimesh, specs: Sequence[MeasurementSpec], f
     made = mesh
     if holes:
         made = trimesh.boolean.union([mesh, *plugs]).difference(trimesh.boolean.union(cutters))
-    from ita.part.faces import offset_faces
-
     made, faces = offset_faces(made, specs, np.random.default_rng([seed, 4]), spread, out_of_tolerance)
     return made, {"seed": seed, "spread": spread, "out_of_tolerance": out_of_tolerance,
                   "pushed_out_of_tolerance": out, "holes": statement, "faces": faces,
@@ -413,8 +410,6 @@ def write_perturbed(part_dir: Path, mesh: trimesh.Trimesh, specs: Sequence[Measu
     if not made.is_watertight:
         raise InputError([(Location(str(part_dir)), "the redrilled as-built mesh is not watertight (holes too "
                                                     "close to each other or to an edge to redrill)")])
-    from ita.files.atomic import write_atomic, write_with
-
     statement_path = part_dir / ASBUILT_STATEMENT
     had_statement = statement_path.exists()
     try:  # a failed write (a full disk) leaves neither a temporary file nor half a pair

@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 
 from ita.collision.shapes import BOX
+from ita.files.atomic import write_with
 from ita.kinematics import link_segments
 
 VIEWS = (("top (x, y)", (0, 1)), ("front (y, z), from the arm", (1, 2)), ("side (x, z)", (0, 2)))
@@ -90,8 +91,6 @@ def render_path(planner: Any, result: Any, tool: Any, path: Path, title: str = "
         axs[0].legend(loc="lower left", fontsize=8)
     fig.suptitle(title or result.message)
     fig.tight_layout()
-    from ita.files.atomic import write_with
-
     try:  # exactly the name given, atomically, never over a device (ita.files.atomic)
         return write_with(path, lambda tmp: fig.savefig(tmp, dpi=110, format="png"), what="-o",
                           suffix=".png")

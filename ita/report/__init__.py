@@ -22,6 +22,7 @@ from typing import Any
 
 from ita.archive.store import Archive
 from ita.errors import InputError, Location
+from ita.files.atomic import write_atomic
 from ita.report.data import (
     GOAL_HOURS,
     MANUAL_HOURS,
@@ -31,6 +32,10 @@ from ita.report.data import (
     collect,
     summarize,
 )
+from ita.report.page import html_page
+from ita.report.pdf import pdf_report
+from ita.report.result import result_payload
+from ita.report.sections import report_payload
 
 __all__ = ["FORMATS", "GOAL_HOURS", "MANUAL_HOURS", "ReportData", "Summary", "Verdict", "build_pdf",
            "build_report", "collect", "report_format", "summarize", "write_report"]
@@ -55,10 +60,6 @@ def build_report(archive: Archive, run_id: str, *, specs: Iterable[Any] | None =
                  drill_limit: int = DRILL_LIMIT, injected: Any = None) -> str:
     """The self-contained HTML report of run `run_id` (scoring only with `true_values`);
     scene (ita.report.scene.PartScene): the part's mesh and workcell for the 3-D views."""
-    from ita.report.page import html_page
-    from ita.report.result import result_payload
-    from ita.report.sections import report_payload
-
     data = collect(archive, run_id, specs if specs is not None else (scene.specs if scene else None))
     payload = report_payload(data, true_values=true_values, mesh=None if scene is None else scene.mesh,
                              injected=injected)
@@ -74,9 +75,6 @@ def build_report(archive: Archive, run_id: str, *, specs: Iterable[Any] | None =
 def build_pdf(archive: Archive, run_id: str, *, specs: Iterable[Any] | None = None,
               true_values: Mapping[str, float] | None = None, scene: Any = None, injected: Any = None) -> bytes:
     """The printable PDF report of run `run_id` (the part's verdict on page 1)."""
-    from ita.report.pdf import pdf_report
-    from ita.report.sections import report_payload
-
     data = collect(archive, run_id, specs if specs is not None else (scene.specs if scene else None))
     payload = report_payload(data, true_values=true_values, only=("summary", "results", "breakdown", "events",
                                                                   "exceptions", "scoring"), injected=injected)
@@ -87,6 +85,4 @@ def write_report(path: Path | str, content: str | bytes, make_dirs: bool = False
     """Write a report atomically (a temporary file renamed into place); returns the path.
     Refuses (InputError) an empty name, a path that exists and is not a regular file, and
     a missing directory unless `make_dirs` (ita.files.atomic)."""
-    from ita.files.atomic import write_atomic
-
     return write_atomic(path, content, what="-o", make_dirs=make_dirs)

@@ -16,6 +16,12 @@ from typing import Any
 
 import numpy as np
 
+from ita.kinematics import arm_model
+from ita.kinematics.fk import link_segments
+from ita.part import specfile
+from ita.part.store import load_part
+from ita.workcell import workcell_for
+
 _BOX_FACES = np.array([[0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5], [0, 4, 5], [0, 5, 1],
                        [2, 3, 7], [2, 7, 6], [0, 2, 6], [0, 6, 4], [1, 5, 7], [1, 7, 3]])
 
@@ -41,11 +47,6 @@ class PartScene:
     @classmethod
     def load(cls, part_dir: Path | str | None) -> PartScene:
         """The scene of the part in `part_dir` (None: the built-in bulkhead)."""
-        from ita.kinematics import arm_model
-        from ita.part import specfile
-        from ita.part.store import load_part
-        from ita.workcell import workcell_for
-
         part = load_part(None if part_dir is None else Path(part_dir))
         mesh = part.mesh
         cell = workcell_for(part.directory, part.mesh.bounds)
@@ -66,6 +67,4 @@ class PartScene:
 
     def arm_links(self, q: Any) -> np.ndarray:
         """The arm's collision tubes at configuration q (6,): segment ends (t, 2, 3), world m."""
-        from ita.kinematics.fk import link_segments
-
         return link_segments(self.arm_model, np.asarray([q], dtype=float))[0]

@@ -34,6 +34,8 @@ from ita.report.data import (
     tour_time,
     tours,
 )
+from ita.scoring.compare import compare
+from ita.scoring.diagnoses import diagnosis_score
 
 
 @dataclass(frozen=True)
@@ -127,8 +129,6 @@ def _exceptions(data: ReportData, ctx: Context) -> dict[str, Any] | None:
         return None
     scored = None
     if ctx.injected:
-        from ita.scoring import diagnosis_score
-
         scored = diagnosis_score(list(ctx.injected), [e.payload for e in found])["diagnoses"]
     rows = []
     for i, e in enumerate(found):
@@ -164,8 +164,6 @@ def _injected_found(row: dict) -> str:
 def _scoring(data: ReportData, ctx: Context) -> dict[str, Any] | None:
     if ctx.true_values is None:
         return None
-    from ita.scoring.compare import compare
-
     sc = compare(data.results, ctx.true_values)
     stats = sc.error_stats()
     kinds = {r.spec_id: r.kind or "?" for r in data.results}
@@ -184,8 +182,6 @@ def _scoring(data: ReportData, ctx: Context) -> dict[str, Any] | None:
                  ("largest |error| (µm)", f"{1000 * stats['max_abs']:.2f}"),
                  ("|error| within U", f"{100 * stats['within_u']:.1f} %")]
     if ctx.injected:
-        from ita.scoring import diagnosis_score
-
         diagnoses = [e.payload for e in data.events if e.kind == "diagnosis"]
         scored = diagnosis_score(list(ctx.injected), diagnoses)
         rows += [("faults injected (simulation)", str(len(ctx.injected))),

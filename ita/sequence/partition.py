@@ -30,8 +30,9 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ita.geometry.configurations import contact_poses
-from ita.logic.terms import Term
+from ita.logic.terms import Term, Var
 from ita.specs.model import MeasurementSpec, Tool
+from ita.workcell.reach import Reach, reach_report
 
 if TYPE_CHECKING:
     from ita.logic.bridge import KnowledgeBase
@@ -112,8 +113,6 @@ def reach_facts(workcell: Workcell, specs: Sequence[MeasurementSpec]) -> list[li
     """``[reach(us_tool, V1), reach(slra_tool, V2), ...]`` for each spec: one fact per tool
     class the workcell has a tool of (vectorised reach test; a probe on either contact
     pose)."""
-    from ita.workcell.reach import Reach, reach_report
-
     n = len(specs)
     if n == 0:
         return []
@@ -140,8 +139,6 @@ def select_tools(
     facts: Sequence[Sequence[Term]],
 ) -> list[Selection]:
     """The rules' choice for each spec, in input order: one call of ``tools:select_tools/2``."""
-    from ita.logic.terms import Var
-
     if len(facts) != len(specs):
         raise ValueError(f"{len(specs)} specs but {len(facts)} fact lists")
     if not specs:
@@ -171,8 +168,6 @@ def alternative_tools(
     (``tools:candidate_tool_types/3``), one per type (the workcell's first tool of that
     type), for each spec of `chosen` (spec id -> its tool).  A resequencing may move a
     measurement to one of them; the MKB places it for them beforehand."""
-    from ita.logic.terms import Var
-
     types_of: dict[tuple[str, str], list[str]] = {}
     out: dict[str, tuple[str, ...]] = {}
     for s in specs:

@@ -34,6 +34,10 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ita.geometry import load_mkb, mkb_digest
+from ita.logic.bridge import KnowledgeBase
+from ita.logic.terms import Var
+from ita.part.store import load_part, part_key
 from ita.sequence.cost import (
     COST_MODELS,
     INTERIM_COST,
@@ -53,8 +57,12 @@ from ita.sequence.partition import (
     feature_kinds_of,
     partition_specs,
     select_tools,
+    term_text,
 )
+from ita.sequence.tour import solve_tour, tour_cost
+from ita.specs.io import read_specs
 from ita.specs.model import MeasurementSpec
+from ita.workcell import workcell_for
 
 if TYPE_CHECKING:
     from ita.geometry.mkb import MeasurementKB
@@ -190,13 +198,7 @@ def planning_context(
     workcell (the part's own workcell.toml when it has one).  With `use_mkb`, the facts
     add what the part's stored MKB, when current, says about placing each measurement for
     each tool class (:func:`with_mkb`)."""
-    from ita.part.store import load_part, part_key
-    from ita.specs.io import read_specs
-    from ita.workcell import workcell_for
-
     if kb is None:
-        from ita.logic.bridge import KnowledgeBase
-
         kb = KnowledgeBase()
     loaded = part if part is not None else load_part(part_dir)
     specs = tuple(read_specs(loaded.specs_path))
@@ -207,16 +209,11 @@ def planning_context(
     )
     if not use_mkb:
         return ctx
-    from ita.geometry import load_mkb, mkb_digest
-
     return with_mkb(ctx, load_mkb(ctx.part_name, mkb_digest(ctx.specs_digest, ctx.workcell)))
 
 
 def tool_state(kb: KnowledgeBase) -> dict[str, dict[str, str]]:
     """Tool -> {"condition": ..., "location": ...} of the world model now."""
-    from ita.logic.terms import Var
-    from ita.sequence.partition import term_text
-
     state: dict[str, dict[str, str]] = {}
     for row in kb.call("world", "tool", Var("T")):
         tool = row["T"]
@@ -229,8 +226,6 @@ def tool_state(kb: KnowledgeBase) -> dict[str, dict[str, str]]:
 
 def held_tool(kb: KnowledgeBase) -> str | None:
     """The tool the arm holds now, or None."""
-    from ita.logic.terms import Var
-
     found = kb.once("world", "holding", Var("A"), Var("T"))
     return str(found["T"]) if found else None
 
@@ -241,8 +236,6 @@ def order_group(ctx: PlanningContext, tool: str, spec_ids: Sequence[str],
 
     keep: an order to reuse (its ids must be exactly `spec_ids`); it is costed, not solved.
     """
-    from ita.sequence.tour import solve_tour, tour_cost
-
     spec = ctx.workcell.tool(tool)
     ids = list(spec_ids)
     specs = [ctx.spec(i) for i in ids]

@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ita.files.atomic import write_with
 from ita.specs.model import MeasurementSpec
 
 if TYPE_CHECKING:
@@ -77,8 +78,6 @@ def render_plan(part: Part, specs_by_id: Mapping[str, MeasurementSpec], plan: Se
                  f"total {plan.total_s:.1f} {unit}  (circle: first point of a tour)")
     ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.07), ncol=2, fontsize=8, frameon=False)
     fig.tight_layout()
-    from ita.files.atomic import write_with
-
     try:  # exactly the name given, atomically, never over a device (ita.files.atomic)
         return write_with(path, lambda tmp: fig.savefig(tmp, dpi=dpi, format="png"), what="--render",
                           suffix=".png")

@@ -21,6 +21,7 @@ from typing import TYPE_CHECKING, Any
 
 from ita.errors import InputError, ItaError, Location
 from ita.files.atomic import store_name, write_json_atomic
+from ita.logic.terms import Term, Var
 from ita.paths import ita_home
 from ita.sequence.plan import PLAN_VERSION, PlannedGroup, SequencePlan
 
@@ -176,8 +177,6 @@ def apply_tool_marks(kb: KnowledgeBase, marks: Mapping[str, Mapping[str, Any]]) 
 
     Raises InputError naming a tool the world model does not know.
     """
-    from ita.logic.terms import Term, Var
-
     known = {row["T"] for row in kb.call("world", "tool", Var("T"))}
     unknown = sorted(set(marks) - known)
     if unknown:

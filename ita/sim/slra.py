@@ -49,12 +49,14 @@ from scipy.special import ndtr
 
 from ita.cores import SecondCore
 from ita.part.model import Hole
+from ita.part.store import load_part
 from ita.sensors.slra_frame import (
     SPEED_OF_LIGHT,
     RangeFrame,
     ScanGeometry,
     rotate_directions,
 )
+from ita.sim.world import simulated_part
 from ita.workcell.model import Box, PartPlacement, Workcell
 
 FloatArray = NDArray[np.float64]
@@ -170,9 +172,6 @@ class SlraScene:
     def from_truth(cls, part_dir: Path, workcell: Workcell, extra_boxes: Sequence[Box] = ()) -> SlraScene:
         """The part in `part_dir` as the simulator holds it (its as-built truth, else its
         as-built mesh, else its nominal mesh) with every static box of `workcell`."""
-        from ita.part.store import load_part
-        from ita.sim.world import simulated_part
-
         part = load_part(part_dir)
         return cls.from_simulated(simulated_part(part.directory, part.mesh), workcell, extra_boxes)
 

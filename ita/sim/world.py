@@ -37,9 +37,11 @@ from numpy.typing import NDArray
 
 from ita.bullet import import_pybullet
 from ita.kinematics import ArmModel, arm_model, flange_poses, link_frames
+from ita.part.store import load_part
+from ita.part.truth import simulated_part as _simulated
 from ita.sim.faults import FaultSet
 from ita.workcell import Box, Pose, ToolSpec, Workcell, load_workcell
-from ita.workcell.frames import matrix_to_quaternion
+from ita.workcell.frames import homogeneous, matrix_to_quaternion, quaternion_to_matrix
 from ita.workcell.model import TIP_CLEARANCE
 
 p = import_pybullet()   # the pybullet module (its build-time line silenced)
@@ -386,8 +388,6 @@ class SimWorld:
 
 
 def _load_asbuilt(part_dir) -> trimesh.Trimesh:
-    from ita.part.store import load_part
-
     part = load_part(part_dir)
     return simulated_part(part.directory, part.mesh).mesh
 
@@ -395,14 +395,10 @@ def _load_asbuilt(part_dir) -> trimesh.Trimesh:
 def simulated_part(part_dir, nominal: trimesh.Trimesh):
     """What the simulated cell holds for the part in `part_dir` (ita.part.truth.SimulatedPart):
     its as-built truth, else the user's asbuilt mesh, else the nominal mesh `nominal`."""
-    from ita.part.truth import simulated_part as _simulated
-
     return _simulated(part_dir, nominal)
 
 
 def _matrix(pos, quat) -> FloatArray:
-    from ita.workcell.frames import homogeneous, quaternion_to_matrix
-
     return homogeneous(quaternion_to_matrix(quat), pos)
 
 

@@ -26,6 +26,7 @@ from pathlib import Path
 from typing import Iterable, Sequence
 
 from ita.errors import InputError, Location
+from ita.files.atomic import write_atomic
 from ita.specs.model import MeasurementKind, MeasurementSpec
 
 COLUMNS: tuple[str, ...] = (
@@ -239,8 +240,6 @@ def format_specs(specs: Iterable[MeasurementSpec]) -> str:
 def atomic_write_text(path: Path, text: str, *, make_dirs: bool = True, what: str = "") -> None:
     """Write `text` to `path` atomically (ita.files.atomic): never over a device or other
     non-regular file; parent directories made only with `make_dirs`."""
-    from ita.files.atomic import write_atomic
-
     write_atomic(path, text, what=what, make_dirs=make_dirs)
 
 

@@ -24,6 +24,7 @@ import numpy as np
 
 from ita.archive import StoredFrame
 from ita.devices.data import ArmPath, MeasuredValue, ScanData, arm_paths
+from ita.vision.patches import View
 
 if TYPE_CHECKING:
     from ita.task.measure import MeasureOutcome
@@ -93,8 +94,6 @@ def vision_overlay(frame: Any, placement: Any, spec: Any, value: MeasuredValue) 
     """What Vision saw of `spec` in `frame` (a RangeFrame), in the frame's pixels (row,
     col): patch [r0, r1, c0, c1], rim and edge points, the fitted circle, the nominal
     point; and the reason when it failed."""
-    from ita.vision.patches import View
-
     view = View(frame, placement)
     source = value.source
     diag = dict(getattr(source, "diagnostics", {}) or {})

@@ -56,6 +56,7 @@ from ita.archive import Decision, Event, Outcome, Result, RunStatus
 from ita.archive.timeline import breakdown, intervals, span
 from ita.devices.arm import RECOVER_SECONDS
 from ita.devices.stations import CAL_STEP_MM
+from ita.diagnosis import ExceptionHandler
 from ita.logic.terms import Term
 from ita.planning.state import WorldState
 from ita.sequence.next_step import next_step, the_arm
@@ -230,8 +231,6 @@ class TopLevel:
         self.calibrated: set[str] = set()        # probes whose velocity this process set (or tried to)
         self.handler = None
         if handle_exceptions:
-            from ita.diagnosis import ExceptionHandler
-
             self.handler = ExceptionHandler(session, neighbours=self._neighbours)
 
     def _neighbours(self, spec_id: str, count: int = 5) -> list[float]:

@@ -47,6 +47,7 @@ from typing import Any
 import numpy as np
 
 from ita.part.model import Hole
+from ita.paths import resource_dir
 from ita.specs.model import MeasurementKind as K
 from ita.vision.context import FAR_MIXED_SHARE, VisionResult
 
@@ -87,8 +88,6 @@ def coverage_level(features: int, coverage: float = 0.95, confidence: float = CO
 
 def default_path() -> Path:
     """The cell's SLRA calibration: bulkhead/slra_calibration.json."""
-    from ita.paths import resource_dir
-
     return resource_dir("bulkhead") / "slra_calibration.json"
 
 

@@ -9,8 +9,10 @@ from pathlib import Path
 
 import numpy as np
 
+from ita.files.atomic import write_with
 from ita.sensors.slra_frame import RangeFrame
 from ita.specs.model import MeasurementSpec
+from ita.vision.patches import View
 
 
 def render_measurement(frame: RangeFrame, spec: MeasurementSpec, ctx, reply, path: Path) -> Path:
@@ -21,8 +23,6 @@ def render_measurement(frame: RangeFrame, spec: MeasurementSpec, ctx, reply, pat
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
     from matplotlib.patches import Rectangle
-
-    from ita.vision.patches import View
 
     view = View(frame, ctx.placement)
     fig, axes = plt.subplots(1, 2, figsize=(11, 5.2))
@@ -46,8 +46,6 @@ def render_measurement(frame: RangeFrame, spec: MeasurementSpec, ctx, reply, pat
     else:
         title = f"{spec.id}: {reply.reason.value} - {reply.detail}"
     fig.suptitle(title, fontsize=9)
-    from ita.files.atomic import write_with
-
     try:  # exactly the name given, atomically, never over a device (ita.files.atomic)
         return write_with(path, lambda tmp: fig.savefig(tmp, dpi=90, format="png"), what="--render",
                           make_dirs=True, suffix=".png")

@@ -49,10 +49,14 @@ from starlette.responses import (
 )
 from starlette.routing import Route
 
+from ita import report, scoring
 from ita.archive import Archive, ArchiveError, NoArchive, UnknownRun, archive_path
 from ita.errors import InputError, ItaError
 from ita.report.assets import asset_path
 from ita.report.data import COLUMNS, STATUS_COLOURS, collect, jsonable, result_row
+from ita.report.live import live_state
+from ita.report.result import result_payload
+from ita.report.sections import report_payload
 from ita.web import pages
 from ita.web.bodies import (
     BadRequest,
@@ -100,9 +104,10 @@ class State:
         with self._lock:
             if part_dir in self._scenes:
                 return self._scenes[part_dir]
-        from ita.report.scene import PartScene
-
         try:
+            # start-up: the scene loads trimesh and the workcell (a second); only a page of the part needs it
+            from ita.report.scene import PartScene
+
             scene = PartScene.load(part_dir) if Path(part_dir).is_dir() else None
         except Exception:  # noqa: BLE001 - a run whose part cannot be read is still shown, without it
             scene = None
@@ -266,8 +271,6 @@ async def api_control(request: Request) -> JSONResponse:
 
 
 def _report(state: State, run_id: str) -> Any:
-    from ita.report.sections import report_payload
-
     def make(archive: Archive) -> Any:
         rid = archive.resolve(run_id)
         info = archive.run(rid)
@@ -288,8 +291,6 @@ def _report(state: State, run_id: str) -> Any:
 
 
 def _has_truth(info: Any) -> bool:
-    from ita import scoring
-
     return bool(info.settings.get("simulated", True)) and scoring.has_true_values(info.part_dir)
 
 
@@ -302,9 +303,6 @@ async def api_scoring(request: Request) -> JSONResponse:
     state, run_id = _state(request), _run_id(request)
 
     def make(archive: Archive) -> Any:
-        from ita import scoring
-        from ita.report.sections import report_payload
-
         rid = archive.resolve(run_id)
         info = archive.run(rid)
         if not _has_truth(info):
@@ -322,8 +320,6 @@ async def api_result(request: Request) -> JSONResponse:
     state, run_id, spec = _state(request), _run_id(request), request.path_params["spec"]
 
     def make(archive: Archive) -> Any:
-        from ita.report.result import result_payload
-
         rid = archive.resolve(run_id)
         info = archive.run(rid)
         return result_payload(archive, rid, spec, scene=state.scene(info.part_dir))
@@ -333,8 +329,6 @@ async def api_result(request: Request) -> JSONResponse:
 
 
 def _live(state: State, run_id: str) -> dict[str, Any]:
-    from ita.report.live import live_state
-
     def make(archive: Archive) -> dict[str, Any]:
         try:
             rid = archive.resolve(run_id)
@@ -413,14 +407,10 @@ async def export(request: Request) -> Response:
                 w.writerow({k: ("" if v is None else v) for k, v in row.items()})
             return Response(buf.getvalue(), media_type="text/csv",
                             headers={"Content-Disposition": f'attachment; filename="{rid}-results.csv"'})
-        from ita import report
-
         info = archive.run(rid)
         scene = state.scene(info.part_dir)
         truth = None
         if _has_truth(info):
-            from ita import scoring
-
             truth = scoring.true_values(info.part_dir)
         if what == "report.pdf":
             return Response(report.build_pdf(archive, rid, true_values=truth, scene=scene),

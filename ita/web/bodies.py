@@ -22,6 +22,7 @@ from typing import Any
 
 from ita.errors import ItaError
 from ita.seeds import SEED_MAX
+from ita.specs.io import read_spec_table
 
 START_FIELDS = ("part", "limit", "seed", "faults")
 CONTROL_FIELDS = ("command",)
@@ -194,8 +195,8 @@ def control_command(body: dict[str, Any]) -> str:
 def spec_count(part: str | None) -> int:
     """The number of specs of a part directory (None: the built-in bulkhead, made first
     when it is not yet); InputError when its specs cannot be read."""
+    # start-up: the part store loads trimesh (a second); only a request that starts a run needs it
     from ita.part.store import SPECS_FILE, ensure_builtin
-    from ita.specs.io import read_spec_table
 
     directory = ensure_builtin() if part is None else Path(part)
     return len(read_spec_table(directory / SPECS_FILE).specs)

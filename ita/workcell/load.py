@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from ita.errors import InputError, Location
-from ita.paths import resource_dir
+from ita.paths import builtin_dir, resource_dir
 from ita.specs.model import Tool
 from ita.workcell import frames
 from ita.workcell.model import (
@@ -441,8 +441,6 @@ def workcell_for(part_directory: Path | str | None, bounds: Any = None) -> Workc
 def _is_builtin(part_directory: Path | str | None) -> bool:
     if part_directory is None:
         return True
-    from ita.part.store import builtin_dir
-
     try:
         return Path(part_directory).resolve() == builtin_dir().resolve()
     except OSError:
