@@ -225,12 +225,12 @@ class _Engine:
                 self._unregister_atom(atom)
             atoms.clear()
         data = text.encode("utf-8")
-        atom = atoms[text] = self._new_atom(_REP_UTF8, len(data), data)
+        atom = atoms[text] = int(self._new_atom(_REP_UTF8, len(data), data))
         return atom
 
     def _put_atom(self, ref: int, text: str) -> int:
         atom = self._atoms.get(text)
-        return self._put_atom_c(ref, atom if atom is not None else self._atom(text))
+        return int(self._put_atom_c(ref, atom if atom is not None else self._atom(text)))
 
     def _functor(self, name: str, arity: int) -> int:
         key = (name, arity)
@@ -298,14 +298,14 @@ class _Engine:
 
     def _put_int(self, ref: int, value: int) -> int:
         if -(2**63) <= value < 2**63:
-            return self._put_int64(ref, value)
-        return self._chars_to_term(str(value).encode("ascii"), ref)  # digits only: a big integer
+            return int(self._put_int64(ref, value))
+        return int(self._chars_to_term(str(value).encode("ascii"), ref))  # digits only: a big integer
 
     def _put_float(self, ref: int, value: float) -> int:
         if -math.inf < value < math.inf:
-            return self._put_float_c(ref, value)
+            return int(self._put_float_c(ref, value))
         text = "1.5NaN" if math.isnan(value) else ("1.0Inf" if value > 0 else "-1.0Inf")
-        return self._chars_to_term(text.encode("ascii"), ref)
+        return int(self._chars_to_term(text.encode("ascii"), ref))
 
 
 def _cfunc(function: Any, restype: Any, argtypes: list[Any]) -> Any:
@@ -389,6 +389,14 @@ class KnowledgeBase:
     def holds(self, module: str, name: str, *args: Any) -> bool:
         """True when ``module:name(args...)`` has a solution."""
         return self.once(module, name, *args) is not None
+
+    def one(self, module: str, name: str, *args: Any) -> dict[str, Any]:
+        """The solution of ``module:name(args...)``, a predicate that always has one;
+        :class:`~ita.errors.PrologError` when it failed."""
+        solution = self.once(module, name, *args)
+        if solution is None:
+            raise PrologError(f"{module}:{name}/{len(args)}", "failed where it always succeeds")
+        return solution
 
     # -- the kb commands -----------------------------------------------------------
 

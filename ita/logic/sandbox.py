@@ -256,7 +256,7 @@ class _Confined:
     """A started child: bwrap's process, and the pipe where bwrap writes the PID of its
     namespace's first process (``--info-fd``)."""
 
-    def __init__(self, process: subprocess.Popen, info_fd: int) -> None:
+    def __init__(self, process: subprocess.Popen[bytes], info_fd: int) -> None:
         self.process = process
         self._info_fd = info_fd
         self._info = b""

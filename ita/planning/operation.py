@@ -195,7 +195,7 @@ def _builder(template: Any) -> tuple[_Builder, bool]:
         name = template.name
         parts = [_builder(a) for a in template.args]
         if all(ground for _, ground in parts):
-            value = Term(name, tuple(p(()) for p, _ in parts))
+            value = Term(name, tuple(p([]) for p, _ in parts))
             return (lambda values: value), True
         builders = [p for p, _ in parts]
         return (lambda values: Term(name, tuple([p(values) for p in builders]))), False
@@ -212,7 +212,7 @@ def _step_builder(number: int, action: str, args: list[Any], preds: tuple[int, .
     parts = [_builder(a) for a in args]
     builders = [p for p, _ in parts]
     if all(ground for _, ground in parts):
-        step = PlanStep(number, action, tuple(p(()) for p in builders), preds)
+        step = PlanStep(number, action, tuple(p([]) for p in builders), preds)
         return lambda values: step
     if len(args) > 1 and all(_variable_index(a) is not None for a in args):
         # the commonest step: every argument a variable; one C call picks them all
@@ -235,7 +235,7 @@ def _pose_builder(template: Any) -> Callable[[list[Any]], QualitativePose]:
     build, ground = _builder(template)
     if ground:
         try:
-            constant = QualitativePose.from_term(build(()))
+            constant = QualitativePose.from_term(build([]))
         except ValueError:
             pass
         else:
@@ -430,19 +430,19 @@ class OperationPlanner:
                              state, final)
 
     def _template(self, mid: Any) -> _Template:
-        solution = self.kb.once("macrop", "macrop_template", self._file, mid, Var("T"))
+        solution = self.kb.one("macrop", "macrop_template", self._file, mid, Var("T"))
         return _Template.from_term(macrop_name(mid), solution["T"])
 
     # -- the store -------------------------------------------------------------------
 
     def counts(self) -> StoreCounts:
         """The lookups, hits and misses of the store."""
-        s = self.kb.once("macrop", "store_counts", self._file, Var("L"), Var("H"), Var("M"))
+        s = self.kb.one("macrop", "store_counts", self._file, Var("L"), Var("H"), Var("M"))
         return StoreCounts(int(s["L"]), int(s["H"]), int(s["M"]))
 
     def macrops(self) -> list[MacropInfo]:
         """The MACROPs of the store, learned and hand-written, in lookup order."""
-        s = self.kb.once("macrop", "macrop_rows", self._file, Var("Rows"))
+        s = self.kb.one("macrop", "macrop_rows", self._file, Var("Rows"))
         return [
             MacropInfo(macrop_name(mid), str(functor), int(steps), int(hits), str(purpose))
             for mid, functor, steps, hits, purpose in s["Rows"]
@@ -457,7 +457,7 @@ class OperationPlanner:
         known = {m.name for m in self.macrops()}
         if macrop_name(mid) not in known:
             raise KeyError(name)
-        s = self.kb.once("macrop", "macrop_text", self._file, mid, Var("T"))
+        s = self.kb.one("macrop", "macrop_text", self._file, mid, Var("T"))
         return str(s["T"])
 
     def clear(self) -> int:
