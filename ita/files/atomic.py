@@ -115,7 +115,7 @@ def store_name(name: str) -> str:
     return "".join(c if c.isalnum() or c in "-_." else "_" for c in name) or "part"
 
 
-def write_with(path: Path | str, writer: Callable[[Path], None], *, what: str = "",
+def write_with(path: Path | str, writer: Callable[[Path], object], *, what: str = "",
                make_dirs: bool = False, suffix: str = ".tmp") -> Path:
     """Call `writer` on a temporary file beside `path`, then rename it over `path`.
 

@@ -12,6 +12,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 FloatArray = np.ndarray
 
@@ -134,7 +135,7 @@ def strip_polygon(path: FloatArray, normals: FloatArray, d0: float, d1: float) -
     return ccw(np.vstack([a, b[::-1]]))
 
 
-def rect_polygon(start: FloatArray, end: FloatArray, width: float, extend: float = 0.0) -> FloatArray:
+def rect_polygon(start: ArrayLike, end: ArrayLike, width: float, extend: float = 0.0) -> FloatArray:
     """(4, 2) float: CCW rectangle of `width` around the segment start-end, lengthened
     by `extend` at both ends."""
     start, end = np.asarray(start, float), np.asarray(end, float)

@@ -29,6 +29,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
+from typing import overload
 
 import numpy as np
 import trimesh
@@ -85,6 +86,7 @@ class MeshRays:
         self.mesh = mesh
         self.normals = np.asarray(mesh.face_normals, dtype=float)
         self.anchor = np.asarray(mesh.triangles[:, 0], dtype=float)
+        self.intersector: trimesh.ray.ray_pyembree.RayMeshIntersector | trimesh.ray.ray_triangle.RayMeshIntersector
         try:
             self.intersector = trimesh.ray.ray_pyembree.RayMeshIntersector(mesh)
         except Exception:  # no embree: trimesh's own (slower, same answers)
@@ -159,8 +161,8 @@ def _find_hole(rays: MeshRays, fid: str, specs: Sequence[MeasurementSpec]) -> Ho
     depth = float(min(np.median(through[np.isfinite(through)]) + 0.01 if np.isfinite(through).any() else bore, bore))
     if not math.isfinite(depth) or depth <= 0:
         return f"the hole at {_xyz(c)} has no depth the mesh shows"
-    return Hole(fid, HoleRole.FASTENER, tuple(float(x) for x in c), tuple(float(x) for x in n), round(diameter, 6),
-                round(depth, 6), parent="")
+    return Hole(fid, HoleRole.FASTENER, (float(c[0]), float(c[1]), float(c[2])),
+                (float(n[0]), float(n[1]), float(n[2])), round(diameter, 6), round(depth, 6), parent="")
 
 
 def _polygon_sides(rays: MeshRays, p: FloatArray, n: FloatArray, r: float) -> int:
@@ -175,6 +177,10 @@ def _polygon_sides(rays: MeshRays, p: FloatArray, n: FloatArray, r: float) -> in
     return int(np.argmax(spectrum[3:]) + 3)
 
 
+@overload
+def _across(rays: MeshRays, p: FloatArray, given: FloatArray, limit: float) -> tuple[FloatArray, float, float]: ...
+@overload
+def _across(rays: MeshRays, p: FloatArray, given: None, limit: float) -> tuple[FloatArray, float, float] | str: ...
 def _across(rays: MeshRays, p: FloatArray, given: FloatArray | None, limit: float) -> tuple[FloatArray, float, float] | str:
     """The direction across a wall-like feature at top point p (n = +Z) and the distances to its
     two side faces (+u, -u) from just inside the top; the narrowest direction when none is given."""

@@ -68,7 +68,8 @@ def _flange(contour: g2.RoundedRect, f: Flange, side: str, prefix: str) -> list[
 
 def _fasteners(contour: g2.RoundedRect, segs: list[FlangeSegment], f: Flange,
                prefix: str) -> tuple[list[Hole], dict[str, float]]:
-    holes, hole_s = [], {}
+    holes: list[Hole] = []
+    hole_s: dict[str, float] = {}
     inset = (f.wall_thickness + f.cap_width) / 2
     for seg in segs:
         s0, s1 = seg.s_range

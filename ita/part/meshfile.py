@@ -80,7 +80,7 @@ def read_mesh(path: Path, what: str = "mesh") -> trimesh.Trimesh:
     try:
         with np.errstate(invalid="ignore", divide="ignore", over="ignore"):  # NaN corners: counted, not warned
             dropped, total = nonfinite_triangles(path)
-            mesh = trimesh.load(path, force="mesh")
+            mesh = trimesh.load_mesh(path)
     except ImportError:  # trimesh guessing a text encoding of a damaged file
         raise InputError([(Location(str(path)), f"cannot read {what}: the file is damaged or not a mesh "
                                                 f"of its type")]) from None

@@ -15,6 +15,7 @@ Heights are from datum A (z = 0).  Ids read `<KIND>-<feature>[-<n>]`, e.g. WT-P0
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import NDArray
 
 from ita.part import geometry2d as g2
 from ita.part.layout import Layout
@@ -28,6 +29,12 @@ UP = (0.0, 0.0, 1.0)
 
 def _v3(x: float, y: float, z: float) -> tuple[float, float, float]:
     return (round(float(x), 4), round(float(y), 4), round(float(z), 4))
+
+
+def _v3_at(xy: NDArray[np.float64], z: float) -> tuple[float, float, float]:
+    """`_v3` of the point (x, y) of a plane point at height z."""
+    x, y = xy
+    return _v3(x, y, z)
 
 
 def _dir(x: float, y: float) -> tuple[float, float, float]:
@@ -104,7 +111,7 @@ def _flange_specs(lay: Layout, p: BulkheadParams) -> list[MeasurementSpec]:
         fh = sorted({1, len(mids) - 2})
         ft = sorted({0, len(mids) - 1} | ({len(mids) // 2} - set(fh)))
         for k, i in enumerate(fh):
-            at, d = _v3(*cap[i], seg.height), _dir(*inward[i])
+            at, d = _v3_at(cap[i], seg.height), _dir(*inward[i])
             specs.append(_spec(f"FH-{seg.id}-{k + 1}", K.FLANGE_HEIGHT, seg.id, at, UP,
                                seg.height, tol.height, note="cap top above datum A"))
             specs.append(_spec(f"FW-{seg.id}-{k + 1}", K.FLANGE_WIDTH, seg.id, at, UP,
@@ -113,12 +120,12 @@ def _flange_specs(lay: Layout, p: BulkheadParams) -> list[MeasurementSpec]:
         under = _near_rib(cap, lay.stiffeners, 8.0)
         for k, i in enumerate(j for j in ft if not under[j]):
             specs.append(_spec(f"FT-{seg.id}-C{k + 1}", K.FLANGE_THICKNESS, seg.id,
-                               _v3(*cap[i], seg.height), UP, seg.cap_thickness, tol.thickness,
+                               _v3_at(cap[i], seg.height), UP, seg.cap_thickness, tol.thickness,
                                note="cap thickness, ultrasonic from the cap top"))
         i = len(mids) // 2
         if straight[i] and not _near_rib(pts[i:i + 1] + inward[i:i + 1], lay.stiffeners, 15.0)[0]:
             z = (p.web.thickness + seg.height - seg.cap_thickness) / 2
-            specs.append(_spec(f"FT-{seg.id}-W1", K.FLANGE_THICKNESS, seg.id, _v3(*pts[i], z),
+            specs.append(_spec(f"FT-{seg.id}-W1", K.FLANGE_THICKNESS, seg.id, _v3_at(pts[i], z),
                                _dir(*-inward[i]), seg.wall_thickness, tol.thickness,
                                note="wall thickness, ultrasonic from the free face"))
     return specs
@@ -146,7 +153,7 @@ def _hole_specs(lay: Layout, p: BulkheadParams) -> list[MeasurementSpec]:
             edge = seg.cap_width - (seg.wall_thickness + seg.cap_width) / 2
             r = h.diameter / 2
             at = np.asarray(h.center[:2]) + inward * (r + (edge - r) / 2)
-            specs.append(_spec(f"ED-{h.id}", K.EDGE_DISTANCE, h.id, _v3(*at, h.center[2]), UP,
+            specs.append(_spec(f"ED-{h.id}", K.EDGE_DISTANCE, h.id, _v3_at(at, h.center[2]), UP,
                                edge, tol.general, direction=_dir(*inward),
                                note="hole centre to the cap's free edge"))
     return specs
@@ -174,7 +181,7 @@ def _stiffener_specs(lay: Layout, p: BulkheadParams) -> list[MeasurementSpec]:
             stations += [a + f * (b - a) for f in fr]
         across = _dir(-u[1], u[0])
         for k, s in enumerate(stations):
-            at = _v3(*(np.asarray(r.start) + s * u), r.height)
+            at = _v3_at(np.asarray(r.start) + s * u, r.height)
             specs.append(_spec(f"SH-{r.id}-{k + 1}", K.STIFFENER_HEIGHT, r.id, at, UP, r.height,
                                p.tolerance.height, note="rib top above datum A"))
             specs.append(_spec(f"SW-{r.id}-{k + 1}", K.STIFFENER_WIDTH, r.id, at, UP, r.width,

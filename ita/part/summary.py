@@ -50,11 +50,12 @@ class PartSummary:
 def summarize(part: Part, specs: Sequence[MeasurementSpec], unreachable: int | None = None) -> PartSummary:
     """The summary of `part` with its `specs` (every kind listed, zero counts included)."""
     lo, hi = part.mesh.bounds
+    sx, sy, sz = (round(float(v), 3) for v in hi - lo)
     fk = Counter(f.kind for f in part.features)
     sk = Counter(s.kind for s in specs)
     return PartSummary(
         name=part.name, directory=str(part.directory),
-        size=tuple(round(float(v), 3) for v in hi - lo),  # type: ignore[arg-type]
+        size=(sx, sy, sz),
         triangles=int(len(part.mesh.faces)), watertight=bool(part.mesh.is_watertight),
         features=tuple((k.value, fk.get(k, 0)) for k in FeatureKind),
         specs=tuple((k.value, sk.get(k, 0)) for k in MeasurementKind),

@@ -140,24 +140,37 @@ def true_values(specs: Sequence[MeasurementSpec], nominal: Sequence[Feature],
         if s.feature not in act:
             continue
         f, f0 = act[s.feature], nom[s.feature]
+        # each kind of spec is on its one kind of feature (a spec's feature of another kind
+        # fails here as it did on its missing attribute)
         if s.kind is K.WEB_THICKNESS:
+            assert isinstance(f, Pocket) and isinstance(f0, Pocket)
             v = s.nominal + f.web_thickness - f0.web_thickness
         elif s.kind is K.FLANGE_THICKNESS:
             dim = "cap_thickness" if s.normal[2] > 0.5 else "wall_thickness"
             v = s.nominal + getattr(f, dim) - getattr(f0, dim)
         elif s.kind in (K.FLANGE_HEIGHT, K.STIFFENER_HEIGHT):
+            assert isinstance(f, (FlangeSegment, Stiffener)) and isinstance(f0, (FlangeSegment, Stiffener))
             v = s.nominal + f.height - f0.height
         elif s.kind is K.FLANGE_WIDTH:
+            assert isinstance(f, FlangeSegment) and isinstance(f0, FlangeSegment)
             v = s.nominal + f.cap_width - f0.cap_width
         elif s.kind is K.STIFFENER_WIDTH:
+            assert isinstance(f, Stiffener) and isinstance(f0, Stiffener)
             v = s.nominal + f.width - f0.width
         elif s.kind is K.HOLE_DIAMETER:
+            assert isinstance(f, Hole) and isinstance(f0, Hole)
             v = s.nominal + f.diameter - f0.diameter
         elif s.kind is K.HOLE_POSITION:
+            assert isinstance(f, Hole) and isinstance(f0, Hole)
             v = 2.0 * math.dist(f.center[:2], f0.center[:2])
         elif s.kind is K.EDGE_DISTANCE:
+            assert isinstance(f, Hole) and isinstance(f0, Hole)
             shift = np.subtract(f.center[:2], f0.center[:2])
-            grow = act[f.parent].cap_width - nom[f.parent].cap_width if f.parent in act else 0.0
+            grow = 0.0
+            if f.parent in act:
+                flange, flange0 = act[f.parent], nom[f.parent]
+                assert isinstance(flange, FlangeSegment) and isinstance(flange0, FlangeSegment)
+                grow = flange.cap_width - flange0.cap_width
             v = s.nominal + grow - float(np.dot(shift, (s.direction or (0.0, 0.0, 0.0))[:2]))
         else:
             continue
@@ -206,7 +219,7 @@ def load_truth(part_dir: Path) -> Truth:
         features = tuple(feature_from_dict(x) for x in json.loads((d / FEATURES_FILE).read_text()))
     except (ValueError, KeyError, TypeError) as exc:
         raise InputError([(Location(str(d)), f"corrupt truth files: {exc}")]) from None
-    mesh = trimesh.load(d / MESH_FILE, force="mesh", process=False)
+    mesh = trimesh.load_mesh(d / MESH_FILE, process=False)
     return Truth(features, mesh, {k: float(v) for k, v in data["values"].items()},
                  data["deviations"], tuple(data["out_of_tolerance"]), int(data["seed"]))
 
@@ -316,8 +329,8 @@ def mesh_values(mesh: trimesh.Trimesh, specs: Sequence[MeasurementSpec], feature
         elif s.kind in (K.STIFFENER_WIDTH, K.FLANGE_WIDTH) and s.direction is not None:
             u = np.asarray(s.direction, dtype=float)
             start = p - INSIDE_MM * n
-            d = rays.first(np.vstack([start, start]), np.vstack([u, -u]))
-            value = float(d.sum()) if np.all(np.isfinite(d)) else None
+            sides = rays.first(np.vstack([start, start]), np.vstack([u, -u]))
+            value = float(sides.sum()) if np.all(np.isfinite(sides)) else None
         if value is not None:
             out[s.id] = round(float(value), 6)
     return out
