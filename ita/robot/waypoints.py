@@ -48,13 +48,13 @@ def profile_time(distance: ArrayLike, velocity: ArrayLike, acceleration: ArrayLi
 
 def profile_position(t: ArrayLike, duration: float, peak: float, accel: float) -> FloatArray:
     """Normalised position s(t) in [0, 1] of a trapezoidal (or triangular) profile."""
-    t = np.clip(np.asarray(t, dtype=float), 0.0, duration)
+    tc: FloatArray = np.clip(np.asarray(t, dtype=float), 0.0, duration)
     ta = peak / accel if accel > 0 else 0.0
-    rise = 0.5 * accel * t * t
-    cruise = 0.5 * accel * ta * ta + peak * (t - ta)
-    back = duration - t
+    rise = 0.5 * accel * tc * tc
+    cruise = 0.5 * accel * ta * ta + peak * (tc - ta)
+    back = duration - tc
     fall = 1.0 - 0.5 * accel * back * back
-    return np.where(t < ta, rise, np.where(t > duration - ta, fall, cruise))
+    return np.where(tc < ta, rise, np.where(tc > duration - ta, fall, cruise))
 
 
 def from_waypoints(model: ArmModel, waypoints: ArrayLike, knot_period: float = KNOT_PERIOD,
