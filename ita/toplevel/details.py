@@ -21,14 +21,18 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ita.archive import StoredFrame
 from ita.devices.data import ArmPath, MeasuredValue, ScanData, arm_paths
 from ita.vision.patches import View
 
 if TYPE_CHECKING:
+    from ita.sensors.slra_frame import RangeFrame
+    from ita.specs.model import MeasurementSpec
     from ita.task.measure import MeasureOutcome
     from ita.task.session import Session
+    from ita.workcell.model import PartPlacement
 
 __all__ = ["MeasurementDetails", "measurement_details", "vision_overlay"]
 
@@ -70,14 +74,15 @@ def _paths(outcome: MeasureOutcome, plan_no: int) -> list[dict[str, Any]]:
 def _thin(points: np.ndarray, most: int = MAX_OVERLAY_POINTS) -> np.ndarray:
     if len(points) <= most:
         return points
-    return points[np.linspace(0, len(points) - 1, most).astype(int)]
+    kept: np.ndarray = points[np.linspace(0, len(points) - 1, most).astype(int)]
+    return kept
 
 
-def _pixels(view: Any, xy: Any, z: float) -> list[list[float]]:
-    xy = np.asarray(xy, dtype=float).reshape(-1, 2)
-    if not len(xy):
+def _pixels(view: View, xy: ArrayLike, z: float) -> list[list[float]]:
+    pts = np.asarray(xy, dtype=float).reshape(-1, 2)
+    if not len(pts):
         return []
-    rc = view.pixel_of(np.column_stack([_thin(xy), np.full(min(len(xy), MAX_OVERLAY_POINTS), z)]))
+    rc = view.pixel_of(np.column_stack([_thin(pts), np.full(min(len(pts), MAX_OVERLAY_POINTS), z)]))
     return [[round(float(r), 2), round(float(c), 2)] for r, c in rc if math.isfinite(r) and math.isfinite(c)]
 
 
@@ -90,7 +95,7 @@ def _scalar(v: Any) -> Any:
     return getattr(v, "value", None) if isinstance(getattr(v, "value", None), str) else None
 
 
-def vision_overlay(frame: Any, placement: Any, spec: Any, value: MeasuredValue) -> dict[str, Any]:
+def vision_overlay(frame: RangeFrame, placement: PartPlacement, spec: MeasurementSpec, value: MeasuredValue) -> dict[str, Any]:
     """What Vision saw of `spec` in `frame` (a RangeFrame), in the frame's pixels (row,
     col): patch [r0, r1, c0, c1], rim and edge points, the fitted circle, the nominal
     point; and the reason when it failed."""
@@ -112,7 +117,7 @@ def vision_overlay(frame: Any, placement: Any, spec: Any, value: MeasuredValue) 
     if center is not None and (rim is not None or value.ok):
         c = np.asarray(center, dtype=float)[:2]
         kind = str(getattr(spec.kind, "value", spec.kind))
-        if kind == "hole_diameter" and value.ok:
+        if kind == "hole_diameter" and value.ok and value.value is not None:
             radius = float(value.value) / 2
         elif rim is not None and len(rim):
             radius = float(np.median(np.hypot(*(np.asarray(rim, dtype=float)[:, :2] - c).T)))

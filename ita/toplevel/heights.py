@@ -40,12 +40,17 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ita.archive import Event, Result
+from ita.devices.data import MeasuredValue
 from ita.specs.model import MeasurementKind as K
+
+if TYPE_CHECKING:
+    from ita.specs.model import MeasurementSpec
+    from ita.vision.context import VisionContext
 
 __all__ = ["EVENT_KIND", "HEIGHT_KINDS", "HeightPending", "WebRef", "decide_height", "web_specs"]
 
@@ -59,7 +64,7 @@ HEIGHT_KINDS = (K.FLANGE_HEIGHT, K.STIFFENER_HEIGHT)
 SAME_HEIGHT_MM = 0.01
 
 
-def web_specs(specs: Sequence[Any], ctx: Any) -> dict[str, tuple[str, ...]]:
+def web_specs(specs: Sequence[MeasurementSpec], ctx: VisionContext) -> dict[str, tuple[str, ...]]:
     """Floor region -> the web thickness specs that measure it: those on the floor
     (`ctx.web_region` of their point) whose nominal is the floor's nominal height (the
     web's back on datum A)."""
@@ -104,13 +109,13 @@ class HeightPending:
         return {s for w in self.webs for s in w.specs}
 
     @classmethod
-    def from_value(cls, spec_id: str, value: Any, tool: str | None, t0: float | None, t1: float | None,
-                   floors: Mapping[str, tuple[str, ...]], ctx: Any) -> HeightPending | None:
+    def from_value(cls, spec_id: str, value: MeasuredValue, tool: str | None, t0: float | None, t1: float | None,
+                   floors: Mapping[str, tuple[str, ...]], ctx: VisionContext) -> HeightPending | None:
         """From Vision's height result with its webs' references (``webs``) when a web
         thickness spec stands for at least one of their floors; else None."""
         diag = getattr(getattr(value, "source", None), "diagnostics", None) or {}
         raw = diag.get("webs")
-        if not raw or value.value is None or "u_fit" not in diag:
+        if not raw or value.value is None or value.u is None or "u_fit" not in diag:
             return None
         webs = []
         for w in raw:
@@ -137,7 +142,7 @@ class HeightPending:
                    float(p["frame_value"]), float(p["frame_u"]), str(p.get("why") or ""))
 
 
-def decide_height(p: HeightPending, spec: Any, measured: Mapping[str, tuple[float, float]],
+def decide_height(p: HeightPending, spec: MeasurementSpec, measured: Mapping[str, tuple[float, float]],
                   points: Mapping[str, Sequence[float]], web_tolerance: float) -> Result:
     """The height's result with each web's measured thickness where its floor has one.
     measured: web thickness spec id -> (value, u) of those measured in the run; points:

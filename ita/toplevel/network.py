@@ -21,14 +21,19 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ita.archive import Event, Outcome, Result
+from ita.devices.data import MeasuredValue
 from ita.part.model import Hole, HoleRole
 from ita.specs.model import MeasurementKind as K
 from ita.vision.network import NetworkSolution, Sighting, solve_network
+
+if TYPE_CHECKING:
+    from ita.part.model import Feature
+    from ita.specs.model import MeasurementSpec
 
 __all__ = ["EVENT_KIND", "Pending", "decide", "network_key"]
 
@@ -36,7 +41,7 @@ __all__ = ["EVENT_KIND", "Pending", "decide", "network_key"]
 EVENT_KIND = "network_frame"
 
 
-def network_key(spec: Any, features: Mapping[str, Any]) -> str | None:
+def network_key(spec: MeasurementSpec, features: Mapping[str, Feature]) -> str | None:
     """The network a spec's result is decided in: the fastener holes' positions on one face
     ("holes at z=45"); None for everything else."""
     hole = features.get(spec.feature)
@@ -60,12 +65,12 @@ class Pending:
     frame_u: float
 
     @classmethod
-    def from_value(cls, spec_id: str, value: Any, tool: str | None, t0: float | None, t1: float | None
+    def from_value(cls, spec_id: str, value: MeasuredValue, tool: str | None, t0: float | None, t1: float | None
                    ) -> Pending | None:
         """From a measured value whose source is Vision's result with sightings; else None."""
         diag = getattr(getattr(value, "source", None), "diagnostics", None) or {}
         raw = diag.get("sightings")
-        if not raw or value.value is None:
+        if not raw or value.value is None or value.u is None:
             return None
         sightings = tuple(Sighting(spec_id, str(s["hole"]), (float(s["xy"][0]), float(s["xy"][1])),
                                    float(s["sigma"]), float(s.get("systematic", 0.0)), str(s.get("group", "")))
@@ -89,7 +94,7 @@ class Pending:
                    float(p["frame_u"]))
 
 
-def decide(pendings: Sequence[Pending], specs: Mapping[str, Any], features: Mapping[str, Any],
+def decide(pendings: Sequence[Pending], specs: Mapping[str, MeasurementSpec], features: Mapping[str, Feature],
            pose_sigma: float) -> tuple[list[Result], NetworkSolution]:
     """Solve the network of `pendings` and decide each: a measured result (value 2 |d|, its
     standard uncertainty 2 sigma along the worst axis, the reason saying how the network

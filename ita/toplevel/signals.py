@@ -20,7 +20,12 @@ import signal
 import sys
 import threading
 import time
-from typing import Any
+from collections.abc import Callable
+from types import FrameType
+from typing import TYPE_CHECKING, Any, TextIO
+
+if TYPE_CHECKING:
+    from ita.archive import Archive
 
 __all__ = ["RunSignals", "StopNow"]
 
@@ -36,14 +41,14 @@ class RunSignals:
     poll_interval: least wall-clock seconds between two reads of the control table.
     """
 
-    def __init__(self, *, message: Any = sys.stderr, poll_interval: float = 0.5) -> None:
+    def __init__(self, *, message: TextIO | None = sys.stderr, poll_interval: float = 0.5) -> None:
         self.interrupt = False
         self.stop = False
         self.reason = ""
         self.message = message
         self.poll_interval = poll_interval
         self._last_poll = 0.0
-        self._saved: dict[int, Any] = {}
+        self._saved: dict[int, Callable[[int, FrameType | None], Any] | int | None] = {}
 
     # -- signals ---------------------------------------------------------------------
     def __enter__(self) -> RunSignals:
@@ -61,7 +66,7 @@ class RunSignals:
         if self.message is not None:
             print(f"\n{text}", file=self.message, flush=True)
 
-    def _handle(self, signum: int, _frame: Any) -> None:
+    def _handle(self, signum: int, _frame: FrameType | None) -> None:
         if signum == signal.SIGINT and not self.interrupt:
             self.interrupt = True
             self.reason = "Ctrl-C"
@@ -73,7 +78,7 @@ class RunSignals:
         raise StopNow(self.reason)
 
     # -- the control table ---------------------------------------------------------------
-    def poll(self, archive: Any, run_id: str, *, force: bool = False) -> None:
+    def poll(self, archive: Archive, run_id: str, *, force: bool = False) -> None:
         """Take a STOP / INTERRUPT request of the run from the archive (at most every
         poll_interval s unless `force`); a STOP raises StopNow."""
         now = time.monotonic()
