@@ -82,7 +82,7 @@ def test_an_uncertain_result_says_why() -> None:
 
     from ita.archive import Result
     from ita.specs.model import MeasurementKind as K
-    from ita.toplevel.loop import why_uncertain
+    from ita.toplevel.recording import why_uncertain
 
     spec = SimpleNamespace(id="HD-OF-001", kind=K.HOLE_DIAMETER, point=(0.0, 0.0, 45.0), nominal=6.35,
                            lower=-0.076, upper=0.076)

@@ -7,15 +7,25 @@
         run_id = start_run(session, archive, limit=12)
         summary = TopLevel(session, archive, run_id, signals).run(on_progress=print)
 
-Modules: :mod:`~ita.toplevel.loop` (the sequence-level loop), :mod:`~ita.toplevel.events`
-(a plan's log as archive events), :mod:`~ita.toplevel.signals` (STOP and INTERRUPT).
+Modules: :mod:`~ita.toplevel.loop` (the sequence-level loop and its step),
+:mod:`~ita.toplevel.start` (registering a run), :mod:`~ita.toplevel.progress` (the live
+view's progress, the run's summary), :mod:`~ita.toplevel.recording` (results to the
+archive, the failures-in-a-row alarm), :mod:`~ita.toplevel.pending` (results held for a
+network of hole positions, :mod:`~ita.toplevel.network`, or for their webs' measured
+thickness, :mod:`~ita.toplevel.heights`), :mod:`~ita.toplevel.calibration` (the probes on
+the calibration block), :mod:`~ita.toplevel.handling` (the Exception Handler called on a
+failure), :mod:`~ita.toplevel.events` (every archive event the Top Level builds),
+:mod:`~ita.toplevel.details` (what is kept beside a result), :mod:`~ita.toplevel.signals`
+(STOP and INTERRUPT).
 Each measurement's round trip is the task level's (:mod:`ita.task`), shared with `ita
 measure` and the Exception Handler (:mod:`ita.diagnosis`) below this level.
 """
 
 from ita.toplevel.events import archive_events
-from ita.toplevel.loop import Progress, RunSummary, TopLevel, start_run
+from ita.toplevel.loop import TopLevel
+from ita.toplevel.progress import Progress, RunSummary
 from ita.toplevel.signals import RunSignals, StopNow
+from ita.toplevel.start import start_run
 
 __all__ = [
     "Progress",

@@ -1,0 +1,34 @@
+"""Registering a new inspection run in the archive, before the Top Level runs it.
+
+    run_id = start_run(session, archive, limit=12)        # the first 12 of the sequence plan
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import TYPE_CHECKING, Any
+
+if TYPE_CHECKING:
+    from ita.archive import Archive
+    from ita.task.session import Session
+
+__all__ = ["start_run"]
+
+
+def start_run(session: Session, archive: Archive, *, limit: int | None = None, run_id: str | None = None,
+              settings: Mapping[str, Any] | None = None) -> str:
+    """Register a new run of the session's part in `archive`: the measurements it sets out
+    to do are the first `limit` of the sequence plan (all by default), plus those the plan
+    cannot do (recorded as such).  run_id: the id to give it (the System Monitor names the
+    runs it starts); default a fresh one.  `settings` adds to what the run records (the
+    fault injection).  Returns the run id."""
+    plan = session.plan
+    order = [i for g in plan.groups for i in g.order]
+    todo = order[:limit] if limit is not None else order
+    if limit is None:
+        todo += [i for i, _ in plan.cannot]
+    recorded = {"simulated": True, "simulated_part": session.simulated, "limit": limit, "part_arg": session.part_arg,
+                "specs": todo, "mkb_digest": session.mkb.digest, "sequence_total_s": plan.total_s,
+                **(settings or {})}
+    return archive.create_run(session.part.name, session.part.directory, seed=session.seed,
+                              settings=recorded, total=len(todo), run_id=run_id)
