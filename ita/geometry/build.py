@@ -33,7 +33,8 @@ import hashlib
 import math
 import time
 from collections.abc import Mapping, Sequence
-from typing import TYPE_CHECKING, Any
+from types import ModuleType
+from typing import TYPE_CHECKING, Any, TypedDict
 
 import numpy as np
 from numpy.typing import NDArray
@@ -95,6 +96,12 @@ __all__ = [
 ]
 
 
+def _source_file(module: ModuleType) -> str:
+    """The file a module of ita's was imported from."""
+    assert module.__file__ is not None, module.__name__   # not a namespace package
+    return module.__file__
+
+
 def mkb_digest(specs_digest: str, cell: Workcell) -> str:
     """Digest of what an MKB depends on: the specs (their file's digest), the workcell,
     Vision's rules for a frame's window and pixels (the source of ita.vision.scan and of
@@ -104,13 +111,21 @@ def mkb_digest(specs_digest: str, cell: Workcell) -> str:
     from pathlib import Path
 
     raster = f"{MIN_HOLE_PIXELS},{RASTER_STEP},{MAX_RASTER},{SHORT_APPROACH_M},{COUPLANT_OFFSET_M},{APPROACH_MARGIN_M}"
-    rules = hashlib.sha256(b"".join(Path(m.__file__).read_bytes()
+    rules = hashlib.sha256(b"".join(Path(_source_file(m)).read_bytes()
                                     for m in (scan_rules, context_rules, collision_rules, cover_rules))).hexdigest()
     text = f"{MKB_VERSION}|{PRESS_M}|{GROUP_GROWTH}|{raster}|{rules}|{specs_digest}|{cell!r}"
     return hashlib.sha256(text.encode()).hexdigest()
 
 
 # -- building -----------------------------------------------------------------------------
+
+class _Base(TypedDict):
+    """What every entry of a spec measured with a tool starts with (MkbEntry's first fields)."""
+
+    spec_id: str
+    tool: str
+    tool_class: str
+
 
 def _probe_entries(cell: Workcell, tool: ToolSpec, specs: Sequence[MeasurementSpec],
                    planner: PathPlanner | None) -> list[MkbEntry]:
@@ -142,7 +157,7 @@ def _probe_entries(cell: Workcell, tool: ToolSpec, specs: Sequence[MeasurementSp
     chosen = _probe_at(model, planner, tool, surface, q0, ladder, contact_free)
     out: list[MkbEntry] = []
     for i, spec in enumerate(specs):
-        base = {"spec_id": spec.id, "tool": tool.name, "tool_class": tool.tool_class.value}
+        base = _Base(spec_id=spec.id, tool=tool.name, tool_class=tool.tool_class.value)
         if not conf.found[i]:
             out.append(MkbEntry(**base, status="no_pose", reason=f"no arm configuration ({conf.status[i]})"))
             continue
@@ -223,7 +238,9 @@ def _contact_free(cell: Workcell, planner: PathPlanner, tool: ToolSpec) -> Any:
     def free(q_a: FloatArray, q_c: FloatArray) -> NDArray[np.bool_]:
         path = q_a[:, None] + s[None, :, None] * (q_c - q_a)[:, None]          # (n, k, 6)
         hit = checker.collides(link_segments(model, path.reshape(-1, 6)))
-        return ~hit.reshape(len(q_a), -1).any(axis=1)
+        blocked = hit.reshape(len(q_a), -1).any(axis=1)
+        assert isinstance(blocked, np.ndarray)   # (n,): one row of the 2-D array each
+        return ~blocked
 
     return free
 
@@ -391,7 +408,7 @@ def _slra_entries(cell: Workcell, tool: ToolSpec, specs: Sequence[MeasurementSpe
     by_id = {g.id: g for g in groups}
     out: list[MkbEntry] = []
     for i, spec in enumerate(specs):
-        base = {"spec_id": spec.id, "tool": tool.name, "tool_class": tool.tool_class.value}
+        base = _Base(spec_id=spec.id, tool=tool.name, tool_class=tool.tool_class.value)
         if not conf.found[i]:
             out.append(MkbEntry(**base, status="no_pose", reason=f"no arm configuration ({conf.status[i]})"))
             continue
@@ -490,7 +507,8 @@ def build_mkb(
             for e in alts:
                 old_alt.setdefault(e.tool, []).append(e)
     entries, groups = place(by_tool, old_own)
-    alt_entries, alt_groups = {}, {}
+    alt_entries: dict[str, list[MkbEntry]] = {}
+    alt_groups: dict[str, ViewGroup] = {}
     for tool_name, tool_specs in alt_by_tool.items():   # one tool at a time: no id clashes
         found, made = place({tool_name: tool_specs}, old_alt)
         for e in found.values():

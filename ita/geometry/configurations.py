@@ -156,7 +156,9 @@ def measurement_configurations(workcell: Workcell, model: ArmModel, tool: ToolSp
     k = slot_count(model)
     # a preferred candidate's solutions when there are any, else all of them
     pref = ik.valid & preferred[..., None]
-    use = np.where(pref.any(axis=(1, 2))[:, None, None], pref, ik.valid).reshape(n, -1)
+    any_pref = pref.any(axis=(1, 2))
+    assert isinstance(any_pref, np.ndarray)   # (n,): pref is 3-D
+    use = np.where(any_pref[:, None, None], pref, ik.valid).reshape(n, -1)
     branch_of = (np.arange(flat.valid.shape[1]) % k) // (k // 8)             # (c*K,) branch 0..7
     per_branch = np.array([(use & (branch_of == b)).any(axis=1).sum() for b in range(8)])
     branch = int(np.argmax(per_branch))

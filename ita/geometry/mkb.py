@@ -64,6 +64,14 @@ def _array(value: Any, shape: tuple[int, ...]) -> FloatArray | None:
     return out
 
 
+def _rack_configuration(tool: str, value: Any) -> FloatArray:
+    """A stored rack configuration (6,); ValueError when it is null (the MKB is damaged)."""
+    out = _array(value, (6,))
+    if out is None:
+        raise ValueError(f"the MKB's rack configuration of {tool!r} is null")
+    return out
+
+
 @dataclass(frozen=True, eq=False)
 class MkbEntry:
     """Where the arm stands for one measurement.
@@ -215,7 +223,7 @@ class MeasurementKB:
             raise ValueError(f"MKB version {d.get('version')!r}, expected {MKB_VERSION}")
         entries = {e["spec_id"]: MkbEntry.from_dict(e) for e in d["entries"]}
         groups = {g["id"]: ViewGroup.from_dict(g) for g in d["groups"]}
-        rack = {k: _array(v, (6,)) for k, v in d.get("rack", {}).items()}
+        rack = {k: _rack_configuration(k, v) for k, v in d.get("rack", {}).items()}
         alternatives: dict[str, tuple[MkbEntry, ...]] = {}
         for a in d.get("alternatives", []):
             e = MkbEntry.from_dict(a)

@@ -46,6 +46,13 @@ class Target:
     press_m: float = 0.0
 
 
+def _configuration(spec_id: str, q: FloatArray | None) -> FloatArray:
+    """A placed entry's configuration; KeyError when the entry has none (a damaged MKB)."""
+    if q is None:
+        raise KeyError(f"{spec_id}: its MKB entry has no arm configuration")
+    return q
+
+
 class GeometricReasoner:
     """Turns the plans' qualitative parameters into numbers (the Executive's PoseResolver).
 
@@ -101,11 +108,11 @@ class GeometricReasoner:
                 return self.cell.part.to_world(np.asarray(spec.point, dtype=float)[None])[0]
             e = self.entry(spec_id, tool)
             if kind == "approach_point":
-                return Target(e.q_approach, e.pose_approach)
+                return Target(_configuration(spec_id, e.q_approach), e.pose_approach)
             if kind == "in_contact_point":
-                return Target(e.q, e.pose, e.press_m)
+                return Target(_configuration(spec_id, e.q), e.pose, e.press_m)
             if kind == "viewing_pose":
-                return Target(e.q, e.pose)
+                return Target(_configuration(spec_id, e.q), e.pose)
             if kind == "patches":
                 group = self.mkb.groups.get(e.group or "")
                 if group is None:
