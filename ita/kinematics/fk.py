@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass
+from typing import TypeVar, overload
 
 import numpy as np
 from numba import njit
@@ -26,6 +27,7 @@ from ita.workcell.frames import homogeneous, rpy_to_matrix
 from ita.workcell.model import ArmKinematics, ArmSpec
 
 FloatArray = NDArray[np.float64]
+_ScalarT = TypeVar("_ScalarT", bound=np.generic)
 #: rad: the one slack at the joint limits, for every check that a configuration is within
 #: them (IK, path planning, the motion kernels, the controller); IK snaps solutions within it
 #: onto the limit, and the arm never settles outside the limits
@@ -89,16 +91,16 @@ def arm_model(arm: ArmSpec) -> ArmModel:
     next origin.  Raises ValueError if the URDF's chain does not match.
     """
     root = ET.parse(arm.urdf).getroot()
-    by_child = {j.find("child").get("link"): j for j in root.findall("joint")}  # type: ignore[union-attr]
+    by_child = {_joint_link(j, "child"): j for j in root.findall("joint")}
     chain: list[ET.Element] = []
     link = arm.flange_link
     while link in by_child:
         joint = by_child[link]
         chain.append(joint)
-        link = joint.find("parent").get("link")  # type: ignore[union-attr]
+        link = _joint_link(joint, "parent")
     chain.reverse()
     moving = [j for j in chain if j.get("type") != "fixed"]
-    names = tuple(j.get("name") for j in moving)
+    names = tuple(j.get("name", "") for j in moving)
     if names != tuple(arm.joints.names):
         raise ValueError(f"{arm.urdf}: chain to {arm.flange_link!r} has joints {names}, expected {arm.joints.names}")
     origins, axes, pending = [], [], np.eye(4)
@@ -111,7 +113,7 @@ def arm_model(arm: ArmSpec) -> ArmModel:
         pending = np.eye(4)
         axis = _floats(joint.find("axis"), "xyz", "1 0 0")
         axes.append(axis / np.linalg.norm(axis))
-        link_names.append(joint.find("child").get("link"))  # type: ignore[union-attr]
+        link_names.append(_joint_link(joint, "child"))
     link_names.append(arm.flange_link)
     tube_links, tube_ends, tube_radii = _tubes(root, link_names)
     lim = arm.joints
@@ -243,10 +245,23 @@ def _configs(q: ArrayLike, dof: int) -> FloatArray:
     return q
 
 
-def _frozen(values: ArrayLike, dtype: type = np.float64) -> np.ndarray:
+@overload
+def _frozen(values: ArrayLike) -> FloatArray: ...
+@overload
+def _frozen(values: ArrayLike, dtype: type[_ScalarT]) -> NDArray[_ScalarT]: ...
+def _frozen(values: ArrayLike, dtype: type[np.generic] = np.float64) -> np.ndarray:
     a = np.array(values, dtype=dtype)
     a.setflags(write=False)
     return a
+
+
+def _joint_link(joint: ET.Element, end: str) -> str:
+    """The link a URDF joint's <parent> or <child> (`end`) names; ValueError when it names none."""
+    element = joint.find(end)
+    link = element.get("link") if element is not None else None
+    if link is None:
+        raise ValueError(f"URDF joint {joint.get('name')!r} has no {end} link")
+    return link
 
 
 def _floats(element: ET.Element | None, attr: str, default: str) -> FloatArray:
@@ -266,8 +281,7 @@ def _only_tubes(root: ET.Element, link_names: list[str]) -> bool:
     fixed_to: dict[str, list[str]] = {}
     for joint in root.findall("joint"):
         if joint.get("type") == "fixed":
-            fixed_to.setdefault(joint.find("parent").get("link"), []).append(  # type: ignore[union-attr]
-                joint.find("child").get("link"))  # type: ignore[union-attr]
+            fixed_to.setdefault(_joint_link(joint, "parent"), []).append(_joint_link(joint, "child"))
     still, todo = set(), [link_names[0]]
     while todo:
         name = todo.pop()

@@ -28,6 +28,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from enum import Enum
 from itertools import product
+from typing import cast
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -89,7 +90,8 @@ class IKSolutions:
     @property
     def found(self) -> NDArray[np.bool_]:
         """Bool (*B): whether each pose has at least one valid solution."""
-        return self.valid.any(axis=-1)
+        # a numpy bool when B is () (a single pose), which acts as the 0-d array here
+        return cast(NDArray[np.bool_], self.valid.any(axis=-1))
 
     def status(self, index: int | tuple[int, ...]) -> IKStatus:
         """The status of one pose of the batch."""

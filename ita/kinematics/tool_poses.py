@@ -36,7 +36,7 @@ def roll_angles(count: int = DEFAULT_ROLLS) -> FloatArray:
     """Rolls (count,) rad evenly over a turn, starting at 0."""
     if count < 1:
         raise ValueError(f"roll count must be >= 1, got {count}")
-    return np.arange(count) * (2.0 * np.pi / count)
+    return np.arange(count, dtype=np.float64) * (2.0 * np.pi / count)
 
 
 def surface_frames(points_m: ArrayLike, normals: ArrayLike, rolls: ArrayLike, standoff: float = 0.0) -> FloatArray:
@@ -74,7 +74,7 @@ def measurement_poses(
     standoff: metres along the normal; None takes the tool's nominal standoff (0 for the
     contact probe, whose tip then sits on the point).
     """
-    angles = roll_angles(int(rolls)) if np.ndim(rolls) == 0 else np.asarray(rolls, dtype=float)
+    angles = roll_angles(int(np.asarray(rolls))) if np.ndim(rolls) == 0 else np.asarray(rolls, dtype=float)
     points = placement.to_world(np.asarray(points_mm, dtype=float).reshape(-1, 3))
     world_normals = placement.normals_to_world(np.asarray(normals, dtype=float).reshape(-1, 3))
     distance = tool.standoff_nominal if standoff is None else float(standoff)
