@@ -79,6 +79,22 @@ def tool_tube(tool: ToolSpec) -> tuple[np.ndarray, float]:
     return ends, radius
 
 
+def _shape(collision: ET.Element, urdf: Path) -> ET.Element:
+    """The shape of a URDF <collision>: the first element in its <geometry>."""
+    geometry = collision.find("geometry")
+    if geometry is None or not len(geometry):
+        raise ValueError(f"{urdf}: a <collision> without a shape in its <geometry>")
+    return geometry[0]
+
+
+def _number(shape: ET.Element, name: str, urdf: Path) -> float:
+    """A shape's numeric attribute (`length`, `radius`); ValueError when it has none."""
+    value = shape.get(name)
+    if value is None:
+        raise ValueError(f"{urdf}: a {shape.tag} without a {name}")
+    return float(value)
+
+
 def urdf_tubes(urdf: Path, link_names: Sequence[str]) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[str]]:
     """Collision cylinders and capsules of the listed links (chain order): tube_links (t,)
     index into link_names, ends (t, 2, 3) in the link frame, radii (t,), shape tags."""
@@ -87,16 +103,16 @@ def urdf_tubes(urdf: Path, link_names: Sequence[str]) -> tuple[np.ndarray, np.nd
     index, ends, radii, tags = [], [], [], []
     for i, name in enumerate(link_names):
         for col in links[name].findall("collision") if name in links else []:
-            shape = col.find("geometry")[0]  # type: ignore[index]
+            shape = _shape(col, urdf)
             if shape.tag not in ("cylinder", "capsule"):
                 continue
             org = col.find("origin")
             xyz = [float(v) for v in (org.get("xyz", "0 0 0") if org is not None else "0 0 0").split()]
             rpy = [float(v) for v in (org.get("rpy", "0 0 0") if org is not None else "0 0 0").split()]
-            axis = rpy_to_matrix(rpy)[:, 2] * float(shape.get("length")) / 2
+            axis = rpy_to_matrix(rpy)[:, 2] * _number(shape, "length", urdf) / 2
             index.append(i)
             ends.append([np.subtract(xyz, axis), np.add(xyz, axis)])
-            radii.append(float(shape.get("radius")))
+            radii.append(_number(shape, "radius", urdf))
             tags.append(shape.tag)
     return np.array(index), np.array(ends, dtype=float), np.array(radii), tags
 
@@ -218,12 +234,20 @@ def arm_tubes(urdf: Path, link_names: Sequence[str], pad: float = CYLINDER_PAD) 
     out_l, out_e, out_r, world, self_, cyl = [], [], [], [], [], []
     for link, e, r, tag in zip(links, ends, radii, tags):
         flat = tag == "cylinder"
-        out_l.append(link), out_e.append(e), out_r.append(r)
-        world.append(True), self_.append(not flat), cyl.append(0.0)
+        out_l.append(link)
+        out_e.append(e)
+        out_r.append(r)
+        world.append(True)
+        self_.append(not flat)
+        cyl.append(0.0)
         if flat:
             grown, radius = cylinder_tube(e, r, pad)
-            out_l.append(link), out_e.append(grown), out_r.append(radius)
-            world.append(False), self_.append(True), cyl.append(radius)
+            out_l.append(link)
+            out_e.append(grown)
+            out_r.append(radius)
+            world.append(False)
+            self_.append(True)
+            cyl.append(radius)
     return ArmTubes(np.asarray(out_l, dtype=np.int64), np.asarray(out_e, dtype=float).reshape(-1, 2, 3),
                     np.asarray(out_r, dtype=float), np.asarray(world, bool), np.asarray(self_, bool),
                     np.asarray(cyl, dtype=float))

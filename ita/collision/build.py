@@ -40,19 +40,19 @@ WEB_TILE_MM = 100.0       # web tiles' grid
 CHAIN_SLACK_MM = 1.0      # how much wider than the strip a flange chain box may be
 
 
-def _boxes_2d(centres: list, axes: list, lengths: list, widths: list, z0: list, z1: list,
-              margin: float) -> Regions:
+def _boxes_2d(centres: Sequence[FloatArray], axes: Sequence[FloatArray], lengths: Sequence[float],
+              widths: Sequence[float], z0: Sequence[float], z1: Sequence[float], margin: float) -> Regions:
     """Boxes from a 2-D rectangle (centre, unit axis along its length) and a z range."""
     if not centres:
         return Regions.empty()
     c2, u = np.asarray(centres, dtype=float), np.asarray(axes, dtype=float)
-    z0, z1 = np.asarray(z0, dtype=float), np.asarray(z1, dtype=float)
+    bottom, top = np.asarray(z0, dtype=float), np.asarray(z1, dtype=float)
     rot = np.zeros((len(c2), 3, 3))
     rot[:, :2, 0] = u
     rot[:, 0, 1], rot[:, 1, 1] = -u[:, 1], u[:, 0]
     rot[:, 2, 2] = 1.0
-    centre = np.column_stack([c2, (z0 + z1) / 2])
-    size = np.column_stack([lengths, widths, z1 - z0])
+    centre = np.column_stack([c2, (bottom + top) / 2])
+    size = np.column_stack([lengths, widths, top - bottom])
     return Regions.boxes(centre, rot, size, margin)
 
 
@@ -74,7 +74,8 @@ def web_tiles(features: Sequence[Any], tile_mm: float = WEB_TILE_MM, margin_mm: 
         web = web - m3d.CrossSection([_loop(inner)])
     top = max(p.web_thickness for p in pockets)
     x0, y0, x1, y1 = web.bounds()
-    lo, hi = [], []
+    lo: list[tuple[float, float, float]] = []
+    hi: list[tuple[float, float, float]] = []
     for xa in np.arange(x0, x1, tile_mm):
         for ya in np.arange(y0, y1, tile_mm):
             xb, yb = min(xa + tile_mm, x1), min(ya + tile_mm, y1)
@@ -84,8 +85,8 @@ def web_tiles(features: Sequence[Any], tile_mm: float = WEB_TILE_MM, margin_mm: 
                 bx0, by0, bx1, by1 = piece.bounds()
                 lo.append((bx0, by0, 0.0))
                 hi.append((bx1, by1, top))
-    lo, hi = np.asarray(lo), np.asarray(hi)
-    return Regions.boxes((lo + hi) / 2, np.eye(3), hi - lo, margin_mm)
+    lows, highs = np.asarray(lo), np.asarray(hi)
+    return Regions.boxes((lows + highs) / 2, np.eye(3), highs - lows, margin_mm)
 
 
 def _strip_chain(path: np.ndarray, normals: np.ndarray, width: float, slack: float) -> list[tuple]:
