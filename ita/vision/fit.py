@@ -42,7 +42,7 @@ class PlaneFit:
     def z_sigma(self, x: float, y: float) -> float:
         """Standard uncertainty of z(x, y) from the fit."""
         g = np.array([x, y, 1.0])
-        return float(np.sqrt(max(g @ self.cov @ g, 0.0)))
+        return float(np.sqrt(max(float(g @ self.cov @ g), 0.0)))
 
     @property
     def normal(self) -> FloatArray:
@@ -376,7 +376,7 @@ class ParallelPlanes:
         """Standard uncertainty of offsets[i] - offsets[j]."""
         g = np.zeros(len(self.cov))
         g[2 + i], g[2 + j] = 1.0, -1.0
-        return float(np.sqrt(max(g @ self.cov @ g, 0.0)))
+        return float(np.sqrt(max(float(g @ self.cov @ g), 0.0)))
 
     def mean_gap_sigma(self, i: int, others: list[int]) -> float:
         """Standard uncertainty of offsets[i] minus the mean of offsets[others] (the mean
@@ -385,7 +385,7 @@ class ParallelPlanes:
         g[2 + i] = 1.0
         for j in others:
             g[2 + j] -= 1.0 / len(others)
-        return float(np.sqrt(max(g @ self.cov @ g, 0.0)))
+        return float(np.sqrt(max(float(g @ self.cov @ g), 0.0)))
 
 
 def fit_parallel_planes(groups: list[FloatArray]) -> ParallelPlanes:

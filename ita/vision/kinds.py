@@ -5,12 +5,15 @@ height and width, each from one range frame (:data:`MEASURERS`, by measurement k
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Generic, TypeVar
 
 import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage
 
-from ita.part.model import FlangeSegment, Hole, HoleRole, Stiffener
+from ita.part.model import Feature, FlangeSegment, Hole, HoleRole, Stiffener
 from ita.specs.model import MeasurementKind as K
 from ita.specs.model import MeasurementSpec
 from ita.vision.context import (
@@ -59,7 +62,9 @@ def _hole_position(view: View, spec: MeasurementSpec, hole: Hole, ctx: VisionCon
     fit, _, diag = fit_rim(view, hole, "rim")
     px = diag["pixel_mm"]
     u_fit = math.hypot(EDGE_CORRELATION * max(fit.center_sigma), edge_sigma(px, fit.n))
-    shift, u_reg, used, left = np.zeros(2), math.nan, [], []
+    shift, u_reg = np.zeros(2), math.nan
+    used: list[str] = []
+    left: list[str] = []
     sightings = [{"hole": hole.id, "xy": (float(fit.center[0]), float(fit.center[1])), "sigma": u_fit,
                   "systematic": float(diag["u_model_centre"]), "group": "whole rim"}]
     if hole.role is HoleRole.FASTENER:
@@ -250,12 +255,29 @@ def _stiffener(view: View, spec: MeasurementSpec, rib: Stiffener, ctx: VisionCon
     return _width(spec, p, lines[0][0], lines[1][0], lines[0][1], lines[1][1])
 
 
-MEASURERS = {
-    K.HOLE_DIAMETER: (Hole, _hole_diameter),
-    K.HOLE_POSITION: (Hole, _hole_position),
-    K.EDGE_DISTANCE: (Hole, _edge_distance),
-    K.FLANGE_HEIGHT: (FlangeSegment, _flange),
-    K.FLANGE_WIDTH: (FlangeSegment, _flange),
-    K.STIFFENER_HEIGHT: (Stiffener, _stiffener),
-    K.STIFFENER_WIDTH: (Stiffener, _stiffener),
+_F = TypeVar("_F", Hole, FlangeSegment, Stiffener)
+
+
+@dataclass(frozen=True)
+class Measurer(Generic[_F]):
+    """The measuring function of one kind of measurement and the kind of feature it measures."""
+
+    feature: type[_F]
+    run: Callable[[View, MeasurementSpec, _F, VisionContext], VisionResult]
+
+    def __call__(self, view: View, spec: MeasurementSpec, feature: Feature, ctx: VisionContext) -> VisionResult:
+        if not isinstance(feature, self.feature):
+            raise TypeError(f"{spec.id}: {spec.kind.value} measures a {self.feature.__name__}, "
+                            f"not a {type(feature).__name__}")
+        return self.run(view, spec, feature, ctx)
+
+
+MEASURERS: dict[K, Measurer[Hole] | Measurer[FlangeSegment] | Measurer[Stiffener]] = {
+    K.HOLE_DIAMETER: Measurer(Hole, _hole_diameter),
+    K.HOLE_POSITION: Measurer(Hole, _hole_position),
+    K.EDGE_DISTANCE: Measurer(Hole, _edge_distance),
+    K.FLANGE_HEIGHT: Measurer(FlangeSegment, _flange),
+    K.FLANGE_WIDTH: Measurer(FlangeSegment, _flange),
+    K.STIFFENER_HEIGHT: Measurer(Stiffener, _stiffener),
+    K.STIFFENER_WIDTH: Measurer(Stiffener, _stiffener),
 }

@@ -100,14 +100,14 @@ def measure(frame: RangeFrame, spec: MeasurementSpec, ctx: VisionContext) -> Vis
     """Measure `spec` in `frame`: a VisionResult, or a VisionException saying why not."""
     entry = MEASURERS.get(spec.kind)
     feature = ctx.features.get(spec.feature)
-    if entry is None or not isinstance(feature, entry[0]):
+    if entry is None or not isinstance(feature, entry.feature):
         return VisionException(spec.id, VisionFailure.NOT_MEASURABLE,
                                f"the SLRA does not measure {spec.kind.value} of {spec.feature!r}")
     calibrated = feature
     if isinstance(feature, Hole) and feature.axis[2] < AXIS_UP_COS:
         ctx, spec, feature = along_axis(ctx, spec, feature)
     try:
-        result = entry[1](ctx.views.of(frame, ctx.placement), spec, feature, ctx)
+        result = entry(ctx.views.of(frame, ctx.placement), spec, feature, ctx)
     except VisionFail as exc:
         return VisionException(spec.id, exc.reason, exc.detail)
     return (ctx.calibration or SlraCalibration()).apply(result, calibrated)
@@ -131,7 +131,8 @@ def along_axis(ctx: VisionContext, spec: MeasurementSpec, hole: Hole) -> tuple[V
     same_face = {f.id: replace(f, center=local(f.center), axis=up) for f in ctx.features.values()
                  if isinstance(f, Hole) and float(np.dot(f.axis, n)) > AXIS_UP_COS}
     pl = ctx.placement
-    placement = replace(pl, rotation=tuple(tuple(float(x) for x in row) for row in pl.rotation_matrix() @ rot))
+    r0, r1, r2 = ((float(x), float(y), float(z)) for x, y, z in pl.rotation_matrix() @ rot)
+    placement = replace(pl, rotation=(r0, r1, r2))
     spec = replace(spec, point=local(spec.point), normal=up,
                    direction=None if spec.direction is None else local(spec.direction))
     return replace(ctx, features=same_face, placement=placement, floor=None), spec, same_face[hole.id]

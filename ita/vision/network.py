@@ -233,7 +233,8 @@ def _adjust(obs: Sequence[Sighting], nominal: Mapping[str, Sequence[float]], pos
         net_u = math.sqrt(max(float(np.linalg.eigvalsh(cov).max()), 0.0))
         total = cov + np.eye(2) * sys_u ** 2
         budget = {"network (frame poses and rim fits)": net_u, "edge model": sys_u}
-        est[h] = HoleEstimate(h, (float(x[k]), float(x[k + 1])), tuple(map(tuple, total.tolist())),
+        (c_xx, c_xy), (c_yx, c_yy) = total.tolist()
+        est[h] = HoleEstimate(h, (float(x[k]), float(x[k + 1])), ((c_xx, c_xy), (c_yx, c_yy)),
                               tuple(sorted(set(seen[h]))), budget)
     chi: dict[str, tuple[float, int]] = {}
     for f, ri in zip(owner, range(n_obs)):

@@ -127,12 +127,11 @@ class Patch:
         return image[self.r0:self.r1, self.c0:self.c1]
 
 
-def place_patch(view: View, name: str, corners: FloatArray, inside: Callable[[FloatArray], NDArray[np.bool_]] | None = None,
+def place_patch(view: View, name: str, corners: FloatArray, inside: Callable[[Patch], NDArray[np.bool_]] | None = None,
                 margin_px: int = 1) -> Patch | None:
     """The patch covering part points `corners` (k, 3) mm; None when any corner falls
-    outside the image.  inside: optional test (h, w, 3) part points -> (h, w) bool that
-    refines the mask (points of the patch's pixels on the nominal surface are passed; use
-    `nominal_points`)."""
+    outside the image.  inside: optional test patch -> (h, w) bool that refines the mask
+    (of the points of the patch's pixels on the nominal surface, say: `nominal_points`)."""
     rc = view.pixel_of(corners)
     h, w = view.shape
     if not np.all(np.isfinite(rc)) or not view.geometry.contains(rc).all():

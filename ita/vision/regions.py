@@ -65,8 +65,8 @@ def planar_regions(frame: RangeFrame, jump_m: float = 2e-3, crease_deg: float = 
         n = vt[2] if vt[2][2] < 0 else -vt[2]          # toward the sensor (it looks along +z)
         r = (p - c) @ n
         out_labels[mask] = new
-        regions.append(PlanarRegion(new, int(mask.sum()), tuple(map(float, n)), float(n @ c),
-                                    float(np.sqrt(np.mean(r ** 2))), tuple(map(float, c))))
+        regions.append(PlanarRegion(new, int(mask.sum()), (float(n[0]), float(n[1]), float(n[2])), float(n @ c),
+                                    float(np.sqrt(np.mean(r ** 2))), (float(c[0]), float(c[1]), float(c[2]))))
     return out_labels, regions
 
 

@@ -9,7 +9,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 from scipy import ndimage
 
 from ita.part.model import FlangeSegment, Hole
@@ -47,9 +47,9 @@ from ita.vision.patches import Patch, View, nominal_points, place_patch
 FloatArray = NDArray[np.float64]
 
 
-def frame_uv(u: FloatArray) -> tuple[FloatArray, FloatArray]:
-    u = np.asarray(u, dtype=float)[:2]
-    u = u / np.linalg.norm(u)
+def frame_uv(direction: ArrayLike) -> tuple[FloatArray, FloatArray]:
+    d = np.asarray(direction, dtype=float)[:2]
+    u: FloatArray = d / np.linalg.norm(d)
     return u, np.array([-u[1], u[0]])
 
 
