@@ -194,6 +194,7 @@ def _one(cell: Workcell, specs: Sequence[Any], kind: str, rng: np.random.Generat
         return (f"spec:{spec.id}", poses) if len(free_solutions(poses, tcp, planner.model, free)) else None
 
     def rack() -> tuple[str, FloatArray] | None:
+        assert held is not None   # only the problems with a tool held go to or from the rack
         slot = cell.slot_of(held).name
         poses = rack_target(cell, slot, tool)
         return (f"rack:{slot}", poses) if len(free_solutions(poses, tcp, planner.model, free)) else None
@@ -219,7 +220,7 @@ def _one(cell: Workcell, specs: Sequence[Any], kind: str, rng: np.random.Generat
     src = rack() if kind == "rack_to_measure" else measurement()
     dst = rack() if kind == "measure_to_rack" else measurement()
     q0 = start_of(src)
-    if q0 is None or dst is None or src[0] == dst[0]:
+    if q0 is None or src is None or dst is None or src[0] == dst[0]:
         return None
     return Problem(pid, kind, held, src[0], dst[0], tuple(map(float, q0)), None, _nested(dst[1], (-1, 4, 4)))
 

@@ -254,15 +254,15 @@ class Lspb:
 
     def positions(self, t: ArrayLike) -> FloatArray:
         """Exact configurations (k, 6) at times t (k,) in [0, duration]."""
-        t = np.clip(np.asarray(t, dtype=float), 0.0, self.duration)
+        tc: FloatArray = np.clip(np.asarray(t, dtype=float), 0.0, self.duration)
         n = len(self.T)
         vpad = np.vstack([np.zeros((1, self.w.shape[1])), self.v, np.zeros((1, self.w.shape[1]))])
         # the via at or before t, and the next: t lies in one's blend or on the segment between
-        i = np.clip(np.searchsorted(self.tv, t, side="right") - 1, 0, n)
+        i = np.clip(np.searchsorted(self.tv, tc, side="right") - 1, 0, n)
         nxt = np.minimum(i + 1, n)
         eps = 1e-9 * (1.0 + self.duration)
-        via = np.where(np.abs(t - self.tv[nxt]) <= self.tb[nxt] / 2.0 + eps, nxt, i)
-        dt = t - self.tv[via]
+        via = np.where(np.abs(tc - self.tv[nxt]) <= self.tb[nxt] / 2.0 + eps, nxt, i)
+        dt = tc - self.tv[via]
         in_blend = ((np.abs(dt) <= self.tb[via] / 2.0 + eps) | ((via == n) & (dt > 0))
                     | ((via == 0) & (dt < 0)))
         before, after = vpad[via], vpad[via + 1]                          # v_{via-1}, v_via
@@ -270,7 +270,7 @@ class Lspb:
         blend = (self.w[via] + before * dt[:, None]
                  + (after - before) * ((dt + self.tb[via] / 2.0) ** 2 / (2.0 * tb))[:, None])
         seg = np.clip(np.where(dt >= 0, via, via - 1), 0, n - 1)
-        linear = self.w[seg] + self.v[seg] * (t - self.tv[seg])[:, None]
+        linear = self.w[seg] + self.v[seg] * (tc - self.tv[seg])[:, None]
         return np.where(in_blend[:, None], blend, linear)
 
 
@@ -322,6 +322,13 @@ def time_parameterize(model: ArmModel, waypoints: ArrayLike, stops: ArrayLike | 
         stop[unsafe] = True
 
 
+def _one_segment(model: ArmModel, w: FloatArray, t_min: FloatArray) -> Lspb:
+    """The Lspb of one segment (w (2, 6)), which always settles."""
+    p = lspb(model, w, t_min=t_min)
+    assert p is not None, "lspb of one segment always settles"
+    return p
+
+
 def _pieces(model: ArmModel, w: FloatArray, stop: NDArray[np.bool_], t_min: FloatArray) -> list[tuple[int, Lspb]]:
     """(first waypoint index, Lspb) of each rest-to-rest piece between stops; a piece
     whose blends do not settle is split at every via (stop is updated)."""
@@ -331,7 +338,7 @@ def _pieces(model: ArmModel, w: FloatArray, stop: NDArray[np.bool_], t_min: Floa
         p = lspb(model, w[a:b + 1], t_min=t_min[a:b])
         if p is None:
             stop[a:b + 1] = True
-            out.extend((k, lspb(model, w[k:k + 2], t_min=t_min[k:k + 1])) for k in range(a, b))  # type: ignore[misc]
+            out.extend((k, _one_segment(model, w[k:k + 2], t_min[k:k + 1])) for k in range(a, b))
         else:
             out.append((int(a), p))
     return out

@@ -114,7 +114,8 @@ class VisibilityGraph:
                 n = np.asarray(n, dtype=float) / np.linalg.norm(n)
                 extra.extend(p + d * n for d in APPROACH_STEPS)
         extra_pts = np.asarray(extra)
-        keep = self.segments_free(extra_pts[2:], extra_pts[2:], self.radius) if len(extra_pts) > 2 else []
+        keep: NDArray[np.bool_] | list[bool] = (
+            self.segments_free(extra_pts[2:], extra_pts[2:], self.radius) if len(extra_pts) > 2 else [])
         extra_pts = np.vstack([extra_pts[:2], extra_pts[2:][np.asarray(keep, dtype=bool)]])
         radii = np.full(len(extra_pts), self.radius)
         radii[0], radii[1] = rs, rg
