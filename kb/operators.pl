@@ -402,6 +402,50 @@ static_operator(rescan(Tool, Arm, Id),
     ]).
 
 
+% --- a person called to the cell (the Exception Handler's recoveries the cell cannot make) -
+%
+% A person is a device of their own (ita/devices/person.py): a job is a message
+% 'CALL'(Job) on the person's stream, answered when it is done; the run waits.
+
+% Taking every obstacle the cell does not know out of it.
+static_operator(remove_obstacles(Person),
+    [ preconditions([]),
+      adders([ obstacles_removed(cell) ]),
+      unary_constraints([ type(Person, person) ]),
+      n_ary_constraints([]),
+      resources([ Person ]),
+      message_pattern('CALL'(remove_obstacles)),
+      command_stream(command_stream(person, Person)),
+      reply_pattern('DONE'),
+      result_pattern(obstacles_removed(cell))
+    ]).
+
+% Re-clamping the part on its fixture.
+static_operator(reclamp_part(Person),
+    [ preconditions([]),
+      adders([ part_clamped(part) ]),
+      unary_constraints([ type(Person, person) ]),
+      n_ary_constraints([]),
+      resources([ Person ]),
+      message_pattern('CALL'(reclamp_part)),
+      command_stream(command_stream(person, Person)),
+      reply_pattern('DONE'),
+      result_pattern(part_clamped(part))
+    ]).
+
+% Replacing a tool by a new one of the same kind from the stores (same name, same slot).
+static_operator(replace_tool(Person, Tool),
+    [ preconditions([]),
+      adders([ tool_replaced(Tool) ]),
+      unary_constraints([ type(Person, person) ]),
+      n_ary_constraints([]),
+      resources([ Person, Tool ]),
+      message_pattern('CALL'(replace_tool(Tool))),
+      command_stream(command_stream(person, Person)),
+      reply_pattern('DONE'),
+      result_pattern(tool_replaced(Tool))
+    ]).
+
                  /*******************************
                  *      DEDUCTIVE OPERATORS     *
                  *******************************/
@@ -462,6 +506,9 @@ criticality(window_clean(_), 5).
 criticality(cable_reseated(_), 5).
 criticality(arm_calibrated(_), 5).
 criticality(rescanned(_, _), 5).
+criticality(obstacles_removed(_), 5).
+criticality(part_clamped(_), 5).
+criticality(tool_replaced(_), 5).
 criticality(location(_, _), 4).
 criticality(slot_free(_), 4).
 criticality(holding(_, _), 3).
@@ -478,13 +525,16 @@ criticality(at(_, _), 1).
 %
 %   Fact is a static fact of the workcell that unary and n-ary constraints are checked
 %   against: type/2 (an object's type or one it is a kind of, world:is_a/2, so the bent
-%   probe passes an operator's `type(Tool, us_tool)`), weight/2 and can_lift/2 of the
-%   world model (kb/world.pl), and
+%   probe passes an operator's `type(Tool, us_tool)`; and `type(Person, person)` for the
+%   people the cell can call, person/1), weight/2 and can_lift/2 of the world model
+%   (kb/world.pl), and
 %   can_measure(Tool, Kind), a tool whose type some tool rule of kb/tools.pl lets
 %   measure Kind.
 
 domain_fact(type(Object, Type)) :-
     world:is_a(Object, Type).
+domain_fact(type(Person, person)) :-
+    person(Person).
 domain_fact(weight(Tool, Kg)) :-
     world:weight(Tool, Kg).
 domain_fact(can_lift(Arm, Kg)) :-
@@ -493,6 +543,13 @@ domain_fact(can_measure(Tool, Kind)) :-
     world:tool(Tool),
     world:type(Tool, ToolType),
     tools:tool_type_measures(ToolType, Kind).
+
+%!  person(?Person) is nondet.
+%
+%   Person can be called to the cell (the run waits for them): the device of the stream
+%   `command_stream(person, Person)`.
+
+person(technician).
 
 %!  measurement_goal(+Id, +Kind, ?Tool, -Goal, -Constraints:list) is det.
 %

@@ -106,4 +106,21 @@ test(criticality_of_measured_above_pose, true(M > P)) :-
     criticality(measured(_, _, _), M),
     criticality(at(_, _), P).
 
+test(a_persons_jobs_go_to_the_persons_stream,
+     true(Jobs =@= [ reclamp_part-'CALL'(reclamp_part),
+                     remove_obstacles-'CALL'(remove_obstacles),
+                     replace_tool-'CALL'(replace_tool(_)) ])) :-
+    findall(Name-M, ( static_operator(Op, D),
+                      memberchk(command_stream(command_stream(person, P)), D),
+                      memberchk(unary_constraints(U), D),
+                      memberchk(type(P, person), U),
+                      arg(1, Op, P),
+                      functor(Op, Name, _),
+                      memberchk(message_pattern(M), D) ),
+            Jobs0),
+    msort(Jobs0, Jobs).
+
+test(a_person_is_no_tool_and_no_arm, true(Types == [person])) :-
+    findall(T, domain_fact(type(technician, T)), Types).
+
 :- end_tests(operators).

@@ -62,6 +62,7 @@ DEFAULT_TIMEOUTS: Mapping[str, float] = MappingProxyType({
     "PUTDOWN": 60.0,
     "CALIBRATE": 120.0,
     "REFILL": 180.0,
+    "CALL": 3600.0,         # a person called to the cell (ita.devices.person): minutes of work
 })
 DEFAULT_TIMEOUT_S = 60.0
 

@@ -21,7 +21,8 @@ hits; the empty target hits every one.
                        that meets it clears it (`FaultSet.without`)
 
 A repair (ita.devices: refill, purge, reset, reseat, recalibrate, clean; a person called
-to remove an obstacle) takes the fault out of the world's set.
+to the cell, ita.sim.person: obstacles removed, a tool replaced) takes the fault out of
+the world's set.
 """
 
 from __future__ import annotations

@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ita.devices import ArmDevice, GaugeCommands, SlraDevice
+from ita.devices import ArmDevice, GaugeCommands, PersonDevice, SlraDevice
 from ita.devices.stations import StationCommands
 from ita.executive import PlanExecutive
 from ita.geometry import GeometricReasoner
@@ -29,13 +29,14 @@ from ita.planning import OperationPlanner, store_path
 from ita.sensors.ultrasonic import UltrasonicGauge
 from ita.sequence.plan import planning_context, with_mkb
 from ita.sequence.store import apply_tool_marks, load_tool_marks
+from ita.sim.person import SimPerson
 from ita.sim.slra import SlraScene
 from ita.sim.ultrasonic import UltrasonicSim
-from ita.sim.world import SimWorld, simulated_part
+from ita.sim.world import SimClock, SimWorld, simulated_part
 from ita.vision.for_part import vision_context
 
 if TYPE_CHECKING:
-    from ita.devices import ArmDevice, SlraDevice
+    from ita.devices import ArmDevice, PersonDevice, SlraDevice
     from ita.executive import PlanExecutive
     from ita.geometry import GeometricReasoner
     from ita.geometry.mkb import MeasurementKB
@@ -54,7 +55,8 @@ class Session:
     """The loaded system: knowledge bases, part, plan, MKB, simulator and devices.
 
     part_arg: --part as given (None: the built-in bulkhead); plan: the prepared
-    sequence plan; arm, slra: the devices of the executive's streams.
+    sequence plan; arm, slra, person: the devices of the executive's streams (the
+    person: someone called to the cell, answered by the simulator).
     """
 
     kb: KnowledgeBase
@@ -67,6 +69,7 @@ class Session:
     world: SimWorld
     arm: ArmDevice
     slra: SlraDevice
+    person: PersonDevice
     executive: PlanExecutive
     planner: OperationPlanner
     seed: int
@@ -82,6 +85,16 @@ class Session:
             self._specs = {s.id: s for s in self.ctx.specs}
             self._specs_of = self.ctx
         return self._specs
+
+    @property
+    def clock(self) -> SimClock:
+        """The cell's simulated clock (the executive's too)."""
+        return self.world.clock
+
+    @property
+    def held(self) -> str | None:
+        """The tool the arm holds now (None: none)."""
+        return self.world.held
 
     def planned_tool(self, spec_id: str) -> str | None:
         """The tool the prepared sequence plan takes `spec_id` with (None: not planned)."""
@@ -127,10 +140,11 @@ def open_session(part_dir: Path | None = None, *, seed: int = 0,
                                        specs=list(ctx.specs))
         scene = SlraScene.from_simulated(simulated, cell)
         slra = SlraDevice(world, scene, reasoner, vctx, specs, np.random.default_rng([seed, 21]))
-        executive = PlanExecutive(kb, {"path_planner": arm, "vision": slra}, clock=world.clock)
+        person = PersonDevice(SimPerson(world), world.clock)
+        executive = PlanExecutive(kb, {"path_planner": arm, "vision": slra, "person": person}, clock=world.clock)
         op = OperationPlanner(kb, store_path(ctx.part_name))
     except BaseException:
         world.close()
         raise
     return Session(kb, part, None if part_dir is None else str(Path(part_dir).resolve()), ctx, plan, mkb,
-                   reasoner, world, arm, slra, executive, op, seed, time.perf_counter() - t0, simulated.source)
+                   reasoner, world, arm, slra, person, executive, op, seed, time.perf_counter() - t0, simulated.source)
