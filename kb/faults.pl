@@ -8,6 +8,9 @@
             predicts/3,                 % ?Test, ?Cause, ?Outcome
             outcome/2,                  % +Test, ?Outcome
             recovery/2,                 % ?Cause, ?Actions
+            recovery_goal/1,            % ?Goal
+            holds_now/1,                % +Condition
+            world_update/1,             % +Change
             recovery_way/3,             % +Repair, +Replan, -Way
             candidate_causes/3,         % +Exception, +Context, -Causes
             instantiate_cause/3,        % +Cause, +Context, -Instance
@@ -35,7 +38,11 @@ test, and an estimated cost for each test").  It is read like kb/operators.pl:
     `at(Place)`, `failed_measurement`); predicts(Test, Cause, Outcome): the outcome the
     test gives when Cause holds (`ok` unless listed): the assertions it verifies;
   * recovery(Cause, Actions): how the world model and the cell are put right once the
-    cause is isolated.
+    cause is isolated: world-model changes, and goals of kb/operators.pl that the
+    Operation Planner plans and the Plan Executive runs on the devices (the cell's own,
+    or a person called to the cell: a device too).  A new recovery is written here
+    alone, with an operator in kb/operators.pl (and a device command) only when the
+    cell needs an action it does not have.
 
 Causes are terms over the *context* of an exception, a list of `Key=Value`: the tool in
 hand (`probe=P` or `slra=S`), the device (`device=D`).  A cause such as
@@ -47,6 +54,8 @@ hand (`probe=P` or `slra=S`), the device (`device=D`).  A cause such as
 :- use_module(library(lists)).
 :- use_module(library(apply)).
 :- use_module(library(pairs)).
+:- use_module(world, []).
+:- use_module(operators, []).
 
 
                  /*******************************
@@ -294,40 +303,90 @@ predicts(compare_neighbours, thin_section,               outlier).
 
 %!  recovery(?Cause, ?Actions:list) is nondet.
 %
-%   Once Cause is isolated, Actions put the world model and the cell right:
+%   Once Cause is isolated, Actions put the world model and the cell right, in order.
+%   The Exception Handler knows these kinds of action, not the recoveries:
 %
-%     * `mark(Tool, Condition)`: the world model marks the tool (the Sequence Planner
-%       resequences to its spare, or leaves its measurements "cannot be done");
-%     * `operator(Name)`: an operator of kb/operators.pl the cell runs (it takes time):
-%       refill_couplant, purge_dispenser, reset_controller, reseat_cable,
-%       recalibrate_arm, clean_window;
-%     * `call_person(What)`: the cell cannot do it; a person is called and the run
-%       waits (an obstacle removed, the part re-clamped);
-%     * `replace_if_no_spare(Tool)`: when no usable tool of Tool's type is left in the
-%       rack, a person replaces Tool from the stores (the run waits);
-%     * `accept_reading`: the reading stands: it is the part, not the instrument;
-%     * `accept_second_view`: the value the second stand-off gave stands (the first view
-%       was occluded);
+%     * `world(Change)`: the world model changes (world_update/1): `tool_condition(Tool,
+%       Condition)` (a tool marked: the Sequence Planner resequences to its spare, or
+%       leaves its measurements "cannot be done"), `location(Tool, missing)`;
+%     * `achieve(Goal)`: Goal is an adder of an operator of kb/operators.pl
+%       (recovery_goal/1); the Operation Planner plans it from the arm's state (moving
+%       to a station and changing tools as its preconditions need), the Plan Executive
+%       runs the plan on the devices.  The cell's own (refill, purge, reset, reseat,
+%       recalibrate, clean) and a person's (called to the cell: an obstacle removed, the
+%       part re-clamped, a tool replaced from the stores; the run waits) alike.  A
+%       variable in Goal is the planner's to bind (the arm: the operator's constraint
+%       `type(Arm, arm)`).  When the plan fails, the actions after it are not made;
+%     * `unless(Condition, Actions)`: Actions only when Condition does not hold of the
+%       world model now, after the actions before (holds_now/1);
+%     * `accept(reading)`: the failed reading stands: it is the part, not the instrument;
+%     * `accept(test(Test))`: the value Test measured stands (a second stand-off's view of
+%       a feature the first one saw occluded);
 %     * `retry`: nothing to put right but to try again.
+%
+%   An empty list: the cause cannot be put right in the cell (the measurement is not done).
 
-recovery(broken_probe(P),           [mark(P, broken), replace_if_no_spare(P)]).
-recovery(worn_probe(P),             [mark(P, worn), replace_if_no_spare(P)]).
-recovery(dry_couplant(P),           [operator(purge_dispenser(P))]).
-recovery(empty_couplant_station,    [operator(refill_couplant)]).
+recovery(broken_probe(P),           [ world(tool_condition(P, broken)),
+                                      unless(spare_left(P), [ achieve(tool_replaced(P)),
+                                                              world(tool_condition(P, ok)) ]) ]).
+recovery(worn_probe(P),             [ world(tool_condition(P, worn)),
+                                      unless(spare_left(P), [ achieve(tool_replaced(P)),
+                                                              world(tool_condition(P, ok)) ]) ]).
+recovery(dry_couplant(P),           [achieve(dispenser_purged(P))]).
+recovery(empty_couplant_station,    [achieve(couplant_refilled(couplant_station))]).
 recovery(couplant_missed,           []).
-recovery(controller_not_answering,  [operator(reset_controller)]).
-recovery(sensor_cable_fault(D),     [operator(reseat_cable(D))]).
-recovery(arm_drift,                 [operator(recalibrate_arm)]).
-recovery(part_displaced,            [call_person(reclamp_part)]).
-recovery(obstacle,                  [call_person(remove_obstacle)]).
-recovery(obstacle_at_arm,           [call_person(remove_obstacle)]).
-recovery(dirty_window(S),           [operator(clean_window(S))]).
-recovery(occlusion,                 [accept_second_view]).
+recovery(controller_not_answering,  [achieve(controller_reset(_Arm))]).
+recovery(sensor_cable_fault(D),     [achieve(cable_reseated(D))]).
+recovery(arm_drift,                 [achieve(arm_calibrated(_Arm))]).
+recovery(part_displaced,            [achieve(part_clamped(part))]).
+recovery(obstacle,                  [achieve(obstacles_removed(cell))]).
+recovery(obstacle_at_arm,           [achieve(obstacles_removed(cell))]).
+recovery(dirty_window(S),           [achieve(window_clean(S))]).
+recovery(occlusion,                 [accept(test(rescan_second_standoff))]).
 recovery(view_cannot_measure,       []).
-recovery(out_of_tolerance,          [accept_reading]).
+recovery(out_of_tolerance,          [accept(reading)]).
 recovery(thin_section,              []).
-recovery(tool_missing(T),           [mark(T, missing)]).
+recovery(tool_missing(T),           [world(location(T, missing))]).
 recovery(transient_glitch,          [retry]).
+
+%!  recovery_goal(?Goal) is nondet.
+%
+%   Goal can be an `achieve(Goal)` of a recovery: some static operator of
+%   kb/operators.pl adds it.
+
+recovery_goal(Goal) :-
+    operators:static_operator(_, Description),
+    memberchk(adders(Adders), Description),
+    member(Goal, Adders).
+
+%!  holds_now(+Condition) is semidet.
+%
+%   Condition of an `unless(Condition, Actions)` recovery action holds of the world
+%   model (kb/world.pl) now:
+%
+%     * spare_left(Tool): another tool of Tool's type is usable (world:usable/3).
+
+holds_now(spare_left(Tool)) :-
+    world:type(Tool, Type),
+    world:usable(_Arm, Type, Other),
+    Other \== Tool,
+    !.
+
+%!  world_update(+Change) is det.
+%
+%   Make the world model (kb/world.pl) say Change, a `world(Change)` of a recovery:
+%   `tool_condition(Tool, Condition)` or `location(Tool, Where)`.
+%
+%   @error domain_error(world_change, Change) for any other change
+
+world_update(tool_condition(Tool, Condition)) :-
+    !,
+    world:set_tool_condition(Tool, Condition).
+world_update(location(Tool, Where)) :-
+    !,
+    world:set_location(Tool, Where).
+world_update(Change) :-
+    domain_error(world_change, Change).
 
 %!  recovery_way(+Repair, +Replan, -Way) is det.
 %

@@ -40,15 +40,76 @@ test(a_test_verifies_what_it_does_not_list, true(O == ok)) :-
 test(outcomes_of_the_couplant_check, true(Os == [ok, bump, empty, silent])) :-
     findall(O, outcome(check_couplant_station, O), Os).
 
-test(a_broken_probe_is_marked, true(A == [mark(us_probe_1, broken), replace_if_no_spare(us_probe_1)])) :-
+test(a_broken_probe_is_marked_and_replaced_unless_a_spare_is_left,
+     true(A == [ world(tool_condition(us_probe_1, broken)),
+                 unless(spare_left(us_probe_1), [ achieve(tool_replaced(us_probe_1)),
+                                                  world(tool_condition(us_probe_1, ok)) ]) ])) :-
     recovery(broken_probe(us_probe_1), A).
 
-test(repair_unless_a_new_plan_is_shorter, true(Ws == [repair, repair, replan, replan, repair, none])) :-
-    findall(W, ( member(R-P, [steps(4)-steps(4), steps(3)-steps(5), steps(6)-steps(4), none-steps(4),
-                              steps(2)-none, none-none]),
-                 recovery_way(R, P, W) ), Ws).
+test(which_recovery_for_which_cause,
+     true(Rs =@= [ dry_couplant(us_probe_1)-[achieve(dispenser_purged(us_probe_1))],
+                   empty_couplant_station-[achieve(couplant_refilled(couplant_station))],
+                   controller_not_answering-[achieve(controller_reset(_))],
+                   sensor_cable_fault(slra_1)-[achieve(cable_reseated(slra_1))],
+                   obstacle_at_arm-[achieve(obstacles_removed(cell))],
+                   part_displaced-[achieve(part_clamped(part))],
+                   occlusion-[accept(test(rescan_second_standoff))],
+                   out_of_tolerance-[accept(reading)],
+                   tool_missing(slra_2)-[world(location(slra_2, missing))],
+                   transient_glitch-[retry],
+                   couplant_missed-[] ])) :-
+    findall(C-A, ( member(C, [dry_couplant(us_probe_1), empty_couplant_station, controller_not_answering,
+                              sensor_cable_fault(slra_1), obstacle_at_arm, part_displaced, occlusion,
+                              out_of_tolerance, tool_missing(slra_2), transient_glitch, couplant_missed]),
+                   recovery(C, A) ), Rs).
 
-test(unknown_exception, error(existence_error(exception, smoke))) :-
-    candidate_causes(smoke, [], _).
+%   the actions of a recovery, unless/2's included
+recovery_action(Cause, Action) :-
+    recovery(Cause, Actions),
+    action_in(Actions, Action).
+
+action_in(Actions, Action) :-
+    member(A, Actions),
+    (   A = unless(_, Inner)
+    ->  ( Action = A ; action_in(Inner, Action) )
+    ;   Action = A
+    ).
+
+test(every_recovery_action_is_of_a_kind_the_handler_knows, true(Bad == [])) :-
+    findall(C-A, ( recovery_action(C, A),
+                   \+ memberchk(A, [world(_), achieve(_), unless(_, _), accept(reading), accept(test(_)), retry]) ),
+            Bad).
+
+test(every_goal_to_achieve_is_an_operators_adder, true(Bad == [])) :-
+    findall(G, ( recovery_action(_, achieve(G)), \+ recovery_goal(G) ), Bad).
+
+test(every_accepted_test_is_a_test, true(Bad == [])) :-
+    findall(T, ( recovery_action(_, accept(test(T))), \+ test(T, _, _) ), Bad).
+
+test(every_condition_is_one_the_world_model_answers, true(Bad == [])) :-
+    findall(Cond, ( recovery_action(_, unless(Cond, _)), \+ memberchk(Cond, [spare_left(_)]) ), Bad).
+
+test(a_spare_is_left_until_both_probes_are_marked,
+     [ setup(world:reset_world), cleanup(world:reset_world),
+       true(Left == [true, true, false, true]) ]) :-
+    Check = [L]>>( holds_now(spare_left(us_probe_1)) -> L = true ; L = false ),
+    call(Check, L1),
+    world_update(tool_condition(us_probe_1, broken)),
+    call(Check, L2),
+    world_update(tool_condition(us_probe_2, worn)),
+    call(Check, L3),
+    world_update(tool_condition(us_probe_2, ok)),
+    call(Check, L4),
+    Left = [L1, L2, L3, L4].
+
+test(the_bent_probe_has_no_spare, [setup(world:reset_world), cleanup(world:reset_world), fail]) :-
+    holds_now(spare_left(us_probe_90)).
+
+test(a_tool_marked_missing, [setup(world:reset_world), cleanup(world:reset_world)]) :-
+    world_update(location(slra_2, missing)),
+    world:missing(slra_2).
+
+test(an_unknown_world_change, error(domain_error(world_change, couplant(full)))) :-
+    world_update(couplant(full)).
 
 :- end_tests(faults).

@@ -82,6 +82,25 @@ def test_each_exception_is_diagnosed_to_the_fault_switched_on(session, handler, 
     session.world.faults = FaultSet()
 
 
+def test_a_person_is_a_device_the_executive_drives(session, arm):
+    """A person's job is planned and executed like the cell's: the Operation Planner plans
+    obstacles_removed(cell) to the person's stream, the Plan Executive waits for the reply,
+    the simulator gives the person's answer (the time taken, the obstacle gone)."""
+    from ita.sim.person import SECONDS
+    from ita.task import execute_goals
+
+    world = session.world
+    world.add_obstacle("box_far_away", (4.0, 4.0, 0.5), (0.1, 0.1, 0.1))
+    t0 = session.clock.now
+    plan, report, state, note = execute_goals(session, [_term("obstacles_removed", "cell")], arm["state"], name="t")
+    assert note == "" and [st.text for st in plan.steps] == ["remove_obstacles(technician)"]
+    assert report.ok and str(report.outcomes[0].command.stream) == "person(technician)"
+    assert session.clock.now - t0 == pytest.approx(SECONDS["remove_obstacles"])
+    assert not world.obstacles
+    assert (state.pose, state.holding) == (arm["state"].pose, arm["state"].holding)
+    assert session.person.done[-1].startswith("1 obstacle(s) removed")
+
+
 def test_a_broken_bent_probe_is_diagnosed_and_replaced_from_the_stores(session, handler, arm):
     """The probe bent 90 degrees is a probe to the Exception Handler too: its dead element is
     found by the tests (its own reading of the calibration block), it is marked broken and,
@@ -93,6 +112,9 @@ def test_a_broken_bent_probe_is_diagnosed_and_replaced_from_the_stores(session, 
     d = handled.diagnosis
     assert d.exception == "no_echo" and d.cause == "broken_probe(us_probe_90)", d.summary
     assert d.tests, "a cause was isolated without a test"
+    assert d.updates[0] == "world: tool_condition(us_probe_90, broken)"           # no spare: a person replaces it
+    assert d.updates[1].startswith("achieved tool_replaced(us_probe_90): replace_tool(technician, us_probe_90)")
+    assert d.updates[2] == "world: tool_condition(us_probe_90, ok)"
     assert handled.outcome.status is MeasureStatus.MEASURED, handled.outcome.reason
     v = handled.outcome.value
     assert abs(v.value - _truth(session)[spec_id]) <= max(2.0 * v.u, 0.02)

@@ -17,10 +17,16 @@ and generating a recovery plan."  So, in order:
    arm's state; the test is made in the cell (ita.diagnosis.tests); its outcome narrows
    the causes; again, until one cause is isolated or no test separates the rest;
 3. the counts are updated (ita.diagnosis.counts);
-4. the world model is updated and the cell put right by the cause's recovery actions
-   (kb/faults.pl recovery/2): a tool marked (so the Sequence Planner resequences to its
-   spare), an operator run (refill, purge, reset, reseat, recalibrate, clean), a person
-   called (the run waits), a reading accepted (a bad part, not a bad instrument);
+4. the world model is updated and the cell put right by the cause's recovery actions,
+   as kb/faults.pl recovery/2 names them; the handler knows their kinds, not the
+   recoveries: a world-model change (a tool marked, so the Sequence Planner resequences
+   to its spare), a goal of kb/operators.pl that the Operation Planner plans from the
+   arm's state and the Plan Executive runs on the devices (the cell's refill, purge,
+   reset, reseat, recalibrate, clean; a person called to the cell, a device of its own
+   whose answer the simulator gives: an obstacle removed, a tool replaced from the
+   stores; the run waits), the same actions only when a condition of the world model
+   does not hold (no spare left), a value accepted (a bad part, not a bad instrument;
+   a second view);
 5. the measurement is taken again: with the same tool by *plan repair* (the steps of
    the failed plan that did not run, after a plan for the first one's preconditions:
    ``macrop:repair_plan/6``), else with the tool the rules choose now by *replanning*
@@ -43,10 +49,9 @@ from ita.diagnosis.counts import FaultCounts
 from ita.diagnosis.knowledge import FaultKnowledge
 from ita.diagnosis.tests import Situation, TestBench, TestRun
 from ita.logic.terms import Term, Var
+from ita.logic.world import WorldModel
 from ita.planning import NoPlanError
-from ita.planning.operation import format_term
 from ita.sequence.plan import choose_tool
-from ita.sim.faults import Fault
 from ita.task.measure import (
     MeasureOutcome,
     MeasureStatus,
@@ -57,21 +62,42 @@ from ita.task.measure import (
 if TYPE_CHECKING:
     from ita.task.session import Session
 
-__all__ = ["PERSON_SECONDS", "Diagnosis", "ExceptionHandler", "Handled"]
+__all__ = ["Diagnosis", "ExceptionHandler", "Handled"]
 
 #: the most tests one diagnosis makes
 MAX_TESTS = 6
-#: simulated seconds the run waits for a person called to the cell
-PERSON_SECONDS = {"remove_obstacle": 120.0, "reclamp_part": 300.0, "replace_tool": 300.0}
-#: goals of the recovery operators of kb/faults.pl
-_OPERATOR_GOALS: dict[str, Callable[[Any, str], Term]] = {
-    "refill_couplant": lambda a, arm: Term("couplant_refilled", ("couplant_station",)),
-    "purge_dispenser": lambda a, arm: Term("dispenser_purged", (str(a.args[0]),)),
-    "reset_controller": lambda a, arm: Term("controller_reset", (arm,)),
-    "reseat_cable": lambda a, arm: Term("cable_reseated", (str(a.args[0]),)),
-    "recalibrate_arm": lambda a, arm: Term("arm_calibrated", (arm,)),
-    "clean_window": lambda a, arm: Term("window_clean", (str(a.args[0]),)),
-}
+
+#: a plan run for a diagnosis: its label, the plan and its execution report
+Executed = list[tuple[str, Any, Any]]
+
+
+def term_text(value: Any) -> str:
+    """A term of the knowledge base as text, ``name(arg, ...)``; a variable (one the
+    Operation Planner binds) as ``_``."""
+    if isinstance(value, Var):
+        return "_"
+    if isinstance(value, Term):
+        return f"{value.name}({', '.join(term_text(a) for a in value.args)})"
+    if isinstance(value, list):
+        return "[" + ", ".join(term_text(a) for a in value) + "]"
+    return str(value)
+
+
+def _kind(action: Any) -> tuple[str, tuple[Any, ...]]:
+    """A recovery action's kind and arguments: ``achieve(G)`` -> ("achieve", (G,))."""
+    return (action.name, tuple(action.args)) if isinstance(action, Term) else (str(action), ())
+
+
+@dataclass(frozen=True)
+class _PutRight:
+    """What a recovery's actions did: the lines of the world updates and repairs, the
+    situation after, the measurement a value accepted makes (with the action's text), and
+    whether every action was made (a goal that could not be achieved stops the rest)."""
+
+    updates: tuple[str, ...]
+    situation: Situation
+    accepted: tuple[MeasureOutcome, str] | None = None
+    complete: bool = True
 
 
 @dataclass(frozen=True)
@@ -150,12 +176,12 @@ class ExceptionHandler:
         if tool is None:
             return None
         tool_class = s.ctx.workcell.tool(tool).tool_class.value
-        exc = classify(failed, held=s.world.held, tool=tool, tool_class=tool_class)
+        exc = classify(failed, held=s.held, tool=tool, tool_class=tool_class)
         if exc is None:
             return None
         situation = Situation(failed.spec_id, tool, tool_class, exc.exception, failed.state, failed.value,
                               dict(exc.context).get("device", ""))
-        executed: list[tuple[str, Any, Any]] = []
+        executed: Executed = []
         nested: list[Diagnosis] = []
         diagnosis, situation, outcome = self._diagnose_and_act(exc, situation, failed.t1, executed, nested, 0)
         diagnosis = replace(diagnosis, since=failed.t0)
@@ -163,18 +189,18 @@ class ExceptionHandler:
             diagnosis = replace(diagnosis, recovery=f"not done: {diagnosis.cause} cannot be put right in the cell")
         elif outcome is None:
             outcome, recovery = self._retry(failed, situation, executed)
-            diagnosis = replace(diagnosis, recovery=recovery, t1=s.world.clock.now)
+            diagnosis = replace(diagnosis, recovery=recovery, t1=s.clock.now)
         if outcome is None or outcome.status is not MeasureStatus.MEASURED:
             base = outcome if outcome is not None else failed
             reason = f"{failed.reason}; diagnosis: {diagnosis.summary}"
             outcome = replace(base, status=MeasureStatus.NOT_DONE, reason=reason, t0=failed.t0,
-                              t1=s.world.clock.now)
+                              t1=s.clock.now)
         else:
             outcome = replace(outcome, t0=failed.t0)
         return Handled(diagnosis, outcome, tuple(executed), tuple(nested))
 
-    def _diagnose_and_act(self, exc: Classified, situation: Situation, t0: float, executed: list,
-                          nested: list, depth: int) -> tuple[Diagnosis, Situation, MeasureOutcome | None]:
+    def _diagnose_and_act(self, exc: Classified, situation: Situation, t0: float, executed: Executed,
+                          nested: list[Diagnosis], depth: int) -> tuple[Diagnosis, Situation, MeasureOutcome | None]:
         """Steps 2 to 4 for one exception: its tests, the counts, the world updates and
         the cell put right; the diagnosis (recovery said only when the tests or an
         accepted reading measured it), the situation after, and the measurement if done."""
@@ -184,20 +210,20 @@ class ExceptionHandler:
         if self.learn:
             FaultCounts.record(exc.exception, None if cause is None else self.knowledge.cause_name(cause))
         retried = next((r.measured for r in runs if r.measured is not None), None)
-        actions: list[str] = []
-        updates: list[str] = []
+        actions: list[Any] = []
+        updates: tuple[str, ...] = ()
         outcome: MeasureOutcome | None = retried
         recovery = "the retry during the tests measured it" if retried is not None else ""
         if retried is None and cause is not None:
-            for action in self.knowledge.recovery(cause):
-                actions.append(format_term(action))
-                done, situation, accepted = self._act(action, situation, runs, executed, nested, depth)
-                updates += done
-                if accepted is not None:
-                    outcome, recovery = accepted, f"accepted: {format_term(action)}"
+            actions = self.knowledge.recovery(cause)
+            done = self._put_right(actions, situation, runs, executed, nested, depth)
+            updates, situation = done.updates, done.situation
+            if done.accepted is not None:
+                outcome, how = done.accepted
+                recovery = f"accepted: {how}"
         diagnosis = Diagnosis(situation.spec_id, exc.exception, exc.context, exc.reply, first.posterior,
-                              first.expected_s, tuple(runs), cause, last.remaining, tuple(actions), tuple(updates),
-                              recovery, t0, self.session.world.clock.now)
+                              first.expected_s, tuple(runs), cause, last.remaining,
+                              tuple(term_text(a) for a in actions), updates, recovery, t0, self.session.clock.now)
         return diagnosis, situation, outcome
 
     def _second_fault(self, report: Any, situation: Situation, depth: int) -> Classified | None:
@@ -208,7 +234,7 @@ class ExceptionHandler:
             return None
         s = self.session
         probe = SimpleNamespace(report=report)
-        exc = classify(probe, held=s.world.held, tool=situation.tool, tool_class=situation.tool_class)
+        exc = classify(probe, held=s.held, tool=situation.tool, tool_class=situation.tool_class)
         if exc is None:
             return None
         device = dict(exc.context).get("device", "")
@@ -216,12 +242,12 @@ class ExceptionHandler:
             return None
         return exc
 
-    def _handle_second(self, exc: Classified, situation: Situation, since: float, executed: list, nested: list,
-                       depth: int) -> Situation:
+    def _handle_second(self, exc: Classified, situation: Situation, since: float, executed: Executed,
+                       nested: list[Diagnosis], depth: int) -> Situation:
         """Diagnose and put right a second fault met during the handling (it is recorded
         as a diagnosis of its own); the situation after."""
         inner = replace(situation, exception=exc.exception, device=dict(exc.context).get("device", ""), reading=None)
-        diagnosis, inner, _ = self._diagnose_and_act(exc, inner, self.session.world.clock.now, executed, nested,
+        diagnosis, inner, _ = self._diagnose_and_act(exc, inner, self.session.clock.now, executed, nested,
                                                      depth + 1)
         recovery = "put right; the handling of the first exception goes on" if diagnosis.cause else \
             "not put right; the handling of the first exception goes on"
@@ -229,7 +255,7 @@ class ExceptionHandler:
         return replace(situation, state=inner.state)
 
     # -- 2. the tests -----------------------------------------------------------------------
-    def _diagnose(self, exc: Classified, situation: Situation, executed: list, nested: list, depth: int
+    def _diagnose(self, exc: Classified, situation: Situation, executed: Executed, nested: list[Diagnosis], depth: int
                   ) -> tuple[list[TestRun], Any, Any]:
         counts = FaultCounts.load().causes
         context = exc.context_terms()
@@ -279,74 +305,90 @@ class ExceptionHandler:
         return runs, first, last
 
     # -- 4. the world and the cell put right --------------------------------------------------
-    def _act(self, action: Any, situation: Situation, runs: list[TestRun], executed: list, nested: list,
-             depth: int) -> tuple[list[str], Situation, MeasureOutcome | None]:
-        s = self.session
-        name = action.name if isinstance(action, Term) else str(action)
-        if name == "mark":
-            tool, condition = (str(a) for a in action.args)
-            if condition == "missing":
-                s.kb.once("world", "set_location", tool, "missing")
-            else:
-                s.kb.once("world", "set_tool_condition", tool, condition)
-            return [f"world: {tool} {condition}"], situation, None
-        if name == "operator":
-            op = action.args[0]
-            op_name = op.name if isinstance(op, Term) else str(op)
-            goal = _OPERATOR_GOALS[op_name](op, situation.state.arm)
-            plan, report, state, note = self.bench.execute_goals([goal], situation.state, name=op_name)
+    def _put_right(self, actions: Sequence[Any], situation: Situation, runs: list[TestRun], executed: Executed,
+                   nested: list[Diagnosis], depth: int) -> _PutRight:
+        """Make a recovery's actions in order (kb/faults.pl recovery/2 says what each kind
+        means); a goal that cannot be achieved stops the actions after it."""
+        updates: list[str] = []
+        accepted: tuple[MeasureOutcome, str] | None = None
+        for action in actions:
+            kind, args = _kind(action)
+            if kind == "world":                 # the world model changes
+                self.knowledge.update_world(args[0])
+                updates.append(f"world: {term_text(args[0])}")
+            elif kind == "achieve":             # planned from the arm's state, run on the devices
+                line, situation, ok = self._achieve(args[0], situation, executed, nested, depth)
+                updates.append(line)
+                if not ok:
+                    return _PutRight(tuple(updates), situation, accepted, False)
+            elif kind == "unless":              # the actions only when the condition does not hold now
+                if self.knowledge.holds_now(args[0]):
+                    continue
+                inner = self._put_right(list(args[1]), situation, runs, executed, nested, depth)
+                updates += inner.updates
+                situation, accepted = inner.situation, inner.accepted or accepted
+                if not inner.complete:
+                    return _PutRight(tuple(updates), situation, accepted, False)
+            elif kind == "accept":              # a value stands: the failed reading, or a test's
+                line, value = self._accept(args[0], situation, runs)
+                updates.append(line)
+                if value is not None:
+                    accepted = (value, term_text(action))
+            # retry: nothing to put right; the measurement is taken again (step 5)
+        return _PutRight(tuple(updates), situation, accepted)
+
+    def _achieve(self, goal: Any, situation: Situation, executed: Executed, nested: list[Diagnosis],
+                 depth: int) -> tuple[str, Situation, bool]:
+        """Plan `goal` from the arm's state (the Operation Planner, kb/operators.pl) and run
+        the plan (the Plan Executive, on whichever devices its steps name: the arm, the SLRA,
+        a person); a second fault that stops it is put right on its own and the plan made
+        again.  The line for the record, the situation after, and whether it was achieved."""
+        label = term_text(goal)
+        plan, report, state, note = self.bench.execute_goals([goal], situation.state, name=label)
+        if plan is not None:
+            executed.append((f"repair {label}", plan, report))
+        second = self._second_fault(report, situation, depth)
+        if second is not None:          # another fault stopped it: put that right, then again
+            situation = self._handle_second(second, replace(situation, state=state), report.started_s, executed,
+                                            nested, depth)
+            plan, report, state, note = self.bench.execute_goals([goal], situation.state, name=label)
             if plan is not None:
-                executed.append((f"repair {op_name}", plan, report))
-            second = self._second_fault(report, situation, depth)
-            if second is not None:          # another fault stopped the repair: put it right, repair again
-                situation = self._handle_second(second, replace(situation, state=state), report.started_s, executed,
-                                                nested, depth)
-                plan, report, state, note = self.bench.execute_goals([goal], situation.state, name=op_name)
-                if plan is not None:
-                    executed.append((f"repair {op_name} again", plan, report))
-            ok = report is not None and report.ok
-            return [f"cell: {format_term(op)} {'done' if ok else 'failed: ' + (note or report.failure.reason)}"], \
-                replace(situation, state=state), None
-        if name == "call_person":
-            what = str(action.args[0])
-            s.world.clock.advance(PERSON_SECONDS.get(what, 300.0))
-            if what == "remove_obstacle":
-                for obstacle in list(s.world.obstacles):
-                    s.world.remove_obstacle(obstacle)
-                s.world.faults = s.world.faults.without(Fault.OBSTACLE)
-            return [f"person called: {what} ({PERSON_SECONDS.get(what, 300.0):.0f} s)"], situation, None
-        if name == "replace_if_no_spare":
-            tool = str(action.args[0])
-            tool_class = s.ctx.workcell.tool(tool).tool_class.value
-            if s.kb.holds("world", "usable", situation.state.arm, tool_class, Var("_T")):
-                return [], situation, None
-            s.world.clock.advance(PERSON_SECONDS["replace_tool"])
-            s.kb.once("world", "set_tool_condition", tool, "ok")
-            s.world.faults = s.world.faults.without(Fault.BROKEN_PROBE, tool).without(Fault.WORN_PROBE, tool)
-            return [f"person called: replace_tool {tool} from the stores ({PERSON_SECONDS['replace_tool']:.0f} s); "
-                    f"world: {tool} ok"], situation, None
-        if name == "accept_reading":
+                executed.append((f"repair {label} again", plan, report))
+        situation = replace(situation, state=state)
+        if plan is None or report is None:
+            return f"not achieved {label}: {note}", situation, False
+        if not report.ok:
+            return f"not achieved {label}: {note or report.failure.reason}", situation, False
+        said = [o.reply.text for o in report.outcomes if o.reply.text]
+        steps = ", ".join(st.text for st in plan.steps)
+        return f"achieved {label}: {steps}" + (f" ({'; '.join(said)})" if said else ""), situation, True
+
+    def _accept(self, what: Any, situation: Situation, runs: list[TestRun]) -> tuple[str, MeasureOutcome | None]:
+        """The value an ``accept(What)`` recovery lets stand: the failed reading
+        (``reading``), or the value a test made measured (``test(Test)``)."""
+        s = self.session
+        kind, args = _kind(what)
+        if kind == "reading":
             reading = situation.reading
             raw = getattr(reading.source, "thickness_mm", None) if reading is not None else None
-            if raw is None:
-                return ["no reading to accept"], situation, None
+            if reading is None or raw is None:
+                return "no reading to accept", None
             value = MeasuredValue(situation.spec_id, float(raw), float(reading.source.u_mm), source=reading.source)
-            return [f"reading {raw:.3f} accepted"], situation, \
-                MeasureOutcome(situation.spec_id, situation.tool, MeasureStatus.MEASURED, value, None, (), None,
-                               None, situation.state, s.world.clock.now, s.world.clock.now)
-        if name == "accept_second_view":
-            for run in runs:
-                if run.test == "rescan_second_standoff" and run.report is not None and run.report.ok:
-                    value = measured_values(run.report).get(situation.spec_id)
-                    if value is not None and value.ok:
-                        return ["the second stand-off's view accepted"], situation, MeasureOutcome(
-                            situation.spec_id, situation.tool, MeasureStatus.MEASURED, value, None, (), run.plan,
-                            run.report, run.state, run.t0, run.t1)
-            return ["no second view to accept"], situation, None
-        return [], situation, None                   # retry: nothing to put right
+            return f"reading {raw:.3f} accepted", MeasureOutcome(
+                situation.spec_id, situation.tool, MeasureStatus.MEASURED, value, None, (), None, None,
+                situation.state, s.clock.now, s.clock.now)
+        test = str(args[0]) if kind == "test" and args else term_text(what)
+        for run in runs:
+            if run.test == test and run.report is not None and run.report.ok:
+                found = measured_values(run.report).get(situation.spec_id)
+                if found is not None and found.ok:
+                    return f"the value of {test} accepted", MeasureOutcome(
+                        situation.spec_id, situation.tool, MeasureStatus.MEASURED, found, None, (), run.plan,
+                        run.report, run.state, run.t0, run.t1)
+        return f"no value of {test} to accept", None
 
     # -- 5. the measurement again -------------------------------------------------------------
-    def _retry(self, failed: MeasureOutcome, situation: Situation, executed: list
+    def _retry(self, failed: MeasureOutcome, situation: Situation, executed: Executed
                ) -> tuple[MeasureOutcome | None, str]:
         """Take the measurement again with the same tool when it is usable, else with the
         tool the rules choose now (none: not done): by plan repair or by replanning, as
@@ -354,7 +396,7 @@ class ExceptionHandler:
         s = self.session
         arm = situation.state.arm
         tool = situation.tool
-        if not s.kb.holds("world", "usable", arm, situation.tool_class, tool):
+        if not WorldModel(s.kb).is_usable(arm, situation.tool_class, tool):
             chosen = choose_tool(s.ctx, situation.spec_id)
             if chosen.tool is None:
                 return None, f"not done: no tool left ({chosen.reason})"
@@ -373,8 +415,8 @@ class ExceptionHandler:
                 replanned = s.planner.plan_measurement(s.specs[situation.spec_id], situation.state, tool)
             except NoPlanError as exc:
                 why = f"no plan: {exc.reason}"
-        way = s.kb.once("faults", "recovery_way", _steps(repaired), _steps(replanned), Var("W"))
-        way = str(way["W"]) if way else "none"
+        answer = s.kb.once("faults", "recovery_way", _steps(repaired), _steps(replanned), Var("W"))
+        way = str(answer["W"]) if answer else "none"
         if way == "repair" and repaired is not None and failed.plan is not None:
             out = execute_measurement(s, situation.spec_id, tool, repaired)
             executed.append(("recovery: plan repair", repaired, out.report))

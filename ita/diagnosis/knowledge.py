@@ -3,7 +3,9 @@
     kn = FaultKnowledge(kb)
     step = kn.step("no_echo", context, counts, results, tests, method="auto")
     step.choice       # ("test", "read_cal_block") | ("isolated", "broken_probe(us_probe_1)") | ("unresolved", ...)
-    kn.recovery("broken_probe(us_probe_1)")   # [Term('mark', ('us_probe_1', 'broken'))]
+    kn.recovery("dry_couplant(us_probe_1)")   # [Term('achieve', (Term('dispenser_purged', ('us_probe_1',)),))]
+    kn.holds_now(Term("spare_left", ("us_probe_1",)))      # a condition of a recovery, on the world model
+    kn.update_world(Term("tool_condition", ("us_probe_1", "broken")))
 
 Causes cross the bridge as terms and come back as text for people and the archive
 (``broken_probe(us_probe_1)``); :meth:`FaultKnowledge.cause_term` turns the text back.
@@ -106,9 +108,20 @@ class FaultKnowledge:
         return self.kb.once("faults", "predicts", test, Var("C"), outcome) is not None
 
     def recovery(self, cause: str) -> list[Any]:
-        """The recovery actions of an isolated cause (text as :meth:`step` gives it)."""
+        """The recovery actions of an isolated cause (text as :meth:`step` gives it):
+        ``faults:recovery/2``, a variable left for the planner as a :class:`Var`."""
         solution = self.kb.once("faults", "recovery", self.cause_term(cause), Var("A"))
         return list(solution["A"]) if solution else []
+
+    def holds_now(self, condition: Any) -> bool:
+        """Whether the condition of an ``unless(Condition, Actions)`` recovery action holds
+        of the world model now (``faults:holds_now/1``)."""
+        return self.kb.holds("faults", "holds_now", condition)
+
+    def update_world(self, change: Any) -> None:
+        """Make the world model say `change`, a ``world(Change)`` recovery action
+        (``faults:world_update/1``)."""
+        self.kb.one("faults", "world_update", change)
 
     @staticmethod
     def cause_term(cause: str) -> Any:
