@@ -110,7 +110,7 @@ class Result:
             if not (math.isfinite(self.value) and math.isfinite(self.u) and self.u >= 0):
                 raise ValueError(f"{self.spec_id}: value {self.value} / uncertainty {self.u} not valid")
             if self.decision is None:
-                object.__setattr__(self, "decision", decide(self.value, self.U, self.low_limit, self.high_limit,
+                object.__setattr__(self, "decision", decide(self.value, self.k * self.u, self.low_limit, self.high_limit,
                                                            bounded_below=self.kind in BOUNDED_BELOW))
         elif self.value is not None or self.decision is not None:
             raise ValueError(f"{self.spec_id}: an unmeasured result has no value and no decision")

@@ -54,7 +54,7 @@ from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from contextlib import contextmanager, suppress
 from datetime import UTC, datetime
 from pathlib import Path
-from typing import Any, Self, TypeVar
+from typing import Any, Concatenate, ParamSpec, Protocol, Self, TypeVar
 
 from ita.archive.decision import Decision
 from ita.archive.frames import StoredFrame, decode, encode
@@ -161,19 +161,26 @@ def _unreadable(path: Path, exc: BaseException, writing: bool = False) -> Archiv
     return ArchiveUnreadable(path, f"a stored value is damaged: {type(exc).__name__}: {exc}")
 
 
-F = TypeVar("F", bound=Callable[..., Any])
+P = ParamSpec("P")
+R = TypeVar("R")
 
 
-def _guarded(*decode_errors: type[BaseException], writing: bool = False) -> Callable[[F], F]:
+class _Guard(Protocol):
+    """What `_guarded` makes: a decorator of Archive's methods that keeps their signatures."""
+
+    def __call__(self, method: Callable[Concatenate[Archive, P], R], /) -> Callable[Concatenate[Archive, P], R]: ...
+
+
+def _guarded(*decode_errors: type[BaseException], writing: bool = False) -> _Guard:
     """A method of Archive whose SQLite errors, text that is not UTF-8 and (for readers,
     `decode_errors`) stored values that do not decode become one ArchiveError naming the
     file.  The programming errors of a caller (sqlite3.ProgrammingError, InterfaceError)
     pass through."""
-    caught = (sqlite3.DatabaseError, UnicodeDecodeError, *decode_errors)
+    caught: tuple[type[BaseException], ...] = (sqlite3.DatabaseError, UnicodeDecodeError, *decode_errors)
 
-    def decorate(method: F) -> F:
+    def decorate(method: Callable[Concatenate[Archive, P], R]) -> Callable[Concatenate[Archive, P], R]:
         @functools.wraps(method)
-        def wrapper(self: Archive, *args: Any, **kwargs: Any) -> Any:
+        def wrapper(self: Archive, *args: P.args, **kwargs: P.kwargs) -> R:
             try:
                 return method(self, *args, **kwargs)
             except ItaError:
@@ -183,7 +190,7 @@ def _guarded(*decode_errors: type[BaseException], writing: bool = False) -> Call
             except caught as exc:
                 raise _unreadable(self.path, exc, writing) from exc
 
-        return wrapper  # type: ignore[return-value]
+        return wrapper
 
     return decorate
 
@@ -647,7 +654,8 @@ class Archive:
                 raise ArchiveError(f"run {run_id} is {row[0]}, not running")
             cur = c.execute("INSERT INTO control(run_id, command, issued) VALUES (?, ?, ?)",
                             (run_id, command.value, time.time()))
-            return int(cur.lastrowid)
+            assert cur.lastrowid is not None   # the row just inserted
+            return cur.lastrowid
 
     @_updates
     def take_control(self, run_id: str) -> ControlRequest | None:

@@ -68,12 +68,18 @@ def category_of(payload: dict, kind: str = "command") -> str:
     return "other"
 
 
+def _time(e: Event) -> float:
+    """The simulated time of a timed event (one with a sim_time)."""
+    assert e.sim_time is not None, e
+    return float(e.sim_time)
+
+
 def _explicit_end(e: Event) -> float | None:
     p = e.payload
     if isinstance(p.get("end"), (int, float)):
         return float(p["end"])
     if isinstance(p.get("duration"), (int, float)):
-        return float(e.sim_time) + float(p["duration"])
+        return _time(e) + float(p["duration"])
     return None
 
 
@@ -94,7 +100,7 @@ def intervals(events: Sequence[Event], run_end: float | None = None) -> list[Int
         end = _explicit_end(e)
         if end is None:
             end = _find_end(timed, i, stream, run_end)
-        t0 = float(e.sim_time)
+        t0 = _time(e)
         name = str(e.payload.get("name", e.kind))
         out.append(Interval(stream, t0, max(t0, end), category_of(dict(e.payload), e.kind), name, e.spec_id))
     return out
@@ -108,9 +114,9 @@ def _find_end(timed: Sequence[Event], i: int, stream: str, run_end: float) -> fl
         if f.stream != stream:
             continue
         if f.kind == closer and (e.kind == "wait" or cmd is None or f.payload.get("cmd") == cmd):
-            return float(f.sim_time)
+            return _time(f)
         if f.kind == "command" and e.kind == "command" and cmd is None:
-            return float(f.sim_time)
+            return _time(f)
     return run_end
 
 
@@ -158,16 +164,17 @@ def breakdown(ivs: Sequence[Interval], start: float, end: float) -> dict[str, fl
 
 
 def _merged_length(spans: list[tuple[float, float]]) -> float:
-    total, cur_a, cur_b = 0.0, None, None
+    total = 0.0
+    cur: tuple[float, float] | None = None   # the merged span being grown
     for a, b in sorted(spans):
-        if cur_b is None or a > cur_b:
-            if cur_b is not None:
-                total += cur_b - cur_a
-            cur_a, cur_b = a, b
+        if cur is None or a > cur[1]:
+            if cur is not None:
+                total += cur[1] - cur[0]
+            cur = (a, b)
         else:
-            cur_b = max(cur_b, b)
-    if cur_b is not None:
-        total += cur_b - cur_a
+            cur = (cur[0], max(cur[1], b))
+    if cur is not None:
+        total += cur[1] - cur[0]
     return total
 
 
@@ -192,9 +199,9 @@ def plan_intervals(events: Sequence[Event], run_end: float | None = None) -> lis
         if spec is None:
             continue
         if e.kind == "plan_start":
-            open_[str(spec)] = float(e.sim_time)
+            open_[str(spec)] = _time(e)
         elif e.kind == "plan_end" and str(spec) in open_:
             t0 = open_.pop(str(spec))
-            out.append(Interval("top", t0, max(t0, float(e.sim_time)), "other", str(spec), str(spec)))
+            out.append(Interval("top", t0, max(t0, _time(e)), "other", str(spec), str(spec)))
     out += [Interval("top", t0, max(t0, run_end), "other", s, s) for s, t0 in open_.items()]
     return sorted(out, key=lambda iv: iv.start)
