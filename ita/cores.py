@@ -46,10 +46,12 @@ class SecondCore:
         self._name = f"{name}-{id(self):x}"
         self._thread = ThreadPoolExecutor(1, thread_name_prefix=self._name) if usable_cores() > 1 else None
 
-    def _here(self) -> bool:
-        """Whether work must run in the caller: no second thread, or the caller is it (work it
-        queued for itself would wait behind itself for ever)."""
-        return self._thread is None or threading.current_thread().name.startswith(self._name + "_")
+    def _second(self) -> ThreadPoolExecutor | None:
+        """The second thread, or None when work must run in the caller: no second thread, or
+        the caller is it (work it queued for itself would wait behind itself for ever)."""
+        if self._thread is None or threading.current_thread().name.startswith(self._name + "_"):
+            return None
+        return self._thread
 
     @property
     def active(self) -> bool:
@@ -59,8 +61,9 @@ class SecondCore:
     def beside(self, work: Callable[[], T]) -> Future[T]:
         """work() started on the second thread (done at once, here, where there is none or
         where this is it)."""
-        if not self._here():
-            return self._thread.submit(work)
+        second = self._second()
+        if second is not None:
+            return second.submit(work)
         done: Future[T] = Future()
         done.set_result(work())
         return done
@@ -74,9 +77,10 @@ class SecondCore:
         n = len(rows[0])
         if any(len(r) != n for r in rows):
             raise ValueError(f"rows of unequal length: {[len(r) for r in rows]}")
-        if n < max(2, self.min_rows if min_rows is None else min_rows) or self._here():
+        thread = self._second()
+        if n < max(2, self.min_rows if min_rows is None else min_rows) or thread is None:
             return kernel(*rows, *rest)
         half = n // 2
-        second = self._thread.submit(kernel, *(r[half:] for r in rows), *rest)
+        second = thread.submit(kernel, *(r[half:] for r in rows), *rest)
         first = kernel(*(r[:half] for r in rows), *rest)
         return tuple(np.concatenate(pair) for pair in zip(first, second.result()))
