@@ -111,6 +111,7 @@ cause(out_of_tolerance,             'the part itself is out of tolerance there')
 cause(thin_section,                 'the section is thinner than the probe can read').
 cause(tool_missing(tool),           'the tool is not in its rack slot').
 cause(transient_glitch,             'a one-off glitch that a retry clears').
+cause(tilted_probe(probe),          'the probe in hand sits crooked in its holder (knocked): its face meets the part tilted').
 
 %!  raises(?Cause, ?Exception, ?Likelihood) is nondet.
 %
@@ -131,6 +132,7 @@ raises(sensor_cable_fault(device), implausible_thickness,   0.2).
 raises(worn_probe(probe),          implausible_thickness,   0.1).
 raises(arm_drift,                  misaligned,              0.6).
 raises(part_displaced,             misaligned,              0.6).
+raises(tilted_probe(probe),        misaligned,              0.9).
 raises(arm_drift,                  no_contact,              0.4).
 raises(part_displaced,             no_contact,              0.6).
 raises(sensor_cable_fault(device), corrupt_reply,           0.9).
@@ -182,6 +184,7 @@ prior(out_of_tolerance,             4).
 prior(thin_section,                 1).
 prior(tool_missing(tool),           1).
 prior(transient_glitch,             2).
+prior(tilted_probe(probe),          1).
 
 
                  /*******************************
@@ -245,6 +248,7 @@ predicts(read_cal_block,  empty_couplant_station,     no_couplant).
 predicts(read_cal_block,  sensor_cable_fault(device), garbage).
 predicts(read_cal_block,  arm_drift,                  misaligned).
 predicts(read_cal_block,  controller_not_answering,   silent).
+predicts(read_cal_block,  tilted_probe(probe),        misaligned).
 
 predicts(check_couplant_station, empty_couplant_station, empty).
 predicts(check_couplant_station, controller_not_answering, silent).
@@ -260,6 +264,7 @@ predicts(retry_reading,   part_displaced,             fails_again).
 predicts(retry_reading,   out_of_tolerance,           fails_again).
 predicts(retry_reading,   thin_section,               fails_again).
 predicts(retry_reading,   controller_not_answering,   silent).
+predicts(retry_reading,   tilted_probe(probe),        fails_again).
 
 predicts(query_controller, controller_not_answering,  silent).
 
@@ -348,6 +353,7 @@ recovery(out_of_tolerance,          [accept(reading)]).
 recovery(thin_section,              []).
 recovery(tool_missing(T),           [world(location(T, missing))]).
 recovery(transient_glitch,          [retry]).
+recovery(tilted_probe(P),           [achieve(probe_straightened(P))]).
 
 %!  recovery_goal(?Goal) is nondet.
 %

@@ -57,10 +57,12 @@ test(which_recovery_for_which_cause,
                    out_of_tolerance-[accept(reading)],
                    tool_missing(slra_2)-[world(location(slra_2, missing))],
                    transient_glitch-[retry],
+                   tilted_probe(us_probe_2)-[achieve(probe_straightened(us_probe_2))],
                    couplant_missed-[] ])) :-
     findall(C-A, ( member(C, [dry_couplant(us_probe_1), empty_couplant_station, controller_not_answering,
                               sensor_cable_fault(slra_1), obstacle_at_arm, part_displaced, occlusion,
-                              out_of_tolerance, tool_missing(slra_2), transient_glitch, couplant_missed]),
+                              out_of_tolerance, tool_missing(slra_2), transient_glitch,
+                              tilted_probe(us_probe_2), couplant_missed]),
                    recovery(C, A) ), Rs).
 
 %   the actions of a recovery, unless/2's included
@@ -111,5 +113,21 @@ test(a_tool_marked_missing, [setup(world:reset_world), cleanup(world:reset_world
 
 test(an_unknown_world_change, error(domain_error(world_change, couplant(full)))) :-
     world_update(couplant(full)).
+
+test(a_tilted_probe_is_told_from_drift_by_the_reference_feature,
+     true(C == tilted_probe(us_probe_1))) :-
+    isolated(misaligned, [probe=us_probe_1, device=gauge],
+             [read_cal_block-misaligned, measure_reference_feature-ok], C).
+
+test(the_cal_block_alone_does_not_tell_a_tilted_probe_from_drift, fail) :-
+    isolated(misaligned, [probe=us_probe_1, device=gauge], [read_cal_block-misaligned], _).
+
+test(repair_unless_a_new_plan_is_shorter, true(Ws == [repair, repair, replan, replan, repair, none])) :-
+    findall(W, ( member(R-P, [steps(4)-steps(4), steps(3)-steps(5), steps(6)-steps(4), none-steps(4),
+                              steps(2)-none, none-none]),
+                 recovery_way(R, P, W) ), Ws).
+
+test(unknown_exception, error(existence_error(exception, smoke))) :-
+    candidate_causes(smoke, [], _).
 
 :- end_tests(faults).

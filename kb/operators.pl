@@ -446,6 +446,21 @@ static_operator(replace_tool(Person, Tool),
       result_pattern(tool_replaced(Tool))
     ]).
 
+% Straightening an ultrasonic probe that sits crooked in its holder.
+static_operator(straighten_probe(Person, Tool),
+    [ preconditions([]),
+      adders([ probe_straightened(Tool) ]),
+      unary_constraints([ type(Person, person),
+                          type(Tool, us_tool) ]),
+      n_ary_constraints([]),
+      resources([ Person, Tool ]),
+      message_pattern('CALL'(straighten_probe(Tool))),
+      command_stream(command_stream(person, Person)),
+      reply_pattern('DONE'),
+      result_pattern(probe_straightened(Tool))
+    ]).
+
+
                  /*******************************
                  *      DEDUCTIVE OPERATORS     *
                  *******************************/
@@ -509,6 +524,7 @@ criticality(rescanned(_, _), 5).
 criticality(obstacles_removed(_), 5).
 criticality(part_clamped(_), 5).
 criticality(tool_replaced(_), 5).
+criticality(probe_straightened(_), 5).
 criticality(location(_, _), 4).
 criticality(slot_free(_), 4).
 criticality(holding(_, _), 3).

@@ -109,7 +109,8 @@ test(criticality_of_measured_above_pose, true(M > P)) :-
 test(a_persons_jobs_go_to_the_persons_stream,
      true(Jobs =@= [ reclamp_part-'CALL'(reclamp_part),
                      remove_obstacles-'CALL'(remove_obstacles),
-                     replace_tool-'CALL'(replace_tool(_)) ])) :-
+                     replace_tool-'CALL'(replace_tool(_)),
+                     straighten_probe-'CALL'(straighten_probe(_)) ])) :-
     findall(Name-M, ( static_operator(Op, D),
                       memberchk(command_stream(command_stream(person, P)), D),
                       memberchk(unary_constraints(U), D),

@@ -59,6 +59,7 @@ CASES = [  # fault, target, tool, exception, isolated cause, measured after reco
     ("transient", "us_gauge", "us_probe_1", "no_echo", "transient_glitch", True),
     ("controller_silent", "controller", "us_probe_1", "controller_timeout", "controller_not_answering", True),
     ("dirty_window", "slra_1", "slra_1", "too_few_pixels", "dirty_window(slra_1)", True),
+    ("tilted_probe", "us_probe_1", "us_probe_1", "misaligned", "tilted_probe(us_probe_1)", True),
 ]
 
 
@@ -79,6 +80,36 @@ def test_each_exception_is_diagnosed_to_the_fault_switched_on(session, handler, 
         truth = _truth(session)[spec_id]
         v = handled.outcome.value
         assert abs(v.value - truth) <= max(2.0 * v.u, 0.02)
+    session.world.faults = FaultSet()
+
+
+def test_a_recovery_added_in_the_knowledge_alone_a_tilted_probe_straightened_by_a_person(session, handler, arm):
+    """The recovery added to show that a new one is one place in kb/faults.pl: a probe
+    knocked crooked in its holder (the simulator's TILTED_PROBE) tilts every reading, on
+    the part and on the calibration block; the block's reading and the reference feature
+    (the arm is where it should be) tell it from a drifted arm and a displaced part; its
+    recovery, ``achieve(probe_straightened(P))``, is planned by the Operation Planner onto
+    the person's stream (kb/operators.pl straighten_probe, ita/devices/person.py), the run
+    waits the simulated person's two minutes, and the measurement is made."""
+    from ita.sim.person import SECONDS
+
+    spec_id = _first(session, "us_probe_1", "web_thickness", skip=17)
+    _, handled = _fail_and_handle(session, handler, arm, spec_id, "us_probe_1",
+                                  FaultSet().with_fault("tilted_probe", "us_probe_1"))
+    d = handled.diagnosis
+    assert d.exception == "misaligned" and d.cause == "tilted_probe(us_probe_1)", d.summary
+    assert {t.test: t.outcome for t in d.tests}.get("measure_reference_feature") == "ok", d.summary
+    assert d.actions == ("achieve(probe_straightened(us_probe_1))",)
+    repairs = [(label, plan, report) for label, plan, report in handled.executed if label.startswith("repair ")]
+    assert [label for label, _, _ in repairs] == ["repair probe_straightened(us_probe_1)"]
+    _, plan, report = repairs[0]
+    assert [st.text for st in plan.steps] == ["straighten_probe(technician, us_probe_1)"]
+    assert report.ok and [str(o.command.stream) for o in report.outcomes] == ["person(technician)"]
+    assert report.makespan == pytest.approx(SECONDS["straighten_probe"])
+    assert "tilted_probe@us_probe_1" not in session.world.faults.names()
+    assert handled.outcome.status is MeasureStatus.MEASURED, handled.outcome.reason
+    v = handled.outcome.value
+    assert abs(v.value - _truth(session)[spec_id]) <= max(2.0 * v.u, 0.02)
     session.world.faults = FaultSet()
 
 

@@ -22,8 +22,8 @@ by a side channel.
 - :mod:`~ita.devices.stations`: the calibration block, the couplant station and the
   cell's supervisor, on the arm's stream.
 - :mod:`~ita.devices.person`: CALL(Job), a person called to the cell (obstacles removed,
-  the part re-clamped, a tool replaced from the stores), answered by the simulator
-  (ita.sim.person); the run waits.
+  the part re-clamped, a tool replaced, a probe straightened), answered by the
+  simulator (ita.sim.person); the run waits.
 """
 
 from ita.devices.arm import ArmDevice

@@ -4,7 +4,7 @@
     PlanExecutive(kb, {"path_planner": arm, "vision": slra, "person": person}, clock=world.clock)
 
 What the cell cannot do itself (an obstacle taken out, the part re-clamped, a tool
-replaced from the stores) is an operator of
+replaced from the stores, a probe straightened in its holder) is an operator of
 kb/operators.pl on the stream ``command_stream(person, Person)``: the Operation Planner
 plans it like any other step and the Plan Executive sends it here as ``CALL(Job)``; the
 reply ``DONE`` comes when the job is done, and the run waits for it (a person is told the
@@ -48,11 +48,13 @@ class Person(Protocol):
 
     def replace_tool(self, tool: str) -> str: ...
 
+    def straighten_probe(self, tool: str) -> str: ...
+
 
 def person_jobs(person: Person) -> dict[str, Job]:
     """The jobs of the person operators of kb/operators.pl, by the name in ``CALL(Job)``."""
     return {"remove_obstacles": person.remove_obstacles, "reclamp_part": person.reclamp_part,
-            "replace_tool": person.replace_tool}
+            "replace_tool": person.replace_tool, "straighten_probe": person.straighten_probe}
 
 
 class PersonDevice:

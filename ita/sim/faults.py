@@ -19,10 +19,13 @@ hits; the empty target hits every one.
                        (target: its name; the world holds its box, `SimWorld.obstacles`)
     TRANSIENT          one command of the target device fails once (a glitch): the device
                        that meets it clears it (`FaultSet.without`)
+    TILTED_PROBE       the probe sits crooked in its holder (knocked): its face meets the
+                       part and the calibration block tilted, the echo walks off (target:
+                       the probe)
 
 A repair (ita.devices: refill, purge, reset, reseat, recalibrate, clean; a person called
-to the cell, ita.sim.person: obstacles removed, a tool replaced) takes the fault out of
-the world's set.
+to the cell, ita.sim.person: obstacles removed, a tool replaced, a probe straightened)
+takes the fault out of the world's set.
 """
 
 from __future__ import annotations
@@ -49,6 +52,7 @@ class Fault(str, Enum):
     DIRTY_WINDOW = "dirty_window"
     OBSTACLE = "obstacle"
     TRANSIENT = "transient"
+    TILTED_PROBE = "tilted_probe"
 
 
 @dataclass(frozen=True)

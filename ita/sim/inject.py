@@ -16,8 +16,9 @@ Exception Handler's own tests and repairs (`paused` while it works).  Every faul
 archive, like the as-built truth: only scoring reads it; so is the first command at which
 an injected fault is found gone (``{"cleared": fault, ...}``).
 
-Not injected: POSITION_DRIFT (a step of the arm's calibration that no device reports,
-so that only a check against a reference would find it) and SENSOR_GARBAGE of an SLRA.
+Not injected at random: POSITION_DRIFT (a step of the arm's calibration that no device
+reports, so that only a check against a reference would find it), SENSOR_GARBAGE of an
+SLRA and TILTED_PROBE (scripted only: ``tilted_probe:after=60`` tilts the probe in hand).
 """
 
 from __future__ import annotations
@@ -46,7 +47,7 @@ CAUSE_OF = {
     "broken_probe": "broken_probe", "worn_probe": "worn_probe", "dry_couplant": "dry_couplant",
     "empty_couplant": "empty_couplant_station", "sensor_garbage": "sensor_cable_fault",
     "transient": "transient_glitch", "controller_silent": "controller_not_answering", "obstacle": "obstacle",
-    "dirty_window": "dirty_window", "position_drift": "arm_drift",
+    "dirty_window": "dirty_window", "position_drift": "arm_drift", "tilted_probe": "tilted_probe",
 }
 _SCRIPT = re.compile(r"^(?P<fault>[a-z_]+)(@(?P<target>[A-Za-z0-9_.-]+))?(:after=(?P<after>[0-9.]+))?$")
 _GAUGE_COMMANDS = ("COUPLANT", "MEASURE")
@@ -157,7 +158,7 @@ class FaultInjector:
 
     def _default_target(self, fault: str, kind: str) -> str | None:
         held = self.world.held
-        if fault in ("broken_probe", "worn_probe", "dry_couplant"):
+        if fault in ("broken_probe", "worn_probe", "dry_couplant", "tilted_probe"):
             tool = self.world.held_tool
             return held if tool is not None and tool.tool_class.ultrasonic else None
         if fault == "dirty_window":

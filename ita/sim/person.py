@@ -24,6 +24,7 @@ SECONDS = {
     "remove_obstacles": 120.0,
     "reclamp_part": 300.0,
     "replace_tool": 300.0,
+    "straighten_probe": 120.0,
 }
 
 
@@ -52,10 +53,16 @@ class SimPerson:
 
     def replace_tool(self, tool: str) -> str:
         """Put a new `tool` from the stores in the old one's place: a new probe is neither
-        broken nor worn."""
+        broken, worn nor crooked."""
         seconds = self._take("replace_tool")
         faults = self.world.faults
-        for fault in (Fault.BROKEN_PROBE, Fault.WORN_PROBE):
+        for fault in (Fault.BROKEN_PROBE, Fault.WORN_PROBE, Fault.TILTED_PROBE):
             faults = faults.without(fault, tool)
         self.world.faults = faults
         return f"{tool} replaced from the stores in {seconds:.0f} s"
+
+    def straighten_probe(self, tool: str) -> str:
+        """Seat the probe `tool` straight in its holder again."""
+        seconds = self._take("straighten_probe")
+        self.world.faults = self.world.faults.without(Fault.TILTED_PROBE, tool)
+        return f"{tool} straightened in {seconds:.0f} s"

@@ -24,7 +24,8 @@ casts a ray along the probe's tip axis through the as-built mesh, in the part fr
 Faults (world.faults): BROKEN_PROBE and WORN_PROBE target a tool name; DRY_COUPLANT the
 tool whose dispenser is dry; EMPTY_COUPLANT the couplant station (no dispenser gives any);
 SENSOR_GARBAGE targets GAUGE and makes every reply corrupt; TRANSIENT on GAUGE loses the
-next echo once.
+next echo once; TILTED_PROBE (a probe crooked in its holder) tilts every reading of that
+probe, on the part and on the block, past `max_tilt_deg`.
 
 The calibration block: `pulse_reference(thickness_mm)` is a reading of the block (a
 known thickness), with the same faults and the same calibration error; the arm's
@@ -172,7 +173,7 @@ class UltrasonicSim:
 
         if contact is None or contact.pressed_mm < 0.0:
             return echo(STATUS_NO_CONTACT)
-        if contact.tilt_deg > ph.max_tilt_deg:
+        if contact.tilt_deg > ph.max_tilt_deg or world.faults.has(Fault.TILTED_PROBE, tool.name):
             return echo(STATUS_TILT)
         if world.faults.has(Fault.BROKEN_PROBE, tool.name):
             return echo(STATUS_NO_SIGNAL)
@@ -229,7 +230,7 @@ class UltrasonicSim:
         def echo(status: str) -> RawEcho:
             return RawEcho(status, dwell_s=ph.dwell_s, probe=tool.name)
 
-        if float(np.linalg.norm(world.drift_m)) > drift_limit_m:
+        if float(np.linalg.norm(world.drift_m)) > drift_limit_m or world.faults.has(Fault.TILTED_PROBE, tool.name):
             return echo(STATUS_TILT)
         if world.faults.has(Fault.BROKEN_PROBE, tool.name):
             return echo(STATUS_NO_SIGNAL)
