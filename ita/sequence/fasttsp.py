@@ -100,7 +100,7 @@ def merge_interchangeable(D: np.ndarray, symmetric: bool, start: int | None,
             found.setdefault(row.tobytes(), []).append(int(i))
     for i in np.flatnonzero(~maybe):
         found[int(i)] = [int(i)]
-    classes = []
+    classes: list[tuple[int, ...]] = []
     for members in found.values():
         if start is not None and end is not None and start != end and start in members and end in members:
             members = [v for v in members if v != end]

@@ -214,7 +214,7 @@ def partition_specs(
             by_tool.setdefault(sel.tool, []).append(sel)
     groups = tuple(
         ToolGroup(tool=tool, tool_class=sels[0].tool_class or "", spec_ids=tuple(s.spec_id for s in sels),
-                  rules=tuple(Counter(s.rule for s in sels).most_common()))
+                  rules=tuple(Counter(s.rule or "" for s in sels).most_common()))
         for tool, sels in sorted(by_tool.items())
     )
     return Partition(

@@ -244,8 +244,8 @@ def order_group(ctx: PlanningContext, tool: str, spec_ids: Sequence[str],
         if sorted(keep) != sorted(ids):
             raise ValueError("the order to keep does not have the group's measurements")
         pos = {i: k + 1 for k, i in enumerate(ids)}
-        order = (0, *[pos[i] for i in keep])
-        cost = tour_cost(matrix, order, closed=True)
+        visit = (0, *[pos[i] for i in keep])
+        cost = tour_cost(matrix, visit, closed=True)
         return PlannedGroup(tool, spec.tool_class.value, tuple(keep), float(cost))
     coords = np.vstack([slot_position(ctx.workcell, tool)[None, :], tool_points_world(ctx.workcell, spec, specs)])
     tour = solve_tour(matrix, method=ctx.method, coords=coords, start=0, end=0)

@@ -34,7 +34,7 @@ from __future__ import annotations
 import itertools
 import time
 from dataclasses import dataclass
-from typing import Callable
+from typing import Callable, Sequence
 
 import numpy as np
 
@@ -96,7 +96,7 @@ class SearchSpace:
     has_dummy: bool
 
 
-def tour_cost(cost: np.ndarray, order: tuple[int, ...] | np.ndarray, closed: bool = True) -> float:
+def tour_cost(cost: np.ndarray, order: Sequence[int] | np.ndarray, closed: bool = True) -> float:
     """Cost of visiting ``order`` under ``cost`` (``(n, n) float``), with the closing edge if ``closed``."""
     idx = np.asarray(order, dtype=np.int64)
     if idx.size < 2:
@@ -198,12 +198,12 @@ def _search_space(problem: OrderingProblem) -> SearchSpace:
 def _read_order(tour: np.ndarray, space: SearchSpace, start: int | None, end: int | None) -> list[int]:
     """Turn a closed tour of the search space into an open path, or a closed tour from node 0."""
     n = space.n
-    tour = [int(v) for v in tour]
+    nodes = [int(v) for v in tour]
     if not space.has_dummy:
-        k = tour.index(0)
-        return tour[k:] + tour[:k]
-    k = tour.index(n)
-    order = tour[k + 1:] + tour[:k]
+        k = nodes.index(0)
+        return nodes[k:] + nodes[:k]
+    k = nodes.index(n)
+    order = nodes[k + 1:] + nodes[:k]
     if space.symmetric and ((start is not None and order[0] != start)
                             or (start is None and order[-1] != end)):
         order.reverse()
