@@ -36,6 +36,7 @@ from ita.workcell.model import (
     RackSlot,
     ReachParams,
     ToolSpec,
+    Vec3,
     Workcell,
 )
 
@@ -141,17 +142,28 @@ class _Reader:
             self.fail(field, f"all values must be >= 0, got {list(out)}")
         return out
 
+    def vec3(self, data: dict[str, Any], key: str, field: str, *, positive: bool = False,
+             nonnegative: bool = False) -> Vec3:
+        x, y, z = self.vector(data, key, field, 3, positive=positive, nonnegative=nonnegative)
+        return (x, y, z)
+
+    def vec2(self, data: dict[str, Any], key: str, field: str, *, positive: bool = False,
+             nonnegative: bool = False) -> tuple[float, float]:
+        x, y = self.vector(data, key, field, 2, positive=positive, nonnegative=nonnegative)
+        return (x, y)
+
     def pose(self, data: dict[str, Any], field: str, position_key: str = "center",
              rpy_key: str = "rpy_deg") -> Pose:
-        position = self.vector(data, position_key, f"{field}.{position_key}")
-        rpy = self.vector(data, rpy_key, f"{field}.{rpy_key}") if rpy_key in data else (0.0, 0.0, 0.0)
-        return Pose.from_rpy(position, tuple(math.radians(a) for a in rpy))  # type: ignore[arg-type]
+        position = self.vec3(data, position_key, f"{field}.{position_key}")
+        rpy = self.vec3(data, rpy_key, f"{field}.{rpy_key}") if rpy_key in data else (0.0, 0.0, 0.0)
+        roll, pitch, yaw = (math.radians(a) for a in rpy)
+        return Pose.from_rpy(position, (roll, pitch, yaw))
 
     def box(self, data: dict[str, Any], field: str, name: str | None = None) -> Box:
         box_name = name if name is not None else self.text(data, "name", f"{field}.name")
         pose = self.pose(data, field)
-        size = self.vector(data, "size", f"{field}.size", positive=True)
-        return Box(box_name, pose, size)  # type: ignore[arg-type]
+        size = self.vec3(data, "size", f"{field}.size", positive=True)
+        return Box(box_name, pose, size)
 
     def boxes(self, data: dict[str, Any], key: str) -> tuple[Box, ...]:
         out = []
@@ -297,23 +309,23 @@ def _floats(element: ET.Element | None, attr: str, default: str) -> np.ndarray |
 
 def _read_part(r: _Reader, part: dict[str, Any]) -> PartPlacement:
     scale = r.number(part, "scale", "part.scale", low=0.0, strict_low=True)
-    x_axis = r.vector(part, "x_axis", "part.x_axis")
-    y_axis = r.vector(part, "y_axis", "part.y_axis")
+    x_axis = r.vec3(part, "x_axis", "part.x_axis")
+    y_axis = r.vec3(part, "y_axis", "part.y_axis")
     try:
         rot = frames.axes_to_matrix(x_axis, y_axis)
     except ValueError as exc:
         r.fail("part.x_axis", f"x_axis and y_axis: {exc}")
         rot = np.eye(3)
-    translation = r.vector(part, "translation", "part.translation")
+    translation = r.vec3(part, "translation", "part.translation")
     if "envelope_min_mm" not in part and "envelope_max_mm" not in part:
         lo, hi = (-math.inf,) * 3, (math.inf,) * 3     # from the part's mesh (workcell_for)
     else:
-        lo = r.vector(part, "envelope_min_mm", "part.envelope_min_mm")
-        hi = r.vector(part, "envelope_max_mm", "part.envelope_max_mm")
+        lo = r.vec3(part, "envelope_min_mm", "part.envelope_min_mm")
+        hi = r.vec3(part, "envelope_max_mm", "part.envelope_max_mm")
     if any(a >= b for a, b in zip(lo, hi)):
         r.fail("part.envelope_max_mm", "must exceed envelope_min_mm on every axis")
-    rotation = tuple(tuple(float(v) for v in row) for row in rot)
-    return PartPlacement(scale, rotation, translation, lo, hi)  # type: ignore[arg-type]
+    r0, r1, r2 = ((float(a), float(b), float(c)) for a, b, c in rot)
+    return PartPlacement(scale, (r0, r1, r2), translation, lo, hi)
 
 
 def _read_tools(r: _Reader, data: dict[str, Any], payload: float) -> tuple[ToolSpec, ...]:
@@ -334,23 +346,23 @@ def _read_tools(r: _Reader, data: dict[str, Any], payload: float) -> tuple[ToolS
         tcp = r.pose(t, f, position_key="tcp_position", rpy_key="tcp_rpy_deg")
         if tcp.position[2] <= 0:
             r.fail(f"{f}.tcp_position", "the tool point must lie beyond the flange (z > 0)")
-        body_center = r.vector(t, "body_center", f"{f}.body_center")
-        body = r.vector(t, "body_size", f"{f}.body_size", positive=True)
-        standoff = r.vector(t, "standoff", f"{f}.standoff", nonnegative=True)
+        body_center = r.vec3(t, "body_center", f"{f}.body_center")
+        body = r.vec3(t, "body_size", f"{f}.body_size", positive=True)
+        standoff = r.vec3(t, "standoff", f"{f}.standoff", nonnegative=True)
         if not standoff[0] <= standoff[1] <= standoff[2]:
             r.fail(f"{f}.standoff", f"must be [min, nominal, max] in order, got {list(standoff)}")
         if tool_class is Tool.SLRA and standoff[2] <= 0:
             r.fail(f"{f}.standoff", "an SLRA needs a standoff range > 0")
         approach = r.number(t, "approach_distance", f"{f}.approach_distance", low=0.0)
-        fov = r.vector(t, "fov_deg", f"{f}.fov_deg", n=2, nonnegative=True)
+        fov = r.vec2(t, "fov_deg", f"{f}.fov_deg", nonnegative=True)
         if any(v >= 180 for v in fov):
             r.fail(f"{f}.fov_deg", "must be < 180 degrees")
         holder = r.number(t, "holder_radius", f"{f}.holder_radius", low=0.0, strict_low=True,
                           default=PROBE_HOLDER_RADIUS)
         shaft = r.number(t, "shaft_radius", f"{f}.shaft_radius", low=0.0, strict_low=True,
                          default=PROBE_SHAFT_RADIUS)
-        tools.append(ToolSpec(name, tool_class, weight, tcp, body_center, body, *standoff, approach, fov,  # type: ignore[arg-type]
-                              holder, shaft))
+        tools.append(ToolSpec(name, tool_class, weight, tcp, body_center, body, standoff[0], standoff[1], standoff[2],
+                              approach, fov, holder, shaft))
     if not tools:
         r.fail("tool", "at least one [[tool]] is needed")
     return tuple(tools)
@@ -433,8 +445,8 @@ def workcell_for(part_directory: Path | str | None, bounds: Any = None) -> Workc
                                                    "was given to take them from")])
         return cell
     lo, hi = np.asarray(bounds, dtype=float)
-    placement = replace(cell.part, envelope_min_mm=tuple(float(x) for x in lo),
-                        envelope_max_mm=tuple(float(x) for x in hi))
+    placement = replace(cell.part, envelope_min_mm=(float(lo[0]), float(lo[1]), float(lo[2])),
+                        envelope_max_mm=(float(hi[0]), float(hi[1]), float(hi[2])))
     return replace(cell, part=placement)
 
 

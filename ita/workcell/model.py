@@ -35,7 +35,9 @@ class Pose:
     def from_rpy(cls, position: Vec3, rpy: Vec3) -> "Pose":
         """Pose from a position (m) and fixed-axis roll, pitch, yaw (rad)."""
         q = frames.matrix_to_quaternion(frames.rpy_to_matrix(rpy))
-        return cls(tuple(map(float, position)), tuple(map(float, q)))  # type: ignore[arg-type]
+        x, y, z = (float(v) for v in position)
+        qx, qy, qz, qw = (float(v) for v in q)
+        return cls((x, y, z), (qx, qy, qz, qw))
 
     def rotation(self) -> np.ndarray:
         """Rotation matrix (3, 3)."""
@@ -236,7 +238,9 @@ class ToolSpec:
         s = float(tip[:2] @ axis[:2] / xy) if xy > 1e-12 else 0.5 * tip[2]
         bend = tip - s * axis
         bend[:2] = 0.0
-        as_tuple = lambda v: tuple(float(x) for x in v)  # noqa: E731
+        def as_tuple(v: np.ndarray) -> Vec3:
+            return (float(v[0]), float(v[1]), float(v[2]))
+
         return ProbeShape((0.0, 0.0, TOOL_GAP), as_tuple(bend), as_tuple(tip), as_tuple(axis),
                           self.holder_radius, self.shaft_radius)
 
