@@ -49,14 +49,22 @@ from starlette.responses import (
 )
 from starlette.routing import Route
 
-from ita import report, scoring
-from ita.archive import Archive, ArchiveError, NoArchive, UnknownRun, archive_path
+from ita import report
+from ita.archive import (
+    Archive,
+    ArchiveError,
+    NoArchive,
+    RunInfo,
+    UnknownRun,
+    archive_path,
+)
 from ita.errors import InputError, ItaError
 from ita.report.assets import asset_path
 from ita.report.data import COLUMNS, STATUS_COLOURS, collect, jsonable, result_row
 from ita.report.live import live_state
 from ita.report.result import result_payload
 from ita.report.sections import report_payload
+from ita.scoring import truth as scoring_truth
 from ita.web import pages
 from ita.web.bodies import (
     BadRequest,
@@ -282,7 +290,7 @@ def _report(state: State, run_id: str) -> Any:
             data = collect(archive, rid, scene.specs if scene is not None else None)
             payload = report_payload(data, mesh=None if scene is None else scene.mesh,
                                      only=("summary", "results", "part3d", "gantt", "breakdown", "events", "tours"))
-            payload["scoring_available"] = _has_truth(info)
+            payload["scoring_available"] = _truth_dir(info) is not None
             return jsonable(payload)
 
         return state.payload(rid, key, build)
@@ -290,8 +298,11 @@ def _report(state: State, run_id: str) -> Any:
     return _with_archive(state, make)
 
 
-def _has_truth(info: Any) -> bool:
-    return bool(info.settings.get("simulated", True)) and scoring.has_true_values(info.part_dir)
+def _truth_dir(info: RunInfo) -> Path | str | None:
+    """The part directory of a simulated run whose part has true values to score against, else None."""
+    if bool(info.settings.get("simulated", True)) and scoring_truth.has_true_values(info.part_dir):
+        return info.part_dir
+    return None
 
 
 async def api_report(request: Request) -> JSONResponse:
@@ -305,12 +316,13 @@ async def api_scoring(request: Request) -> JSONResponse:
     def make(archive: Archive) -> Any:
         rid = archive.resolve(run_id)
         info = archive.run(rid)
-        if not _has_truth(info):
+        part_dir = _truth_dir(info)
+        if part_dir is None:
             return {"run": rid, "sections": [], "note": "This run has no as-built truth to score against."}
         scene = state.scene(info.part_dir)
         data = collect(archive, rid, scene.specs if scene is not None else None)
-        return report_payload(data, true_values=scoring.true_values(info.part_dir), only=("scoring",),
-                              injected=scoring.injected_faults(archive.path.parent, rid))
+        return report_payload(data, true_values=scoring_truth.true_values(part_dir), only=("scoring",),
+                              injected=scoring_truth.injected_faults(archive.path.parent, rid))
 
     out = await run_in_threadpool(_with_archive, state, make)
     return _json(out) if out is not None else _error("no archive yet", 404)
@@ -410,8 +422,9 @@ async def export(request: Request) -> Response:
         info = archive.run(rid)
         scene = state.scene(info.part_dir)
         truth = None
-        if _has_truth(info):
-            truth = scoring.true_values(info.part_dir)
+        part_dir = _truth_dir(info)
+        if part_dir is not None:
+            truth = scoring_truth.true_values(part_dir)
         if what == "report.pdf":
             return Response(report.build_pdf(archive, rid, true_values=truth, scene=scene),
                             media_type="application/pdf",
