@@ -73,8 +73,8 @@ class Scoring:
                     "within_u": math.nan}
         mean = sum(e) / n
         std = math.sqrt(sum((x - mean) ** 2 for x in e) / (n - 1)) if n > 1 else 0.0
-        measured = [s for s in self.scored if s.error is not None and s.expanded_u is not None]
-        within = sum(abs(s.error) <= s.expanded_u for s in measured) / len(measured) if measured else math.nan
+        measured = [(s.error, s.expanded_u) for s in self.scored if s.error is not None and s.expanded_u is not None]
+        within = sum(abs(err) <= big_u for err, big_u in measured) / len(measured) if measured else math.nan
         return {"n": n, "mean": mean, "std": std, "rms": math.sqrt(sum(x * x for x in e) / n),
                 "max_abs": max(abs(x) for x in e), "within_u": within}
 

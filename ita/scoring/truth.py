@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import TypeGuard
 
 from ita.part import truth
 from ita.part.store import load_part
@@ -17,7 +18,7 @@ from ita.specs.io import read_specs
 __all__ = ["has_true_values", "injected_faults", "true_values", "truth_source"]
 
 
-def has_true_values(part_dir: Path | str | None) -> bool:
+def has_true_values(part_dir: Path | str | None) -> TypeGuard[Path | str]:
     """Whether the part in `part_dir` has true values to score against: a generated part's
     as-built truth, or the mesh the simulator held (its asbuilt.stl or nominal mesh), whose
     values exact rays find (:func:`ita.part.truth.mesh_values`)."""
