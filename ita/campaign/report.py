@@ -14,6 +14,7 @@ truth, as the simulator's parts carry one).
 from __future__ import annotations
 
 from collections import defaultdict
+from collections.abc import Hashable
 from pathlib import Path
 from typing import Any
 
@@ -65,12 +66,12 @@ def campaign_report(out_dir: Path) -> dict[str, Any]:
             "false_accept_rate": len(fa) / len(accepted) if accepted else None,
             "false_accept_upper95": upper_bound(len(fa), len(accepted)) if accepted else None,
         }
-        cells: dict[tuple, float] = {}
+        cells: dict[tuple[Hashable, Hashable, Hashable], float] = {}   # (item, appraiser, trial)
         for r in measured:
             cells[((r["part_seed"], r["spec_id"]), r["appraiser"], r["trial"])] = r["value"]
         apprs = {k[1] for k in cells}
         trials = {k[2] for k in cells}
-        full = defaultdict(int)
+        full: defaultdict[Hashable, int] = defaultdict(int)
         for k in cells:
             full[k[0]] += 1
         items = {i for i, c in full.items() if c == len(apprs) * len(trials)}
@@ -89,7 +90,7 @@ def campaign_report(out_dir: Path) -> dict[str, Any]:
     scores = [r["score"] for r in runs if r["score"]]
     faults = {"with_fault": sum(s["with_fault"] for s in scores), "named": sum(s["named"] for s in scores)} \
         if scores else None
-    statuses = defaultdict(int)
+    statuses: defaultdict[str, int] = defaultdict(int)
     for r in runs:
         statuses[r["status"]] += 1
     return {"runs": len(runs), "statuses": dict(statuses), "parts": sorted(truths), "kinds": kinds,

@@ -122,6 +122,11 @@ class Summary:
                 "missing_count": len(self.missing), "part_known": self.part_known}
 
 
+def _xyz(values: Iterable[float]) -> tuple[float, float, float]:
+    x, y, z = (float(c) for c in values)
+    return (x, y, z)
+
+
 def collect(archive: Archive, run_id: str, specs: Iterable[Any] | None = None) -> ReportData:
     """Read run `run_id`; `specs` (MeasurementSpec-like: id, kind, point) are the part's
     specs: they place the unmeasured ones and say what a complete run would be."""
@@ -129,8 +134,7 @@ def collect(archive: Archive, run_id: str, specs: Iterable[Any] | None = None) -
     for s in specs or ():
         kind = getattr(s.kind, "value", s.kind)
         normal = getattr(s, "normal", None)
-        points[s.id] = SpecPoint(s.id, kind, tuple(float(c) for c in s.point),
-                                 None if normal is None else tuple(float(c) for c in normal))
+        points[s.id] = SpecPoint(s.id, kind, _xyz(s.point), None if normal is None else _xyz(normal))
     known = bool(points)
     results = tuple(archive.results(run_id))
     for r in results:

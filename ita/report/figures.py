@@ -168,14 +168,19 @@ def part_figure(specs: Sequence[SpecPoint], results: Sequence[StoredResult], mes
                        "marker": {"size": 3 if st in ("conforms", "not_attempted") else 5,
                                   "color": STATUS_COLOURS[st]}})
         n_decision += 1
-    measured = [s for s in specs if by_id.get(s.id) is not None and _deviation_share(by_id[s.id]) is not None]
+    measured: list[tuple[SpecPoint, float, float]] = []   # (spec, deviation from nominal, its share)
+    for s in specs:
+        r = by_id.get(s.id)
+        share = None if r is None else _deviation_share(r)
+        if r is not None and r.value is not None and share is not None:
+            measured.append((s, r.value - r.nominal, share))
     if measured:
-        p = lifted([m.id for m in measured], [m.point for m in measured])
-        dev = [_deviation_share(by_id[m.id]) for m in measured]
+        p = lifted([m.id for m, _, _ in measured], [m.point for m, _, _ in measured])
+        dev = [d for _, _, d in measured]
         traces.append({"type": "scatter3d", "mode": "markers", "x": p[:, 0].tolist(), "y": p[:, 1].tolist(),
-                       "z": p[:, 2].tolist(), "customdata": [m.id for m in measured], "visible": False,
-                       "text": [f"<b>{m.id}</b> {m.kind or ''}<br>deviation {by_id[m.id].value - by_id[m.id].nominal:+.4f}"
-                                f" mm = {d:+.2f} of the tolerance" for m, d in zip(measured, dev)],
+                       "z": p[:, 2].tolist(), "customdata": [m.id for m, _, _ in measured], "visible": False,
+                       "text": [f"<b>{m.id}</b> {m.kind or ''}<br>deviation {deviation:+.4f}"
+                                f" mm = {d:+.2f} of the tolerance" for m, deviation, d in measured],
                        "hoverinfo": "text", "name": "deviation / tolerance",
                        "marker": {"size": 4, "color": [round(d, 3) for d in dev], "cmin": -1.5, "cmax": 1.5,
                                   "colorscale": "RdBu", "reversescale": True, "showscale": True,

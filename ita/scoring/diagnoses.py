@@ -3,13 +3,25 @@ can check."""
 
 from __future__ import annotations
 
-__all__ = ["FORMS_OF", "diagnosis_score"]
+from collections.abc import Mapping, Sequence
+from typing import Any, TypedDict
+
+__all__ = ["FORMS_OF", "DiagnosisScore", "diagnosis_score"]
 
 #: causes of the fault knowledge base that are a form of an injected fault's cause
 FORMS_OF = {"obstacle_at_arm": "obstacle"}
 
 
-def diagnosis_score(injected: list[dict], diagnoses: list[dict]) -> dict:
+class DiagnosisScore(TypedDict):
+    """What :func:`diagnosis_score` finds (see there)."""
+
+    diagnoses: list[dict[str, Any]]
+    with_fault: int
+    named: int
+    unexplained: list[Mapping[str, Any]]
+
+
+def diagnosis_score(injected: Sequence[Mapping[str, Any]], diagnoses: Sequence[Mapping[str, Any]]) -> DiagnosisScore:
     """Whether the diagnoses named the injected causes: what only the simulation can check.
 
     Each diagnosis (the archive's ``diagnosis`` event payloads) is held against the
@@ -21,7 +33,7 @@ def diagnosis_score(injected: list[dict], diagnoses: list[dict]) -> dict:
     injected fault to find, "named": those that found it, "unexplained": injected faults
     no diagnosis named (some never raised an exception: a glitch met by a command that
     did not need the device)}."""
-    rows = []
+    rows: list[dict[str, Any]] = []
     named_any: set[int] = set()
     for d in diagnoses:
         t = d.get("t0", 0.0)
