@@ -50,6 +50,7 @@ from ita.vision.calibration import (
     coverage_level,
     spec_class,
 )
+from ita.vision.context import VisionResult
 from ita.vision.for_part import (
     like_the_references,
     part_calibration_path,
@@ -106,7 +107,7 @@ def master_errors(part: Any, workcell: Any, specs: Sequence[MeasurementSpec], re
             frame = simulate_frame(scene, true_pose, geometry, params, rng, reported_pose=pose, timestamp=0.0)
             for spec in members:
                 reply = measure_frames([frame], spec, ctx)
-                if reply.ok:
+                if isinstance(reply, VisionResult):   # reply.ok
                     budget = reply.diagnostics.get("budget", {})
                     u_frame = math.sqrt(sum(float(budget[t]) ** 2 for t in RANDOM_TERMS if t in budget))
                     out[spec.id].append((reply.value - certificate[spec.id], u_frame))
