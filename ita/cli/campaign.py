@@ -13,7 +13,8 @@ from ita.cli.common import reports_errors
 class _FileOrCommand(click.Group):
     """`ita campaign FILE.toml ...` is `ita campaign run FILE.toml ...`."""
 
-    def resolve_command(self, ctx: click.Context, args: list[str]):  # type: ignore[override]
+    def resolve_command(self, ctx: click.Context, args: list[str]
+                        ) -> tuple[str | None, click.Command | None, list[str]]:
         if args and args[0] not in self.commands and not args[0].startswith("-"):
             args = ["run", *args]
         return super().resolve_command(ctx, args)

@@ -51,6 +51,7 @@ def measure(meas_id: str, part_dir: Path | None, render: Path | None, seed: int,
         out = {"id": meas_id, "kind": spec.kind.value, "nominal": spec.nominal, "lower": spec.lower,
                "upper": spec.upper, "tool": tool}
         value = u = None
+        reason: str | None
         if tool is None:
             why = dict(session.plan.cannot).get(meas_id, "no tool for it")
             reason = f"cannot be done: {why}"

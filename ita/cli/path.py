@@ -169,6 +169,7 @@ def plan_cmd(source: str, target: str, tool_name: str | None, render_to: Path | 
                    f"tool path {result.tool_path_length:.2f} m, duration {result.duration:.2f} s, "
                    f"planned in {result.seconds * 1000:.0f} ms")
     else:
+        assert result.reason is not None   # a query without a path says why
         click.echo(f"no path: {result.reason.value}: {result.message}", err=True)
     if render_to is not None and result.ok:
         from ita.path.render import render_path

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import json
 import sys
+from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -20,20 +21,22 @@ from ita.cli.common import part_option, reports_errors
 from ita.errors import InputError, Location
 
 if TYPE_CHECKING:
+    from ita.logic.bridge import KnowledgeBase
+    from ita.part.model import Part
     from ita.planning import OperationPlan, OperationPlanner
 
 
-def _tool_for(part_dir: Path | None, kb: object, meas_id: str) -> str:
+def _tool_for(part_dir: Path | None, kb: KnowledgeBase, meas_id: str) -> str:
     """The tool the Sequence Planner's rules choose for `meas_id` now; InputError when none can."""
     from ita.sequence.plan import choose_tool, planning_context
 
-    chosen = choose_tool(planning_context(part_dir, kb=kb), meas_id)  # type: ignore[arg-type]
+    chosen = choose_tool(planning_context(part_dir, kb=kb), meas_id)
     if chosen.tool is None:
         raise InputError([(Location(meas_id), f"no tool can take it: {chosen.reason}")])
     return chosen.tool
 
 
-def _planner(part_dir: Path | None) -> tuple["OperationPlanner", object]:
+def _planner(part_dir: Path | None) -> tuple["OperationPlanner", Part]:
     """The part and an Operation Planner on its MACROP store (slow imports here)."""
     from ita.logic.bridge import KnowledgeBase
     from ita.part.store import load_part, part_key
@@ -43,7 +46,7 @@ def _planner(part_dir: Path | None) -> tuple["OperationPlanner", object]:
     return OperationPlanner(KnowledgeBase(), store_path(part_key(part))), part
 
 
-def _table(headers: tuple[str, ...], rows: list[tuple[str, ...]]) -> str:
+def _table(headers: tuple[str, ...], rows: Sequence[tuple[str, ...]]) -> str:
     widths = [max([len(h)] + [len(r[i]) for r in rows]) for i, h in enumerate(headers)]
     lines = ["  ".join(h.ljust(w) for h, w in zip(headers, widths)).rstrip(),
              "  ".join("-" * w for w in widths)]

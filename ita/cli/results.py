@@ -80,6 +80,6 @@ def results(run: str, runs_dir: Path | None, part_dir: Path | None, as_json: boo
               "REASON")
     widths = [max(len(x) for x in col) for col in zip(header, *table)]
     right = {0, 4, 5, 6, 8, 9}
-    for row in (header, *table):
+    for line in (header, *table):
         click.echo("  ".join(c.rjust(w) if i in right else c.ljust(w)
-                             for i, (c, w) in enumerate(zip(row, widths))).rstrip())
+                             for i, (c, w) in enumerate(zip(line, widths))).rstrip())
