@@ -6,7 +6,7 @@ import functools
 import math
 import sys
 from pathlib import Path
-from typing import Any, Callable, TypeVar
+from typing import Any, Callable, ParamSpec, TypeVar
 
 import click
 
@@ -14,6 +14,8 @@ from ita.errors import ItaError
 from ita.seeds import SEED_MAX, SEED_MIN
 
 F = TypeVar("F", bound=Callable[..., Any])
+P = ParamSpec("P")
+R = TypeVar("R")
 
 part_option = click.option(
     "--part",
@@ -24,11 +26,11 @@ part_option = click.option(
 )
 
 
-def reports_errors(func: F) -> F:
+def reports_errors(func: Callable[P, R]) -> Callable[P, R]:
     """Turn the project's own errors into a message on stderr and their exit code."""
 
     @functools.wraps(func)
-    def wrapper(*args: Any, **kwargs: Any) -> Any:
+    def wrapper(*args: P.args, **kwargs: P.kwargs) -> R:
         try:
             return func(*args, **kwargs)
         except ItaError as exc:
@@ -36,7 +38,7 @@ def reports_errors(func: F) -> F:
                 click.echo(f"error: {line}", err=True)
             sys.exit(exc.exit_code)
 
-    return wrapper  # type: ignore[return-value]
+    return wrapper
 
 
 class FiniteFloatRange(click.FloatRange):

@@ -76,10 +76,10 @@ def _vector(
     cells = [(row.get(n) or "").strip() for n in names]
     if optional and not any(cells):
         return None
-    values = [_number(c, Location(file, line, field=n), problems) for c, n in zip(cells, names)]
-    if any(v is None for v in values):
+    x, y, z = (_number(c, Location(file, line, field=n), problems) for c, n in zip(cells, names))
+    if x is None or y is None or z is None:
         return None
-    return (values[0], values[1], values[2])  # type: ignore[return-value]
+    return (x, y, z)
 
 
 def _unit(
@@ -126,9 +126,12 @@ def parse_row(
         problems.append((at("datum"), "missing datum (e.g. A or A|B|C)"))
     if len(problems) > before:
         return None
+    # each of these is None only with a problem appended
+    assert kind is not None and point is not None and normal is not None
+    assert nominal is not None and lower is not None and upper is not None
     return MeasurementSpec(
-        id=spec_id, kind=kind, feature=feature, point=point, normal=normal,  # type: ignore[arg-type]
-        nominal=nominal, lower=lower, upper=upper, datum=datum,  # type: ignore[arg-type]
+        id=spec_id, kind=kind, feature=feature, point=point, normal=normal,
+        nominal=nominal, lower=lower, upper=upper, datum=datum,
         direction=direction, note=(row.get("note") or "").strip(),
     )
 
