@@ -64,7 +64,7 @@ def _array(value: Any, shape: tuple[int, ...]) -> FloatArray | None:
     return out
 
 
-def _rack_configuration(tool: str, value: Any) -> FloatArray:
+def _rack_configuration(tool: str, value: object) -> FloatArray:
     """A stored rack configuration (6,); ValueError when it is null (the MKB is damaged)."""
     out = _array(value, (6,))
     if out is None:
