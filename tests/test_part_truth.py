@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from ita.part import truth as truth_mod
+from ita.part.mesh_values import mesh_values
 from ita.part.model import Pocket
 from ita.specs.model import MeasurementKind as K
 
@@ -163,7 +164,7 @@ def test_a_mesh_s_own_values_agree_with_the_generated_truth(builtin_part):
 
     t = truth_mod.load_truth(builtin_part.directory)
     specs = read_specs(builtin_part.specs_path)
-    got = truth_mod.mesh_values(t.mesh, specs, {f.id: f for f in builtin_part.features})
+    got = mesh_values(t.mesh, specs, {f.id: f for f in builtin_part.features})
     assert set(got) == {s.id for s in specs}
     err = defaultdict(list)
     for s in specs:

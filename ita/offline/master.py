@@ -4,7 +4,7 @@ The cell's SLRA calibration (ita.vision.calibration) was made on generated bulkh
 stands for their features only.  For another part, the part's own master stands in: a
 workpiece of the part's nominal geometry whose dimensions are known (its calibration
 certificate; in the simulated cell, the nominal mesh, whose values exact rays give,
-ita.part.truth.mesh_values).  Each size the SLRA measures on the part (the calibrated kinds:
+ita.part.mesh_values).  Each size the SLRA measures on the part (the calibrated kinds:
 hole diameters, edge distances, flange and rib widths) is measured on the master `repeats`
 times (more where a pool has few specs: `repeats_for`) the way a run measures it (from its
 view group's frame, the MKB's viewing pose, window and pixels), each frame after its own
@@ -36,7 +36,7 @@ from ita.files.atomic import write_json_atomic
 from ita.kinematics import arm_model, flange_poses
 from ita.kinematics.settle import settled
 from ita.kinematics.tool_poses import measurement_poses
-from ita.part.truth import mesh_values
+from ita.part.mesh_values import mesh_values
 from ita.sensors.slra_frame import ScanGeometry
 from ita.sim.slra import SlraParams, SlraScene, pose_error, simulate_frame
 from ita.specs.io import read_specs

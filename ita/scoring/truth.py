@@ -11,6 +11,7 @@ from pathlib import Path
 from typing import TypeGuard
 
 from ita.part import truth
+from ita.part.mesh_values import mesh_values
 from ita.part.store import load_part
 from ita.sim.inject import injected_log
 from ita.specs.io import read_specs
@@ -21,7 +22,7 @@ __all__ = ["has_true_values", "injected_faults", "true_values", "truth_source"]
 def has_true_values(part_dir: Path | str | None) -> TypeGuard[Path | str]:
     """Whether the part in `part_dir` has true values to score against: a generated part's
     as-built truth, or the mesh the simulator held (its asbuilt.stl or nominal mesh), whose
-    values exact rays find (:func:`ita.part.truth.mesh_values`)."""
+    values exact rays find (:func:`ita.part.mesh_values.mesh_values`)."""
     if part_dir is None:
         return False
     d = Path(part_dir) / truth.TRUTH_DIR
@@ -40,7 +41,7 @@ def true_values(part_dir: Path | str) -> dict[str, float]:
 
     part = load_part(Path(part_dir))
     held = truth.simulated_part(part.directory, part.mesh)
-    return truth.mesh_values(held.mesh, read_specs(part.specs_path), {f.id: f for f in part.features})
+    return mesh_values(held.mesh, read_specs(part.specs_path), {f.id: f for f in part.features})
 
 
 def truth_source(part_dir: Path | str | None) -> str:
