@@ -63,6 +63,7 @@ from ita.report.assets import asset_path
 from ita.report.data import COLUMNS, STATUS_COLOURS, collect, jsonable, result_row
 from ita.report.live import live_state
 from ita.report.result import result_payload
+from ita.report.scene import PartScene
 from ita.report.sections import report_payload
 from ita.scoring import truth as scoring_truth
 from ita.web import pages
@@ -113,9 +114,6 @@ class State:
             if part_dir in self._scenes:
                 return self._scenes[part_dir]
         try:
-            # start-up: the scene loads trimesh and the workcell (a second); only a page of the part needs it
-            from ita.report.scene import PartScene
-
             scene = PartScene.load(part_dir) if Path(part_dir).is_dir() else None
         except Exception:  # noqa: BLE001 - a run whose part cannot be read is still shown, without it
             scene = None

@@ -21,6 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from ita.errors import ItaError
+from ita.part.store import SPECS_FILE, ensure_builtin
 from ita.seeds import SEED_MAX
 from ita.specs.io import read_spec_table
 
@@ -195,8 +196,5 @@ def control_command(body: dict[str, Any]) -> str:
 def spec_count(part: str | None) -> int:
     """The number of specs of a part directory (None: the built-in bulkhead, made first
     when it is not yet); InputError when its specs cannot be read."""
-    # start-up: the part store loads trimesh (a second); only a request that starts a run needs it
-    from ita.part.store import SPECS_FILE, ensure_builtin
-
     directory = ensure_builtin() if part is None else Path(part)
     return len(read_spec_table(directory / SPECS_FILE).specs)
