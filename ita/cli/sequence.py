@@ -281,13 +281,12 @@ def tool(action: str, tool: str | None) -> None:
     else:
         marks = load_tool_marks()
         apply_tool_marks(kb, marks)
-    from ita.logic.terms import Var
+    from ita.logic.world import WorldModel
 
+    world = WorldModel(kb)
     for name, state in tool_state(kb).items():
-        kind = kb.once("world", "type", name, Var("T"))
-        usable = kb.holds("world", "available", name)
-        click.echo(f"  {name:<12} {str(kind['T']) if kind else '?':<10} {state['condition']:<7} "
-                   f"{state['location']:<18} {'available' if usable else 'NOT available'}")
+        click.echo(f"  {name:<12} {world.tool_type(name):<10} {state['condition']:<7} "
+                   f"{state['location']:<18} {'available' if world.available(name) else 'NOT available'}")
 
 
 @sequence.command()

@@ -27,6 +27,7 @@ from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING
 
 from ita.logic.terms import Var
+from ita.logic.world import WorldModel
 from ita.sequence.plan import PlanningContext, SequencePlan, build_plan
 
 if TYPE_CHECKING:
@@ -64,15 +65,12 @@ class NextResult:
 
 def the_arm(kb: KnowledgeBase) -> str:
     """The arm of the world model (the first object of type `arm`)."""
-    found = kb.once("world", "type", Var("A"), "arm")
-    if found is None:
-        raise RuntimeError("the world model has no arm")
-    return str(found["A"])
+    return WorldModel(kb).the_arm()
 
 
 def resources_available(kb: KnowledgeBase, arm: str, tool_class: str, tool: str) -> bool:
     """True when `arm` can measure with `tool` now (``world:usable/3``)."""
-    return kb.holds("world", "usable", arm, tool_class, tool)
+    return WorldModel(kb).is_usable(arm, tool_class, tool)
 
 
 def resequence_reason(ctx: PlanningContext, plan: SequencePlan, arm: str) -> str | None:
@@ -85,9 +83,8 @@ def resequence_reason(ctx: PlanningContext, plan: SequencePlan, arm: str) -> str
     if pending:
         group = plan.groups[pending[0][0]]
         if not resources_available(ctx.kb, arm, group.tool_class, group.tool):
-            cond = ctx.kb.once("world", "tool_condition", group.tool, Var("C"))
-            missing = ctx.kb.holds("world", "missing", group.tool)
-            state = "missing" if missing else (str(cond["C"]) if cond else "unknown")
+            world = WorldModel(ctx.kb)
+            state = "missing" if world.missing(group.tool) else world.condition(group.tool)
             return f"tool {group.tool} not available ({state})"
     lacking = {r[len("no_working_tool("):-1] for _, r in plan.cannot if r.startswith("no_working_tool(")}
     for tool_class in sorted(lacking):

@@ -36,7 +36,7 @@ import numpy as np
 
 from ita.geometry import load_mkb, mkb_digest
 from ita.logic.bridge import KnowledgeBase
-from ita.logic.terms import Var
+from ita.logic.world import WorldModel
 from ita.part.store import load_part, part_key
 from ita.sequence.cost import (
     COST_MODELS,
@@ -57,7 +57,6 @@ from ita.sequence.partition import (
     feature_kinds_of,
     partition_specs,
     select_tools,
-    term_text,
 )
 from ita.sequence.tour import solve_tour, tour_cost
 from ita.specs.io import read_specs
@@ -214,20 +213,15 @@ def planning_context(
 
 def tool_state(kb: KnowledgeBase) -> dict[str, dict[str, str]]:
     """Tool -> {"condition": ..., "location": ...} of the world model now."""
-    state: dict[str, dict[str, str]] = {}
-    for row in kb.call("world", "tool", Var("T")):
-        tool = row["T"]
-        cond = kb.once("world", "tool_condition", tool, Var("C"))
-        where = kb.once("world", "location", tool, Var("W"))
-        state[tool] = {"condition": str(cond["C"]) if cond else "unknown",
-                       "location": term_text(where["W"]) if where else "unknown"}
-    return state
+    world = WorldModel(kb)
+    return {tool: {"condition": world.condition(tool), "location": str(world.location(tool))}
+            for tool in world.tools()}
 
 
 def held_tool(kb: KnowledgeBase) -> str | None:
     """The tool the arm holds now, or None."""
-    found = kb.once("world", "holding", Var("A"), Var("T"))
-    return str(found["T"]) if found else None
+    held = WorldModel(kb).holding()
+    return None if held is None else held[1]
 
 
 def order_group(ctx: PlanningContext, tool: str, spec_ids: Sequence[str],

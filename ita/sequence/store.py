@@ -21,7 +21,7 @@ from typing import TYPE_CHECKING, Any
 
 from ita.errors import InputError, ItaError, Location
 from ita.files.atomic import store_name, write_json_atomic
-from ita.logic.terms import Term, Var
+from ita.logic.world import CONDITIONS, ToolLocation, WorldModel
 from ita.paths import ita_home
 from ita.sequence.plan import PLAN_VERSION, PlannedGroup, SequencePlan
 
@@ -177,21 +177,28 @@ def apply_tool_marks(kb: KnowledgeBase, marks: Mapping[str, Mapping[str, Any]]) 
 
     Raises InputError naming a tool the world model does not know.
     """
-    known = {row["T"] for row in kb.call("world", "tool", Var("T"))}
+    world = WorldModel(kb)
+    known = set(world.tools())
     unknown = sorted(set(marks) - known)
     if unknown:
         raise InputError([(Location(str(tool_marks_path())),
                            f"unknown tool {t!r} (tools: {', '.join(sorted(known))})") for t in unknown])
-    kb.once("world", "reset_world")
+    bad = sorted(t for t, entry in marks.items() if "condition" in entry and entry["condition"] not in CONDITIONS)
+    if bad:
+        raise InputError([(Location(str(tool_marks_path())),
+                           f"tool {t!r}: condition {marks[t]['condition']!r} is not one of "
+                           f"{', '.join(CONDITIONS)}") for t in bad])
+    world.reset()
     for tool, entry in sorted(marks.items()):
-        if "condition" in entry:
-            kb.once("world", "set_tool_condition", tool, str(entry["condition"]))
+        condition = entry.get("condition")
+        if condition in CONDITIONS:
+            world.set_condition(tool, condition)
         if entry.get("missing"):
-            kb.once("world", "set_location", tool, "missing")
+            world.set_location(tool, ToolLocation("missing"))
         elif "location" in entry:  # e.g. on_arm(t3), written by a program rather than a person
             where = entry["location"]
             if isinstance(where, str) and where.startswith("on_arm(") and where.endswith(")"):
-                kb.once("world", "set_location", tool, Term("on_arm", (where[7:-1],)))
+                world.set_location(tool, ToolLocation("on_arm", where[7:-1]))
 
 
 @contextlib.contextmanager
@@ -201,4 +208,4 @@ def tool_marks_applied(kb: KnowledgeBase, marks: Mapping[str, Mapping[str, Any]]
     try:
         yield
     finally:
-        kb.once("world", "reset_world")
+        WorldModel(kb).reset()
