@@ -72,7 +72,7 @@ class ArmDevice:
     lookahead = True
 
     def __init__(self, world: Any, poses: PoseResolver, planner_for: Callable[[str | None], tuple[Any, Any]],
-                 *, extra: Mapping[str, Handler] = (), controller: Any = None) -> None:
+                 *, extra: Mapping[str, Handler] | None = None, controller: Any = None) -> None:
 
         self.world = world
         self.poses = poses
@@ -91,7 +91,7 @@ class ArmDevice:
             "PICKUP": (self._tool, "tool_change_s"), "PUTDOWN": (self._tool, "tool_change_s"),
         }
         self.handlers: dict[str, tuple[Handler, str | None]] = {
-            **own, **{name: (h, "gauge_s") for name, h in dict(extra).items()}}
+            **own, **{name: (h, "gauge_s") for name, h in (extra or {}).items()}}
 
     def add_handlers(self, handlers: Mapping[str, Handler], stat: str) -> None:
         """More commands on this stream (the stations'), their time counted under `stat`."""

@@ -74,7 +74,7 @@ class ArmPath:
             t, qs = t[idx], qs[idx]
         xyz = np.asarray(tcp_of(qs))[:, :3, 3]
         return cls(tuple(round(float(v), 4) for v in t), tuple(tuple(round(float(v), 5) for v in row) for row in qs),
-                   tuple(tuple(round(float(v), 5) for v in row) for row in xyz), tool)
+                   tuple((round(float(x), 5), round(float(y), 5), round(float(z), 5)) for x, y, z in xyz), tool)
 
 
 def spec_of_message(message: Any) -> str | None:

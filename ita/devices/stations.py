@@ -95,7 +95,7 @@ class StationCommands:
 
     def _silent(self) -> bool:
 
-        return self.world.faults.has(Fault.CONTROLLER_SILENT, CONTROLLER)
+        return bool(self.world.faults.has(Fault.CONTROLLER_SILENT, CONTROLLER))
 
     def calibrate(self, command: Command) -> Reply | Completion:
         world = self.world

@@ -285,6 +285,8 @@ class TestBench:
 
     def _measure_again(self, test: str, situation: Situation, estimated_s: float, t0: float) -> TestRun:
         s = self.session
+        spec_id: str | None
+        tool: str | None
         if test == "retry_reading":
             spec_id, tool = situation.spec_id, situation.tool
         else:
@@ -307,11 +309,11 @@ class TestBench:
                 outcome = "not_run"
             return TestRun(test, outcome, estimated_s, t0, out.t1, out.state, out.plan, out.report,
                            out.reason or "", out if outcome == "ok" else None)
-        if out.status is not MeasureStatus.MEASURED:
+        if out.status is not MeasureStatus.MEASURED or out.value is None:
             outcome = "displaced" if out.value is not None and "out_of_view" in (out.reason or "") else "unclear"
         else:
             spec = s.specs[spec_id]
-            centre = np.asarray(out.value.source.diagnostics.get("center", spec.point[:2]), dtype=float)[:2]
+            centre = np.asarray(out.value.source.diagnostics.get("center", spec.point[:2]), dtype=np.float64)[:2]
             off = float(np.linalg.norm(centre - np.asarray(spec.point[:2], dtype=float)))
             outcome = "displaced" if off > DISPLACED_MM else "ok"
         return TestRun(test, outcome, estimated_s, t0, out.t1, out.state, out.plan, out.report, out.reason or "")

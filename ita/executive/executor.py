@@ -339,6 +339,7 @@ def run_streams(
                                                and r.running.step not in trailing) for r in runs):
             return False
         for at, index, step, command, reply in sorted(live):
+            assert reply is not None  # every live one was answered (checked above)
             run = runs[index]
             result = command.result_of(reply.payload)
             events.append(LogEvent(at, LogKind.REPLY, run.commands.stream, step, (reply.payload, result)))

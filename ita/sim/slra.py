@@ -151,9 +151,11 @@ class SlraScene:
         parts += [_box_mesh_in_part(b, placement) for b in boxes]
         self.placement = placement
         self.n_part_faces = len(mesh_mm.faces)
-        self.mesh = trimesh.util.concatenate(parts)
-        self.normals = np.ascontiguousarray(self.mesh.face_normals, dtype=float)
-        self.anchor = np.ascontiguousarray(self.mesh.triangles[:, 0], dtype=float)
+        mesh = trimesh.util.concatenate(parts)
+        assert isinstance(mesh, trimesh.Trimesh)   # meshes concatenate to a mesh
+        self.mesh = mesh
+        self.normals = np.ascontiguousarray(mesh.face_normals, dtype=np.float64)
+        self.anchor = np.ascontiguousarray(mesh.triangles[:, 0], dtype=np.float64)
         self.intersector = trimesh.ray.ray_pyembree.RayMeshIntersector(self.mesh)
         up = [h for h in holes if h.axis[2] > 0.999]
         self._hole_xy = np.ascontiguousarray(np.array([h.center[:2] for h in up], dtype=float).reshape(-1, 2))
@@ -205,8 +207,9 @@ class SlraScene:
         where they reach the radius within the drilled depth, else go on below it (cast
         again from below the drilled material, with room for its thickness deviation: a
         hole's depth is nominal, and nothing lies within that of a cap's or web's back)."""
+        assert self._near_hole is not None   # called only when the part has holes from above
         lo, cell, table = self._near_hole
-        below, step = _holes_kernel(np.ascontiguousarray(origin, dtype=float), np.ascontiguousarray(dirs),
+        below, step = _holes_kernel(np.ascontiguousarray(origin, dtype=np.float64), np.ascontiguousarray(dirs),
                                     hits.dist, hits.normals, hits.kind, lo, cell, table, self._hole_xy, self._hole,
                                     GRAZING_WALL_COS, HOLE_EXIT_MARGIN_MM)
         if len(below):

@@ -211,7 +211,8 @@ class UltrasonicSim:
         entering = np.flatnonzero(normals @ axis < 0.0)
         if entering.size:
             point = origin + dist[entering[0]] * axis
-            world.add_couplant(CouplantSpot(tuple(map(float, point)), ph.spot_radius_mm, world.clock.now))
+            px, py, pz = map(float, point)
+            world.add_couplant(CouplantSpot((px, py, pz), ph.spot_radius_mm, world.clock.now))
         return Dispensed(ph.dispense_s)
 
     def pulse_reference(self, thickness_mm: float, drift_limit_m: float = 1.0e-3) -> RawEcho:

@@ -330,7 +330,7 @@ class SimWorld:
         if others:
             boxes = np.array([self._static_aabbs[b] if b in self._static_aabbs else p.getAABB(b, physicsClientId=c)
                               for b in others])
-            apart = (boxes[:, 0] > hi).any(axis=1) | (boxes[:, 1] < lo).any(axis=1)
+            apart = np.asarray((boxes[:, 0] > hi).any(axis=1) | (boxes[:, 1] < lo).any(axis=1), dtype=bool)
             others = [b for b, away in zip(others, apart.tolist()) if not away]
         for body in others:
             for pt in p.getClosestPoints(self.arm, body, upto, physicsClientId=c):
@@ -362,7 +362,9 @@ class SimWorld:
     # -- obstacles the collision model does not know ------------------------------------------
     def add_obstacle(self, name: str, center: Iterable[float], size: Iterable[float]) -> None:
         """Put a box `name` (centre, size in m, world frame) in the cell: the arm bumps it."""
-        box = Box(name, Pose(tuple(map(float, center)), (0.0, 0.0, 0.0, 1.0)), tuple(map(float, size)))
+        cx, cy, cz = map(float, center)
+        sx, sy, sz = map(float, size)
+        box = Box(name, Pose((cx, cy, cz), (0.0, 0.0, 0.0, 1.0)), (sx, sy, sz))
         body = _box_body(box, self.client)
         self._add(name, body)
         self.obstacles[name] = body

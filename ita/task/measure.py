@@ -152,7 +152,8 @@ def execute_measurement(session: Session, spec_id: str, tool: str, plan: Operati
         state = state_after(plan, report)
         if recovered and state.pose.kind is PoseKind.CONTACT:   # jogged back off the part: its approach point
             state = replace(state, pose=QualitativePose(PoseKind.APPROACH, state.pose.place))
-        return MeasureOutcome(spec_id, tool, MeasureStatus.NOT_DONE, values.get(spec_id), report.failure.reason,
+        return MeasureOutcome(spec_id, tool, MeasureStatus.NOT_DONE, values.get(spec_id),
+                              report.failure.reason if report.failure is not None else "failed",
                               others, plan, report, state, t0, t1, recovered)
     value = values.get(spec_id)
     if value is None:
