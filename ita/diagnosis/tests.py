@@ -41,7 +41,8 @@ from ita.devices.data import MeasuredValue
 from ita.devices.stations import CAL_STEP_MM
 from ita.diagnosis.classify import classify_reply
 from ita.kinematics import move_time
-from ita.logic.terms import Term, Var
+from ita.logic.terms import Term
+from ita.logic.world import WorldModel
 from ita.part.model import Hole, HoleRole
 from ita.planning.state import WorldState
 from ita.sequence.cost import rack_seconds
@@ -167,8 +168,8 @@ class TestBench:
         if situation.tool_class == tool_class or (tool_class == Tool.ULTRASONIC.value
                                                   and is_ultrasonic(situation.tool_class)):
             return situation.tool
-        found = self.session.kb.once("world", "usable", situation.state.arm, tool_class, Var("T"))
-        return str(found["T"]) if found else None
+        usable = WorldModel(self.session.kb).usable(situation.state.arm, tool_class)
+        return usable[0] if usable else None
 
     def applicable(self, test: str, situation: Situation) -> bool:
         """Whether `test` can be made for this situation at all."""
