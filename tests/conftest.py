@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import os
 import shutil
+import signal
 import subprocess
 import sys
 import tempfile
@@ -21,7 +22,11 @@ REPO = Path(__file__).resolve().parent.parent
 
 def pytest_configure(config: pytest.Config) -> None:
     """hypothesis keeps no example database and no cache in the checkout: tests write only
-    under their temporary directories."""
+    under their temporary directories. Ctrl-C (SIGINT) reaches the processes the tests start
+    as it does at a terminal, even when pytest runs as a background job, which inherits
+    SIGINT ignored (and would pass that on to every child)."""
+    if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
     try:
         from hypothesis import settings
         from hypothesis.configuration import set_hypothesis_home_dir
