@@ -30,20 +30,26 @@ import math
 import threading
 from collections.abc import Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypeAlias, cast
 
 from ita.errors import KBLoadError, Location, PrologError
 from ita.logic import sandbox
 from ita.logic.model import Diagnostic, PredicateDoc, ProofNode, QueryResult, Severity
 from ita.logic.pldoc import doc_comments
 from ita.logic.sandbox import SandboxFiles
-from ita.logic.terms import Str, Term, Var, read_term
+from ita.logic.terms import Str, Term, TermValue, Var, read_term
 from ita.paths import resource_dir
 
 if TYPE_CHECKING:
     from ita.logic.sandbox import SandboxFiles
 
-__all__ = ["KnowledgeBase", "KBLoadFailed", "check_sources"]
+__all__ = ["KnowledgeBase", "KBLoadFailed", "Solution", "check_sources"]
+
+#: One solution of a call: the value of each reported variable, a decoded term
+#: (:data:`~ita.logic.terms.TermValue`), left dynamically typed: the caller knows
+#: from the predicate's mode what each one is (an atom, a number, a list of pairs...)
+#: and reads it as such.
+Solution: TypeAlias = dict[str, Any]
 
 # The engine modules the bridge itself needs, loaded from the package's prolog/ dir.
 _BRIDGE_FILES = ("py_bridge.pl", "kb_query.pl", "kb_explain.pl", "kb_check.pl", "kb_sandbox.pl")
@@ -156,8 +162,8 @@ class _Engine:
             raise KBLoadError([(Location(str(resource_dir("prolog") / _BRIDGE_FILES[0])),
                                 f"bridge self-test failed: {reply!r}")])
 
-    def run(self, module: str, name: str, args: Sequence[Any], limit: int | None
-            ) -> tuple[tuple[str, ...], Any]:
+    def run(self, module: str, name: str, args: Sequence[TermValue], limit: int | None
+            ) -> tuple[tuple[str, ...], TermValue]:
         """``py_bridge:py_run/5`` on ``module:name(args...)``: the names of the reported
         variables (sorted), and the decoded reply (a list of value lists, one per
         solution, or an ``error(Message, GoalText)`` term)."""
@@ -175,7 +181,7 @@ class _Engine:
         except ValueError as exc:
             raise PrologError(f"{module}:{name}/{len(args)}", f"cannot read the reply: {exc}") from None
 
-    def _run(self, module: str, name: str, args: Sequence[Any], limit: int | None
+    def _run(self, module: str, name: str, args: Sequence[TermValue], limit: int | None
              ) -> tuple[tuple[str, ...], str]:
         """Build the call in a foreign frame, run it, and discard the frame."""
         fid = self._open_frame()
@@ -243,6 +249,10 @@ class _Engine:
 
     def _put(self, ref: int, value: Any, variables: dict[str, int]) -> None:
         """Put the term for Python `value` in term reference `ref` (see ita.logic.terms).
+
+        `value` is a :data:`~ita.logic.terms.TermValue`, left dynamically typed because the
+        dispatch is on ``type(value)`` (the hot path of every call), through which mypy
+        does not narrow; anything else raises TypeError.
 
         `variables` maps the names of the :class:`Var` met so far to the reference
         holding each; a name met again is the same Prolog variable.
@@ -364,7 +374,7 @@ class KnowledgeBase:
 
     # -- generic calls -------------------------------------------------------------
 
-    def call(self, module: str, name: str, *args: Any, limit: int | None = None) -> list[dict[str, Any]]:
+    def call(self, module: str, name: str, *args: TermValue, limit: int | None = None) -> list[Solution]:
         """All solutions (at most `limit`) of ``module:name(args...)``.
 
         Each solution maps the name of every :class:`Var` among `args` (except names
@@ -377,20 +387,22 @@ class KnowledgeBase:
             raise TypeError(f"module and name must be str, got {module!r} and {name!r}")
         names, reply = self._engine.run(str.__str__(module), str.__str__(name), args, limit)
         if type(reply) is not list:
+            assert isinstance(reply, Term)  # py_run/5 replies the solutions or error(Message, GoalText)
             message, goal_text = reply.args
             raise PrologError(goal_text or f"{module}:{name}/{len(args)}", message)
-        return [dict(zip(names, values)) for values in reply]
+        rows = cast("list[list[TermValue]]", reply)  # one list of values per solution
+        return [dict(zip(names, values)) for values in rows]
 
-    def once(self, module: str, name: str, *args: Any) -> dict[str, Any] | None:
+    def once(self, module: str, name: str, *args: TermValue) -> Solution | None:
         """The first solution of ``module:name(args...)``, or None when it fails."""
         solutions = self.call(module, name, *args, limit=1)
         return solutions[0] if solutions else None
 
-    def holds(self, module: str, name: str, *args: Any) -> bool:
+    def holds(self, module: str, name: str, *args: TermValue) -> bool:
         """True when ``module:name(args...)`` has a solution."""
         return self.once(module, name, *args) is not None
 
-    def one(self, module: str, name: str, *args: Any) -> dict[str, Any]:
+    def one(self, module: str, name: str, *args: TermValue) -> Solution:
         """The solution of ``module:name(args...)``, a predicate that always has one;
         :class:`~ita.errors.PrologError` when it failed."""
         solution = self.once(module, name, *args)
@@ -492,7 +504,7 @@ class KnowledgeBase:
         return tuple(modules)
 
 
-def _indicator(term: Any) -> str:
+def _indicator(term: TermValue) -> str:
     """``m:name/arity`` from a decoded ``:(m, /(name, arity))`` term."""
     if isinstance(term, Term) and term.name == ":":
         return f"{term.args[0]}:{_indicator(term.args[1])}"

@@ -37,7 +37,7 @@ import selectors
 import signal
 import subprocess
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -199,7 +199,7 @@ def _check_text(goal: str) -> bytes:
 
 
 def run_user_goal(action: str, goal: str, files: SandboxFiles, limits: SandboxLimits,
-                  extra: dict[str, Any], jail: Jail | None = None) -> Outcome:
+                  extra: Mapping[str, int], jail: Jail | None = None) -> Outcome:
     """Run `goal` (action ``query`` or ``why``) in a child ``swipl`` behind `jail`'s
     walls (default: ``files.jail()``); its reply.
 

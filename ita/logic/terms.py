@@ -16,11 +16,12 @@ from __future__ import annotations
 
 import math
 import re
+from collections.abc import Sequence
 from dataclasses import dataclass
 from fractions import Fraction
-from typing import Any
+from typing import Any, TypeAlias, Union
 
-__all__ = ["Str", "Term", "Var", "read_term"]
+__all__ = ["Str", "Term", "TermValue", "Var", "read_term"]
 
 
 @dataclass(frozen=True)
@@ -39,6 +40,9 @@ class Term:
     """A compound term ``name(args...)``, e.g. ``Term("in_rack", ("slot_1",))``."""
 
     name: str
+    #: the arguments, each a :data:`TermValue`, left dynamically typed: code that reads a decoded term
+    #: knows its shape from the knowledge base (``choice(Id, use(Class, Tool, Rule), Why)``)
+    #: and unpacks its arguments as such without narrowing each one first.
     args: tuple[Any, ...]
 
     def __post_init__(self) -> None:
@@ -54,13 +58,19 @@ class Str:
     text: str
 
 
+#: A Prolog term as a Python value (see the module docstring): what :func:`read_term`
+#: decodes (``str``, ``int``, ``float``, :class:`Term`, :class:`Var`, ``list`` of terms)
+#: and what the bridge passes to Prolog (also :class:`Str`, and tuples as lists).
+TermValue: TypeAlias = Union[str, int, float, Term, Var, Str, Sequence["TermValue"]]
+
+
 # -- Prolog text -> Python ------------------------------------------------------------
 
 # The tokens of the text SWI-Prolog's write_term/2 produces with quoted(true),
 # ignore_ops(true), dotlists(false), brace_terms(false), numbervars(false): a blob
 # such as <stream>(0x...); a bare token (unquoted atom, number, variable) or a quoted
 # atom, each with the "(" that makes it a compound's name; punctuation; a string.
-# Commas need no token.  Any other character is a token of its own, which read_term
+# Commas need no token.  Every other character is a token of its own, which read_term
 # refuses.
 _QUOTED = r"{q}[^{q}\\]*(?:(?:\\(?:x[0-9a-fA-F]+\\|[0-7]+\\|.)|{q}{q})[^{q}\\]*)*{q}"
 _TOKENS = re.compile(
@@ -81,7 +91,6 @@ _NUMBER = re.compile(r"-?\d")
 _SPECIAL_FLOAT = re.compile(r"(-?)\d+\.\d+(Inf|NaN)\Z")
 _RATIONAL = re.compile(r"-?\d+r\d+\Z")
 _LOWER = frozenset("abcdefghijklmnopqrstuvwxyz")
-_LIST = object()  # marks an open list on read_term's stack
 
 
 def _unescape_one(match: re.Match[str]) -> str:
@@ -102,7 +111,7 @@ def _unescape(body: str) -> str:
     return _ESCAPE.sub(_unescape_one, body) if "\\" in body or "''" in body or '""' in body else body
 
 
-def _number(token: str) -> Any:
+def _number(token: str) -> int | float:
     """A number as SWI-Prolog writes it: ``12``, ``-1.5e-7``, ``1.0Inf``, ``1.5NaN``, ``1r3``."""
     if token.isdigit() or (token[1:].isdigit() and token[0] == "-"):
         return int(token)
@@ -118,7 +127,7 @@ def _number(token: str) -> Any:
     raise ValueError(f"not a number: {token!r}")
 
 
-def read_term(text: str) -> Any:
+def read_term(text: str) -> TermValue:
     """The Python value of a term that Prolog wrote quoted and without operators.
 
     Atoms and strings become ``str``, numbers ``int``/``float``, proper lists ``list``,
@@ -126,8 +135,9 @@ def read_term(text: str) -> Any:
     variables :class:`Var` named as Prolog printed them.  Raises ValueError for text
     that is not such a term (a dict, say).
     """
-    stack: list[tuple[list[Any], Any]] = []  # (enclosing items, compound name or "[")
-    items: list[Any] = []
+    # (enclosing items, the compound's name or None for an open list)
+    stack: list[tuple[list[TermValue], str | None]] = []
+    items: list[TermValue] = []
     tails: list[int] = []                     # depths of the open lists that have a '|'
     for token in _TOKENS.findall(text):
         first = token[0]
@@ -141,7 +151,7 @@ def read_term(text: str) -> Any:
                 items.append(token)
         elif first == "]":
             outer, opener = stack.pop()
-            if opener is not _LIST:
+            if opener is not None:
                 raise ValueError(f"unbalanced term text: {text!r}")
             if tails and tails[-1] == len(stack):
                 tails.pop()
@@ -153,7 +163,7 @@ def read_term(text: str) -> Any:
                 outer.append(items)
             items = outer
         elif first == "[":
-            stack.append((items, _LIST))
+            stack.append((items, None))
             items = []
         elif first == "'":
             if len(token) < 2:
@@ -166,7 +176,7 @@ def read_term(text: str) -> Any:
                 items.append(_unescape(body) if "\\" in body or "''" in body else body)
         elif first == ")":
             outer, name = stack.pop()
-            if name is _LIST:
+            if name is None:
                 raise ValueError(f"unbalanced term text: {text!r}")
             outer.append(Term(name, tuple(items)))
             items = outer
