@@ -15,15 +15,17 @@ The store is saved (atomically, by Prolog) when a new MACROP is learned and on
 from __future__ import annotations
 
 import time
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from enum import Enum
 from operator import itemgetter
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, Callable
+from typing import TYPE_CHECKING, Callable
 
 from ita.errors import ItaError, NoSpaceLeft, PrologError
 from ita.files.atomic import store_name
-from ita.logic.terms import Term, Var
+from ita.logic.json_value import JsonObject
+from ita.logic.terms import Term, TermValue, Var
 from ita.paths import ita_home
 from ita.planning.state import NOTHING, Place, PoseKind, QualitativePose, WorldState
 
@@ -77,7 +79,7 @@ class PlanStep:
 
     number: int
     action: str
-    args: tuple[Any, ...]
+    args: tuple[TermValue, ...]
     predecessors: tuple[int, ...]
 
     @property
@@ -107,7 +109,7 @@ class OperationPlan:
         """Whether a stored MACROP matched (no planning from scratch)."""
         return self.source is PlanSource.MACROP
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> JsonObject:
         return {
             "measurement": self.measurement,
             "source": self.source.value,
@@ -153,8 +155,8 @@ class MacropInfo:
         return not self.name.startswith("kb:")
 
 
-def format_term(value: Any) -> str:
-    """A term as text, ``name(arg, ...)``; atoms and numbers as they are."""
+def format_term(value: object) -> str:
+    """A term as text, ``name(arg, ...)``; atoms, numbers and any other value as ``str`` gives them."""
     if isinstance(value, Term):
         return f"{value.name}({', '.join(format_term(a) for a in value.args)})"
     if isinstance(value, list):
@@ -162,14 +164,14 @@ def format_term(value: Any) -> str:
     return str(value)
 
 
-def macrop_name(macrop_id: Any) -> str:
+def macrop_name(macrop_id: TermValue) -> str:
     """The user-facing name of a MACROP id: ``m3`` for 3, ``kb:measured`` for kb(measured)."""
     if isinstance(macrop_id, Term) and macrop_id.name == "kb":
         return f"kb:{macrop_id.args[0]}"
     return f"m{macrop_id}"
 
 
-def macrop_id(name: str) -> Any:
+def macrop_id(name: str) -> int | Term:
     """The store's id of a MACROP name (inverse of :func:`macrop_name`); ValueError if malformed."""
     text = name.strip()
     if text.startswith("kb:") and len(text) > 3:
@@ -182,10 +184,11 @@ def macrop_id(name: str) -> Any:
 
 # -- templates ---------------------------------------------------------------------
 
-_Builder = Callable[[list[Any]], Any]
+#: a MACROP's bindings (its variables' values, in order) -> a term of its plan
+_Builder = Callable[[list[TermValue]], TermValue]
 
 
-def _builder(template: Any) -> tuple[_Builder, bool]:
+def _builder(template: TermValue) -> tuple[_Builder, bool]:
     """A function from the MACROP's bindings to the term `template` with them plugged in,
     and whether `template` is ground (then the function returns one shared value)."""
     if isinstance(template, Term):
@@ -207,7 +210,8 @@ def _builder(template: Any) -> tuple[_Builder, bool]:
     return (lambda values: template), True
 
 
-def _step_builder(number: int, action: str, args: list[Any], preds: tuple[int, ...]) -> _Builder:
+def _step_builder(number: int, action: str, args: list[TermValue], preds: tuple[int, ...]
+                  ) -> Callable[[list[TermValue]], PlanStep]:
     """A function from the MACROP's bindings to its step `number`."""
     parts = [_builder(a) for a in args]
     builders = [p for p, _ in parts]
@@ -221,7 +225,7 @@ def _step_builder(number: int, action: str, args: list[Any], preds: tuple[int, .
     return lambda values: PlanStep(number, action, tuple([p(values) for p in builders]), preds)
 
 
-def _variable_index(template: Any) -> int | None:
+def _variable_index(template: TermValue) -> int | None:
     """N for a template variable ``'$VAR'(N)``, else None."""
     if (isinstance(template, Term) and template.name == "$VAR" and len(template.args) == 1
             and isinstance(template.args[0], int)):
@@ -229,7 +233,7 @@ def _variable_index(template: Any) -> int | None:
     return None
 
 
-def _pose_builder(template: Any) -> Callable[[list[Any]], QualitativePose]:
+def _pose_builder(template: TermValue) -> Callable[[list[TermValue]], QualitativePose]:
     """A function from the MACROP's bindings to the pose `template`, built directly
     (the same value and errors as ``QualitativePose.from_term`` of the plugged term)."""
     build, ground = _builder(template)
@@ -246,7 +250,7 @@ def _pose_builder(template: Any) -> Callable[[list[Any]], QualitativePose]:
         if isinstance(place, Term) and len(place.args) == 1 and place.name != "$VAR":
             name, (arg_build, _) = place.name, _builder(place.args[0])
 
-            def pose(values: list[Any]) -> QualitativePose:
+            def pose(values: list[TermValue]) -> QualitativePose:
                 arg = arg_build(values)
                 if isinstance(arg, str):
                     return QualitativePose(kind, Place(name, arg))
@@ -266,8 +270,8 @@ class _Template:
 
     name: str                        # the MACROP's name, e.g. m3
     nvars: int
-    steps: tuple[_Builder, ...]
-    at: Callable[[list[Any]], QualitativePose] | None = None  # the final pose, from an adder at(Arm, QualitativePose)
+    steps: tuple[Callable[[list[TermValue]], PlanStep], ...]
+    at: Callable[[list[TermValue]], QualitativePose] | None = None  # the final pose, from an adder at(Arm, QualitativePose)
     holding: _Builder | None = None  # the final tool, from an adder holding(Arm, Tool)
 
     @classmethod
@@ -288,15 +292,16 @@ class _Template:
                 holding, _ = _builder(adder.args[1])
         return cls(name, int(nvars), tuple(compiled), at, holding)
 
-    def plug(self, values: list[Any]) -> tuple[PlanStep, ...]:
+    def plug(self, values: list[TermValue]) -> tuple[PlanStep, ...]:
         if len(values) != self.nvars:
             raise ValueError(f"MACROP template has {self.nvars} variables, got {len(values)} values")
         return tuple([step(values) for step in self.steps])
 
-    def final_state(self, state: WorldState, values: list[Any]) -> WorldState:
+    def final_state(self, state: WorldState, values: list[TermValue]) -> WorldState:
         pose = self.at(values) if self.at else state.pose
         if self.holding:
             tool = self.holding(values)
+            assert isinstance(tool, str)  # holding(Arm, Tool): a tool's name, or none
             holding = None if tool == NOTHING else tool
         else:
             holding = state.holding
@@ -317,7 +322,7 @@ class OperationPlanner:
     kb: "KnowledgeBase"
     path: Path
     _file: str = field(init=False, repr=False)
-    _templates: dict[tuple[int, Any], _Template] = field(init=False, repr=False, default_factory=dict)
+    _templates: dict[tuple[int, int | Term], _Template] = field(init=False, repr=False, default_factory=dict)
 
     def __post_init__(self) -> None:
         self.path = Path(self.path).expanduser().resolve()
@@ -377,7 +382,7 @@ class OperationPlanner:
             final_state=final,
         )
 
-    def plan_goals(self, goals: list[Any], state: WorldState, *, name: str = "") -> OperationPlan:
+    def plan_goals(self, goals: Sequence[TermValue], state: WorldState, *, name: str = "") -> OperationPlan:
         """A plan that achieves `goals` (terms such as ``Term("calibrated", ("us_probe_1",))``)
         from `state`: MACROP lookup first, else plan, generalize and store
         (``macrop:goal_plan/6``).  For the Exception Handler's tests and repairs.  Raises
@@ -401,7 +406,7 @@ class OperationPlanner:
         return OperationPlan(label, tuple(sorted(steps, key=lambda s: s.number)), _SOURCES.get(source) or
                              PlanSource(source), None, time.perf_counter() - start, state, final)
 
-    def repair_plan(self, plan: OperationPlan, completed: Any, state: WorldState) -> OperationPlan | None:
+    def repair_plan(self, plan: OperationPlan, completed: Iterable[int], state: WorldState) -> OperationPlan | None:
         """Plan repair: the steps of the failed `plan` not in `completed`, run from `state`
         (the arm's now) after a plan for the first one's preconditions when they do not
         hold, as one chain; None when they cannot run even so (``macrop:repair_plan/6``:
@@ -429,7 +434,7 @@ class OperationPlanner:
         return OperationPlan(plan.measurement, tuple(steps), PlanSource.SCRATCH, None, time.perf_counter() - start,
                              state, final)
 
-    def _template(self, mid: Any) -> _Template:
+    def _template(self, mid: int | Term) -> _Template:
         solution = self.kb.one("macrop", "macrop_template", self._file, mid, Var("T"))
         return _Template.from_term(macrop_name(mid), solution["T"])
 

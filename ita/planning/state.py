@@ -15,9 +15,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from enum import Enum
-from typing import Any
 
-from ita.logic.terms import Term
+from ita.logic.json_value import JsonObject
+from ita.logic.terms import Term, TermValue
 
 NOTHING = "none"  # the atom for an empty hand
 
@@ -50,11 +50,11 @@ class Place:
     def rack(cls, slot: str) -> "Place":
         return cls("rack", slot)
 
-    def to_term(self) -> Any:
+    def to_term(self) -> str | Term:
         return self.name if self.arg is None else Term(self.name, (self.arg,))
 
     @classmethod
-    def from_term(cls, value: Any) -> "Place":
+    def from_term(cls, value: TermValue) -> "Place":
         if isinstance(value, str):
             return cls(value)
         if isinstance(value, Term) and len(value.args) == 1 and isinstance(value.args[0], str):
@@ -86,7 +86,7 @@ class QualitativePose:
         return [self.kind.value, self.place.name, self.place.arg]
 
     @classmethod
-    def from_term(cls, value: Any) -> "QualitativePose":
+    def from_term(cls, value: TermValue) -> "QualitativePose":
         if not (isinstance(value, Term) and len(value.args) == 1):
             raise ValueError(f"not a pose: {value!r}")
         return cls(PoseKind(value.name), Place.from_term(value.args[0]))
@@ -107,5 +107,5 @@ class WorldState:
         """`holding` as the planner spells it (`none` for an empty hand)."""
         return NOTHING if self.holding is None else self.holding
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> JsonObject:
         return {"arm": self.arm, "pose": str(self.pose), "holding": self.holding}
