@@ -9,7 +9,7 @@ owns simulated time; an adapter only says when a command it starts will end and 
         def begin(self, items, now) -> None              # that queue (commands and WAITs)
         def start(self, command, now) -> Completion      # run one command: when it ends, reply
         def stop(self, now) -> None                      # the plan stopped: halt
-        def snapshot(self) -> Mapping[str, Any]          # device state, for the exception handler
+        def snapshot(self) -> Mapping[str, JsonValue]    # device state, for the exception handler
 
 A lookahead device learns its queue in ``begin``; ``start(command)`` then means "go on
 with this command of your queue": the executive calls it for the first command at plan
@@ -42,7 +42,8 @@ from dataclasses import dataclass
 from typing import Any, Protocol, runtime_checkable
 
 from ita.executive.commands import Command, Reply, Wait
-from ita.logic.terms import Term
+from ita.logic.json_value import JsonValue
+from ita.logic.terms import Term, TermValue
 
 __all__ = [
     "Completion",
@@ -65,9 +66,13 @@ class PoseResolver(Protocol):
     parameter for the tool `tool` (the one the arm holds; None: the tool the sequence
     plan chose), e.g. ``in_contact_point(meas(b))`` -> a tool pose or arm configuration,
     ``patches(meas(b))`` -> an SLRA view, ``min_value(meas(b))`` -> a number.  Raises
-    KeyError (or a subclass) for a parameter it does not know."""
+    KeyError (or a subclass) for a parameter it does not know.
 
-    def resolve(self, term: Any, tool: str | None = None) -> Any: ...
+    What comes back depends on the parameter's functor, which a type cannot say: the
+    caller, which knows the functor it asks for, reads the answer as that kind (the
+    devices declare the shapes they expect: ita.devices.arm, ita.devices.slra)."""
+
+    def resolve(self, term: TermValue, tool: str | None = None) -> Any: ...
 
 
 @dataclass(frozen=True)
@@ -91,14 +96,14 @@ class DeviceAdapter(Protocol):
 
     def stop(self, now: float) -> None: ...
 
-    def snapshot(self) -> Mapping[str, Any]: ...
+    def snapshot(self) -> Mapping[str, JsonValue]: ...
 
 
-def qualitative_parameters(message: Any) -> tuple[Term, ...]:
+def qualitative_parameters(message: TermValue) -> tuple[Term, ...]:
     """The qualitative parameters of a message, outermost first, in argument order."""
     found: list[Term] = []
 
-    def walk(value: Any) -> None:
+    def walk(value: TermValue) -> None:
         if isinstance(value, Term):
             if value.name in QUALITATIVE:
                 found.append(value)

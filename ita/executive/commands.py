@@ -24,10 +24,11 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from enum import Enum
 from types import MappingProxyType
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from ita.errors import ItaError
-from ita.logic.terms import Term, Var
+from ita.logic.json_value import JsonValue
+from ita.logic.terms import Term, TermValue, Var
 from ita.planning.operation import PlanStep, format_term
 
 if TYPE_CHECKING:
@@ -80,7 +81,7 @@ class StreamId:
     unit: str
 
     @classmethod
-    def from_term(cls, value: Any) -> StreamId:
+    def from_term(cls, value: TermValue) -> StreamId:
         if (isinstance(value, Term) and value.name == "command_stream" and len(value.args) == 2
                 and all(isinstance(a, str) for a in value.args)):
             return cls(value.args[0], value.args[1])
@@ -102,9 +103,9 @@ class Command:
 
     stream: StreamId
     step: int
-    message: Any
-    reply: Any
-    result: Any
+    message: TermValue
+    reply: TermValue
+    result: TermValue
     timeout_s: float
 
     @property
@@ -113,7 +114,7 @@ class Command:
         return self.message.name if isinstance(self.message, Term) else str(self.message)
 
     @property
-    def args(self) -> tuple[Any, ...]:
+    def args(self) -> tuple[TermValue, ...]:
         """The message's arguments (empty for an atom message)."""
         return self.message.args if isinstance(self.message, Term) else ()
 
@@ -121,9 +122,12 @@ class Command:
     def text(self) -> str:
         return term_text(self.message)
 
-    def result_of(self, payload: Any) -> Any:
+    def result_of(self, payload: TermValue | None) -> TermValue | None:
         """The step's result for the normal reply `payload`; None if `payload` does not
-        match the expected reply pattern."""
+        match the expected reply pattern (no payload matches none: the operators' reply
+        patterns are atoms and compounds)."""
+        if payload is None:
+            return None
         bindings = match(self.reply, payload)
         return None if bindings is None else instantiate(self.result, bindings)
 
@@ -154,21 +158,22 @@ class Reply:
     ``BUMP(link_3, bulkhead)``), None for a time-out; text: one line for people;
     details: what the device adds for diagnosis (joint angles, contacts...), values only;
     data: what the command produced beyond the reply term, for whoever reads the
-    execution report (a gauge reading, range frames, Vision's values: ita.devices.data).
+    execution report (a gauge reading, range frames, Vision's values: ita.devices.data;
+    the executive does not look into it, whoever reads it checks what it is).
     """
 
     kind: ReplyKind
-    payload: Any = None
+    payload: TermValue | None = None
     text: str = ""
-    details: Mapping[str, Any] = field(default_factory=lambda: MappingProxyType({}))
-    data: Any = None
+    details: Mapping[str, JsonValue] = field(default_factory=lambda: MappingProxyType({}))
+    data: object = None
 
     @classmethod
-    def normal(cls, payload: Any, text: str = "", *, data: Any = None) -> Reply:
+    def normal(cls, payload: TermValue, text: str = "", *, data: object = None) -> Reply:
         return cls(ReplyKind.NORMAL, payload, text, data=data)
 
     @classmethod
-    def exception(cls, payload: Any, text: str = "", *, data: Any = None, **details: Any) -> Reply:
+    def exception(cls, payload: TermValue, text: str = "", *, data: object = None, **details: JsonValue) -> Reply:
         return cls(ReplyKind.EXCEPTION, payload, text, MappingProxyType(dict(details)), data)
 
     @property
@@ -179,14 +184,15 @@ class Reply:
 # -- patterns ---------------------------------------------------------------------------
 
 
-def match(pattern: Any, value: Any, bindings: Mapping[Var, Any] | None = None) -> dict[Var, Any] | None:
+def match(pattern: TermValue, value: TermValue, bindings: Mapping[Var, TermValue] | None = None
+          ) -> dict[Var, TermValue] | None:
     """The bindings (extending `bindings`) under which `pattern` equals the ground `value`,
     or None.  A variable met twice must match equal values."""
     found = dict(bindings or {})
     return found if _match(pattern, value, found) else None
 
 
-def _match(pattern: Any, value: Any, found: dict[Var, Any]) -> bool:
+def _match(pattern: TermValue, value: TermValue, found: dict[Var, TermValue]) -> bool:
     if isinstance(pattern, Var):
         if pattern in found:
             return _equal(found[pattern], value)
@@ -202,7 +208,7 @@ def _match(pattern: Any, value: Any, found: dict[Var, Any]) -> bool:
     return _equal(pattern, value)
 
 
-def _equal(a: Any, b: Any) -> bool:
+def _equal(a: TermValue, b: TermValue) -> bool:
     if isinstance(a, str) or isinstance(b, str):
         return isinstance(a, str) and isinstance(b, str) and a == b
     if isinstance(a, (int, float)) and isinstance(b, (int, float)):
@@ -210,7 +216,7 @@ def _equal(a: Any, b: Any) -> bool:
     return bool(a == b)
 
 
-def instantiate(pattern: Any, bindings: Mapping[Var, Any]) -> Any:
+def instantiate(pattern: TermValue, bindings: Mapping[Var, TermValue]) -> TermValue:
     """`pattern` with its bound variables replaced by their values."""
     if isinstance(pattern, Var):
         return bindings.get(pattern, pattern)
@@ -221,8 +227,9 @@ def instantiate(pattern: Any, bindings: Mapping[Var, Any]) -> Any:
     return pattern
 
 
-def term_text(value: Any) -> str:
-    """A term as Prolog writes it, pattern variables by name: ``VALUE(V0)``."""
+def term_text(value: object) -> str:
+    """A term as Prolog writes it, pattern variables by name: ``VALUE(V0)``; any other
+    value as :func:`~ita.planning.operation.format_term` gives it."""
     if isinstance(value, Var):
         return value.name
     if isinstance(value, Term):
@@ -232,7 +239,7 @@ def term_text(value: Any) -> str:
     return format_term(value)
 
 
-def _unnumber(value: Any) -> Any:
+def _unnumber(value: TermValue) -> TermValue:
     """Prolog's numbered variables ``'$VAR'(N)`` as ``Var('VN')``."""
     if isinstance(value, Term):
         if value.name == "$VAR" and len(value.args) == 1 and isinstance(value.args[0], int):
@@ -246,7 +253,7 @@ def _unnumber(value: Any) -> Any:
 # -- from the operators -------------------------------------------------------------------
 
 
-def step_term(step: PlanStep) -> Any:
+def step_term(step: PlanStep) -> str | Term:
     """The step's action as a term, e.g. ``Term('move', ('t3', 'home', ...))``."""
     return Term(step.action, step.args) if step.args else step.action
 

@@ -29,7 +29,7 @@ import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from enum import Enum
-from typing import TYPE_CHECKING, Any, Protocol
+from typing import TYPE_CHECKING, Any, Protocol, TypeAlias, Union
 
 from ita.executive.adapters import DeviceAdapter
 from ita.executive.commands import (
@@ -44,7 +44,8 @@ from ita.executive.commands import (
     term_text,
 )
 from ita.executive.streams import StreamCommands, StreamPlan, split
-from ita.logic.terms import Term, Var
+from ita.logic.json_value import JsonObject, JsonValue
+from ita.logic.terms import Term, TermValue, Var
 from ita.planning.operation import OperationPlan, PlanStep
 
 if TYPE_CHECKING:
@@ -92,6 +93,11 @@ class LogKind(str, Enum):
     PLAN_STOPPED = "plan_stopped"
 
 
+#: what a log event carries (see LogKind): a term, step numbers, seconds, a reason, or a
+#: (reply payload, result or expected pattern) pair
+LogPayload: TypeAlias = Union[TermValue, tuple[TermValue | None, TermValue], None]
+
+
 @dataclass(frozen=True)
 class LogEvent:
     """One entry of the executive's log; `stream` and `step` None for plan events."""
@@ -100,9 +106,9 @@ class LogEvent:
     kind: LogKind
     stream: StreamId | None = None
     step: int | None = None
-    payload: Any = None
+    payload: LogPayload = None
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> JsonObject:
         """The event as JSON-ready values (terms as Prolog text)."""
         return {
             "sim_time": self.sim_time,
@@ -130,7 +136,7 @@ class StepOutcome:
     started_s: float
     finished_s: float
     reply: Reply
-    result: Any
+    result: TermValue
 
 
 @dataclass(frozen=True)
@@ -158,12 +164,12 @@ class ExecutionFailure:
 
     kind: FailureKind
     at_s: float
-    plan: Any
+    plan: OperationPlan | Sequence[PlanStep]
     step: PlanStep
     command: Command
     reply: Reply
     streams: tuple[StreamPosition, ...]
-    world: Mapping[str, Any]
+    world: Mapping[str, Mapping[str, JsonValue]]
     completed: tuple[int, ...]
     cancelled: tuple[int, ...]
     events: tuple[LogEvent, ...]
@@ -180,7 +186,7 @@ class ExecutionFailure:
         text = f" ({self.reply.text})" if self.reply.text else ""
         return f"exception: {where}: {term_text(self.reply.payload)}{text}"
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> JsonObject:
         return {
             "kind": self.kind.value,
             "reason": self.reason,
@@ -201,7 +207,7 @@ class ExecutionFailure:
 class ExecutionReport:
     """How a plan ran: the completed steps, the log, and the failure if it stopped."""
 
-    plan: Any
+    plan: OperationPlan | Sequence[PlanStep]
     started_s: float
     finished_s: float
     outcomes: tuple[StepOutcome, ...]
@@ -219,7 +225,7 @@ class ExecutionReport:
         return self.finished_s - self.started_s
 
     @property
-    def results(self) -> tuple[Any, ...]:
+    def results(self) -> tuple[TermValue, ...]:
         """The results of the completed steps, in the order they completed."""
         return tuple(o.result for o in self.outcomes)
 
@@ -263,7 +269,7 @@ _Failed = tuple[FailureKind, _Stream, Command, Reply]      # why, where, what, t
 _Log = Callable[..., None]
 
 
-def _adapter_for(adapters: Mapping[Any, DeviceAdapter], stream: StreamId) -> DeviceAdapter:
+def _adapter_for(adapters: Mapping[StreamId | str, DeviceAdapter], stream: StreamId) -> DeviceAdapter:
     for key in (stream, str(stream), stream.device):
         if key in adapters:
             return adapters[key]
@@ -272,9 +278,9 @@ def _adapter_for(adapters: Mapping[Any, DeviceAdapter], stream: StreamId) -> Dev
 
 def run_streams(
     streams: StreamPlan,
-    adapters: Mapping[Any, DeviceAdapter],
+    adapters: Mapping[StreamId | str, DeviceAdapter],
     *,
-    plan: Any = None,
+    plan: OperationPlan | Sequence[PlanStep] | None = None,
     start_s: float | None = None,
     clock: Clock | None = None,
     busy_until: dict[str, float] | None = None,
@@ -306,7 +312,7 @@ def run_streams(
     pending: list[_Pending] = []  # heap of (time, stream index, step, command, reply or None)
     failure_info: _Failed | None = None
 
-    def log(kind: LogKind, run: _Stream | None = None, step: int | None = None, payload: Any = None) -> None:
+    def log(kind: LogKind, run: _Stream | None = None, step: int | None = None, payload: LogPayload = None) -> None:
         events.append(LogEvent(now, kind, None if run is None else run.commands.stream, step, payload))
 
     log(LogKind.PLAN_START, payload=len(steps))
@@ -342,6 +348,7 @@ def run_streams(
             assert reply is not None  # every live one was answered (checked above)
             run = runs[index]
             result = command.result_of(reply.payload)
+            assert result is not None  # every live one matched its reply pattern (checked above)
             events.append(LogEvent(at, LogKind.REPLY, run.commands.stream, step, (reply.payload, result)))
             outcomes.append(StepOutcome(step, command, run.started_s, at, reply, result))
             completed.add(step)
@@ -478,7 +485,7 @@ class PlanExecutive:
     def __init__(
         self,
         kb: KnowledgeBase,
-        adapters: Mapping[Any, DeviceAdapter],
+        adapters: Mapping[StreamId | str, DeviceAdapter],
         *,
         timeouts: Mapping[str, float] = DEFAULT_TIMEOUTS,
         clock: Clock | None = None,
@@ -510,12 +517,14 @@ def _steps(plan: OperationPlan | Sequence[PlanStep]) -> tuple[PlanStep, ...]:
     return tuple(plan.steps) if isinstance(plan, OperationPlan) else tuple(plan)
 
 
-def _plain(value: Any) -> Any:
-    """`value` as JSON-ready values: terms as Prolog text, dataclasses as dicts."""
+def _plain(value: object) -> JsonValue:
+    """`value` (whatever a log or a failure holds) as JSON-ready values: terms as Prolog
+    text, dataclasses as dicts, anything unknown as its repr."""
     if isinstance(value, (Term, Var)):
         return term_text(value)
     if isinstance(value, Enum):
-        return value.value
+        plain: JsonValue = value.value      # the enums of a log are str enums
+        return plain
     if isinstance(value, StreamId):
         return str(value)
     if isinstance(value, (StreamPosition, Reply)):   # a reply's data (frames...) is not for logs

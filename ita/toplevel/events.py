@@ -100,6 +100,7 @@ def archive_events(report: ExecutionReport, plan_no: int) -> list[Event]:
                 payload["end"] = ends[step]
             out.append(Event("command", stream, e.sim_time, payload))
         elif e.kind is LogKind.REPLY:
+            assert isinstance(e.payload, tuple), "a REPLY's payload is (reply, result)"
             reply, result = e.payload
             out.append(Event("reply", stream, e.sim_time, {"cmd": cmd, "status": "ok", "reply": term_text(reply),
                                                             "result": term_text(result)}))
@@ -107,8 +108,10 @@ def archive_events(report: ExecutionReport, plan_no: int) -> list[Event]:
             status = "timeout" if e.kind is LogKind.TIMEOUT else "exception"
             out.append(Event("reply", stream, e.sim_time, {"cmd": cmd, "status": status}))
         elif e.kind is LogKind.WAIT:
+            assert isinstance(e.payload, tuple), "a WAIT's payload is the steps waited for"
             out.append(Event("wait", stream, e.sim_time, {"on": [f"{plan_no}.{s}" for s in e.payload], "cmd": cmd}))
         elif e.kind is LogKind.CONTINUE:
+            assert isinstance(e.payload, tuple), "a CONTINUE's payload is the steps waited for"
             out.append(Event("continue", stream, e.sim_time, {"on": [f"{plan_no}.{s}" for s in e.payload],
                                                               "cmd": cmd}))
         elif e.kind is LogKind.CANCELLED:
