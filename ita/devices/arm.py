@@ -27,17 +27,24 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Mapping, Sequence
-from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from ita.devices.data import ArmPath
 from ita.executive.adapters import Completion, PoseResolver
 from ita.executive.commands import Command, Reply, Wait
 from ita.kinematics import flange_poses
 from ita.kinematics.settle import joint_translation
-from ita.logic.terms import Term
+from ita.logic.json_value import JsonValue
+from ita.logic.terms import Term, TermValue
+from ita.path.planner import PathPlanner
+from ita.path.trajectory import TimedTrajectory
 from ita.robot import RobotController, ToolChanger, from_waypoints
+from ita.robot.controller import MotionReply
+from ita.sim.inject import FaultInjector
+from ita.sim.world import SimWorld
+from ita.workcell import ToolSpec
 
 __all__ = ["CONTACT_SPEED", "RECOVER_SECONDS", "RETRACT_SPEED", "SPRING_N_PER_M", "ArmDevice", "exception_reply"]
 
@@ -54,9 +61,11 @@ RECOVER_SECONDS = 10.0
 _SAME_Q = 1e-6
 
 Handler = Callable[[Command], "Reply | Completion"]
+#: the held tool's name (None: none) -> its Path Planner and the tool
+PlannerFor = Callable[[str | None], tuple[PathPlanner, ToolSpec | None]]
 
 
-def exception_reply(name: str, text: str, *args: Any, **details: Any) -> Reply:
+def exception_reply(name: str, text: str, *args: TermValue, **details: JsonValue) -> Reply:
     """An exception reply ``NAME(args...)`` (or the atom NAME) with a line for people."""
     return Reply.exception(Term(name, tuple(args)) if args else name, text, **details)
 
@@ -71,8 +80,8 @@ class ArmDevice:
 
     lookahead = True
 
-    def __init__(self, world: Any, poses: PoseResolver, planner_for: Callable[[str | None], tuple[Any, Any]],
-                 *, extra: Mapping[str, Handler] | None = None, controller: Any = None) -> None:
+    def __init__(self, world: SimWorld, poses: PoseResolver, planner_for: PlannerFor,
+                 *, extra: Mapping[str, Handler] | None = None, controller: RobotController | None = None) -> None:
 
         self.world = world
         self.poses = poses
@@ -83,7 +92,7 @@ class ArmDevice:
         self._ready: dict[int, Completion] = {}        # step -> Completion computed with an earlier one
         self.last_free_q = np.array(world.q)
         self.planning_seconds = 0.0
-        self.injector: Any = None           # ita.sim.inject.FaultInjector, when faults are injected
+        self.injector: FaultInjector | None = None     # when faults are injected
         self.stats: dict[str, float] = {"moves": 0, "move_s": 0.0, "contact_s": 0.0, "gauge_s": 0.0,
                                          "tool_change_s": 0.0, "station_s": 0.0}
         own: dict[str, tuple[Handler, str | None]] = {
@@ -124,7 +133,7 @@ class ArmDevice:
     def stop(self, now: float) -> None:
         self._ready = {}
 
-    def snapshot(self) -> Mapping[str, Any]:
+    def snapshot(self) -> Mapping[str, JsonValue]:
         return {"q": [round(float(v), 6) for v in self.world.q], "held": self.world.held}
 
     def recover(self) -> bool:
@@ -158,7 +167,7 @@ class ArmDevice:
         return [q + joint_translation(world.model, q, tcp, -d * look) for d in BACK_OFF_M]
 
     # -- commands ----------------------------------------------------------------------
-    def _q(self, term: Any) -> np.ndarray:
+    def _q(self, term: TermValue) -> np.ndarray:
         """The joint configuration (6,) of a pose term for the held tool; KeyError if none."""
         target = self.poses.resolve(term, self.world.held)
         q = getattr(target, "q", None)
@@ -227,7 +236,7 @@ class ArmDevice:
         self._ready.update(completions)
         return first_completion
 
-    def _path(self, *trajs: Any) -> ArmPath:
+    def _path(self, *trajs: TimedTrajectory) -> ArmPath:
         """The trajectories `trajs`, flown one after the other, as the archive keeps them (a
         few dozen knots, the tool point)."""
         times, qs, t0 = [], [], 0.0
@@ -237,14 +246,14 @@ class ArmDevice:
             t0 = float(times[-1][-1])
         return ArmPath.sampled(np.concatenate(times), np.concatenate(qs), self._tcp_poses, self.world.held)
 
-    def _tcp_poses(self, q: Any) -> Any:
+    def _tcp_poses(self, q: ArrayLike) -> NDArray[np.float64]:
         """World poses (k, 4, 4) of the held tool's TCP (the flange without one) at joints q (k, 6)."""
         poses = flange_poses(self.world.model, np.asarray(q, dtype=float))
         tool = self.world.held_tool
         return poses @ tool.tcp.matrix() if tool is not None else poses
 
     @staticmethod
-    def _motion_failure(reply: Any, command: Command) -> Reply:
+    def _motion_failure(reply: MotionReply, command: Command) -> Reply:
         status = reply.status.value
         if reply.contact is not None:
             return exception_reply("BUMP", f"{command.text}: {reply.message}", reply.contact.moving,
@@ -291,7 +300,7 @@ class ArmDevice:
         return Reply.normal("DONE")
 
 
-def _pass_times(traj: Any, goals: Sequence[np.ndarray]) -> list[float]:
+def _pass_times(traj: TimedTrajectory, goals: Sequence[np.ndarray]) -> list[float]:
     """When (s) the trajectory passes nearest each goal (6,) in turn (blends pass near,
     not through, intermediate goals); the last goal at the end."""
     q = np.asarray(traj.q)

@@ -11,17 +11,30 @@ others').
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, TypeAlias, Union
 
 from ita.executive.commands import Command, Reply
-from ita.logic.terms import Term
+from ita.logic.terms import Term, TermValue
+from ita.sensors.slra_frame import RangeFrame
+from ita.sensors.ultrasonic import GaugeException, Reading
+from ita.vision.context import VisionException, VisionResult
+
+if TYPE_CHECKING:
+    import numpy as np
+    from numpy.typing import ArrayLike, NDArray
+
+    from ita.executive import ExecutionReport
 
 __all__ = ["ArmPath", "MeasuredValue", "ScanData", "arm_paths", "measured_values", "scan_frames", "spec_of_message"]
 
 #: samples an ArmPath keeps of a flown trajectory (evenly spaced in time, ends included)
 PATH_SAMPLES = 40
+
+#: a device's own record of a measurement: the gauge's reading or exception, Vision's result
+#: or exception (None: the device kept none)
+Source: TypeAlias = Union[Reading, GaugeException, VisionResult, VisionException, None]
 
 
 @dataclass(frozen=True)
@@ -34,7 +47,7 @@ class MeasuredValue:
     value: float | None
     u: float | None
     reason: str | None = None
-    source: Any = None
+    source: Source = None
 
     @property
     def ok(self) -> bool:
@@ -48,7 +61,7 @@ class ScanData:
     raster, then those of the re-approaches)."""
 
     group: str
-    frames: tuple[Any, ...]
+    frames: tuple[RangeFrame, ...]
 
 
 @dataclass(frozen=True, eq=False)
@@ -62,7 +75,8 @@ class ArmPath:
     tool: str | None = None
 
     @classmethod
-    def sampled(cls, times: Any, q: Any, tcp_of: Any, tool: str | None, samples: int = PATH_SAMPLES) -> ArmPath:
+    def sampled(cls, times: ArrayLike, q: ArrayLike, tcp_of: Callable[[NDArray[np.float64]], ArrayLike],
+                tool: str | None, samples: int = PATH_SAMPLES) -> ArmPath:
         """Up to `samples` knots of a trajectory (times (m,), q (m, 6)), evenly in time;
         tcp_of(q (k, 6)) -> (k, 4, 4) world poses of the tool point."""
         import numpy as np
@@ -77,9 +91,9 @@ class ArmPath:
                    tuple((round(float(x), 5), round(float(y), 5), round(float(z), 5)) for x, y, z in xyz), tool)
 
 
-def spec_of_message(message: Any) -> str | None:
+def spec_of_message(message: TermValue) -> str | None:
     """The measurement id a message's qualitative parameters name (``...(meas(Id))``)."""
-    def walk(value: Any) -> str | None:
+    def walk(value: TermValue) -> str | None:
         if isinstance(value, Term):
             if value.name == "meas" and len(value.args) == 1:
                 return str(value.args[0])
@@ -92,14 +106,14 @@ def spec_of_message(message: Any) -> str | None:
     return walk(message)
 
 
-def _replies(report: Any) -> Iterable[tuple[Command, Reply]]:
+def _replies(report: ExecutionReport) -> Iterable[tuple[Command, Reply]]:
     for outcome in report.outcomes:
         yield outcome.command, outcome.reply
     if report.failure is not None:
         yield report.failure.command, report.failure.reply
 
 
-def measured_values(report: Any) -> dict[str, MeasuredValue]:
+def measured_values(report: ExecutionReport) -> dict[str, MeasuredValue]:
     """Spec id -> its value from the replies of an execution report (in reply order; a
     later reply for the same spec wins)."""
     out: dict[str, MeasuredValue] = {}
@@ -112,14 +126,14 @@ def measured_values(report: Any) -> dict[str, MeasuredValue]:
     return out
 
 
-def arm_paths(report: Any) -> list[tuple[Command, ArmPath]]:
+def arm_paths(report: ExecutionReport) -> list[tuple[Command, ArmPath]]:
     """The paths the arm flew in an execution report, with their commands, in order."""
     return [(command, reply.data) for command, reply in _replies(report) if isinstance(reply.data, ArmPath)]
 
 
-def scan_frames(report: Any) -> tuple[Any, ...]:
+def scan_frames(report: ExecutionReport) -> tuple[RangeFrame, ...]:
     """The range frames of every SCAN of an execution report, in order."""
-    frames: list[Any] = []
+    frames: list[RangeFrame] = []
     for _command, reply in _replies(report):
         if isinstance(reply.data, ScanData):
             frames += reply.data.frames

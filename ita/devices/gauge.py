@@ -17,12 +17,18 @@ world's clock itself; the arm device reports each command's end as the clock aft
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping
-from typing import Any
 
 from ita.devices.data import MeasuredValue, spec_of_message
 from ita.executive.commands import Command, Reply
 from ita.logic.terms import Term
-from ita.sensors.ultrasonic import GaugeException, GaugeFailure, Reading, check_expected
+from ita.sensors.ultrasonic import (
+    GaugeException,
+    GaugeFailure,
+    Reading,
+    UltrasonicGauge,
+    check_expected,
+)
+from ita.specs.model import MeasurementSpec
 
 __all__ = ["IMPLAUSIBLE_TOLERANCES", "GaugeCommands"]
 
@@ -34,7 +40,7 @@ class GaugeCommands:
     """COUPLANT and MEASURE of `gauge` (ita.sensors.ultrasonic.UltrasonicGauge); specs:
     spec id -> MeasurementSpec (for the doubled-reading check)."""
 
-    def __init__(self, gauge: Any, specs: Mapping[str, Any]) -> None:
+    def __init__(self, gauge: UltrasonicGauge, specs: Mapping[str, MeasurementSpec]) -> None:
         self.gauge = gauge
         self.specs = specs
 

@@ -19,11 +19,12 @@ change the simulated world.  A new job is one entry here (and one operator).
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
-from typing import Any, Protocol
+from typing import Protocol
 
 from ita.devices.arm import exception_reply
 from ita.executive.adapters import Completion
 from ita.executive.commands import Command, Reply, Wait
+from ita.logic.json_value import JsonValue
 from ita.logic.terms import Term
 
 __all__ = ["Clock", "Job", "PersonDevice", "Person", "person_jobs"]
@@ -86,5 +87,5 @@ class PersonDevice:
     def stop(self, now: float) -> None:
         pass
 
-    def snapshot(self) -> Mapping[str, Any]:
+    def snapshot(self) -> Mapping[str, JsonValue]:
         return {"jobs_done": len(self.done)}

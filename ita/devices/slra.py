@@ -38,9 +38,9 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import replace
-from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ita.archive.decision import decide
 from ita.archive.model import BOUNDED_BELOW
@@ -48,16 +48,28 @@ from ita.devices.arm import RETRACT_SPEED, exception_reply
 from ita.devices.data import MeasuredValue, ScanData, spec_of_message
 from ita.executive.adapters import Completion, PoseResolver
 from ita.executive.commands import Command, Reply, Wait
+from ita.geometry.mkb import ViewGroup
 from ita.kinematics.fk import flange_poses
 from ita.kinematics.settle import joint_translation
+from ita.logic.json_value import JsonValue
 from ita.logic.terms import Term
 from ita.robot import RobotController, from_waypoints
-from ita.sensors.slra_frame import ScanGeometry
+from ita.robot.controller import MotionReply
+from ita.sensors.slra_frame import RangeFrame, ScanGeometry
 from ita.sim.faults import Fault
-from ita.sim.slra import SlraParams, simulate_frame
-from ita.vision.context import VisionException, VisionFailure
+from ita.sim.inject import FaultInjector
+from ita.sim.slra import SlraParams, SlraScene, simulate_frame
+from ita.sim.world import SimWorld
+from ita.specs.model import MeasurementSpec
+from ita.vision.context import (
+    VisionContext,
+    VisionException,
+    VisionFailure,
+    VisionReply,
+    VisionResult,
+)
 from ita.vision.measure import measure_frames
-from ita.vision.scan import frames_for
+from ita.vision.scan import FramePlan, frames_for
 
 __all__ = ["DIRTY_DROPOUT", "REAPPROACH_M", "RESCAN_BACK_M", "VISION_SECONDS", "SlraDevice"]
 
@@ -78,7 +90,12 @@ CAL_FOV_DEG = (3.0, 3.0)
 CAL_MIN_VALID = 0.5
 
 
-def _guarded_measure(measure: Callable[..., Any], frames: Any, spec: Any, vctx: Any) -> Any:
+#: Vision's measurement of a spec in frames (ita.vision.measure.measure_frames)
+Measure = Callable[[Sequence[RangeFrame], MeasurementSpec, VisionContext], VisionReply]
+
+
+def _guarded_measure(measure: Measure, frames: Sequence[RangeFrame], spec: MeasurementSpec,
+                     vctx: VisionContext) -> VisionReply:
     """Vision's reply; an error inside Vision becomes a NOT_MEASURABLE reply naming it
     (a device reports failures, it never raises)."""
 
@@ -88,8 +105,8 @@ def _guarded_measure(measure: Callable[..., Any], frames: Any, spec: Any, vctx: 
         return VisionException(spec.id, VisionFailure.NOT_MEASURABLE, f"vision error {type(exc).__name__}: {exc}")
 
 
-def _value(spec_id: str, reply: Any) -> MeasuredValue:
-    if reply.ok:
+def _value(spec_id: str, reply: VisionReply) -> MeasuredValue:
+    if isinstance(reply, VisionResult):     # reply.ok
         return MeasuredValue(spec_id, float(reply.value), float(reply.uncertainty), source=reply)
     return MeasuredValue(spec_id, None, None, f"vision: {reply.reason.value}: {reply.detail}", reply)
 
@@ -100,9 +117,9 @@ class SlraDevice:
 
     lookahead = False
 
-    def __init__(self, world: Any, scene: Any, poses: PoseResolver, vision_ctx: Any,
-                 specs: Mapping[str, Any], rng: np.random.Generator, *, params: Any = None,
-                 wanted: Callable[[str], bool] | None = None, controller: Any = None) -> None:
+    def __init__(self, world: SimWorld, scene: SlraScene, poses: PoseResolver, vision_ctx: VisionContext,
+                 specs: Mapping[str, MeasurementSpec], rng: np.random.Generator, *, params: SlraParams | None = None,
+                 wanted: Callable[[str], bool] | None = None, controller: RobotController | None = None) -> None:
 
         self.world = world
         self.scene = scene
@@ -113,8 +130,8 @@ class SlraDevice:
         self.params = params if params is not None else SlraParams()
         self.wanted = wanted or (lambda _id: True)
         self.controller = controller if controller is not None else RobotController(world)
-        self._frames: dict[str, tuple[Any, ...]] = {}  # group id -> the frames of its last SCAN
-        self.injector: Any = None           # ita.sim.inject.FaultInjector, when faults are injected
+        self._frames: dict[str, tuple[RangeFrame, ...]] = {}  # group id -> the frames of its last SCAN
+        self.injector: FaultInjector | None = None     # when faults are injected
         self.stats: dict[str, float] = {"frames": 0, "scan_s": 0.0, "vision_s": 0.0, "reapproaches": 0,
                                          "reapproach_s": 0.0}
         self.handlers: dict[str, Callable[[Command, float], Completion]] = {
@@ -136,7 +153,7 @@ class SlraDevice:
     def stop(self, now: float) -> None:
         pass
 
-    def snapshot(self) -> Mapping[str, Any]:
+    def snapshot(self) -> Mapping[str, JsonValue]:
         return {"frames": sorted(self._frames)}
 
     # -- commands ----------------------------------------------------------------------
@@ -154,7 +171,7 @@ class SlraDevice:
             return Completion(now, exception_reply("NO_VIEW", str(exc), spec_id or "?"))
         plan = self._frame_plan(group)
         t = max(now, world.clock.now)
-        frames: list[Any] = []
+        frames: list[RangeFrame] = []
         checks = {2 ** i for i in range(plan.count.bit_length())} - {plan.count}
         for k in range(plan.count):
             if k:
@@ -185,7 +202,7 @@ class SlraDevice:
         self._frames = {group.id: tuple(frames)}
         return Completion(t, Reply.normal(Term("IMAGE", (group.id,)), data=ScanData(group.id, tuple(frames))))
 
-    def _physics(self, tool: str) -> Any:
+    def _physics(self, tool: str) -> SlraParams:
         """The SLRA's physics now: a dirty window loses most returns and dims the rest."""
         if not self.world.faults.has(Fault.DIRTY_WINDOW, tool):
             return self.params
@@ -245,15 +262,15 @@ class SlraDevice:
                                                       speed_scale=RETRACT_SPEED), command="rescan")
         t += back.time_s
         data = (_value(spec_id, reply),)
-        if not reply.ok:
+        if isinstance(reply, VisionException):     # not reply.ok
             return Completion(t, Reply.exception(Term("VISION", (reply.reason.value,)),
                                                  f"vision from the second stand-off: {reply.reason.value}", data=data))
         return Completion(t, Reply.normal(Term("VALUE", (float(reply.value), float(reply.uncertainty))), data=data))
 
-    def _members(self, group: Any, spec_id: str) -> list[str]:
+    def _members(self, group: ViewGroup, spec_id: str) -> list[str]:
         return [m for m in group.members if m == spec_id or self.wanted(m)]
 
-    def _decided(self, group: Any, frames: Sequence[Any]) -> tuple[bool, float]:
+    def _decided(self, group: ViewGroup, frames: Sequence[RangeFrame]) -> tuple[bool, float]:
         """Whether the frames so far decide every member of `group` that asks for several
         (each conforms or does not, with its U), and Vision's time to find out."""
         took = 0.0
@@ -263,7 +280,7 @@ class SlraDevice:
                 continue
             reply = _guarded_measure(measure_frames, list(frames), spec, self.vctx)
             took += VISION_SECONDS * len(frames)
-            if not reply.ok or not (math.isfinite(reply.value) and math.isfinite(reply.uncertainty)):
+            if isinstance(reply, VisionException) or not (math.isfinite(reply.value) and math.isfinite(reply.uncertainty)):
                 return False, took
             d = decide(float(reply.value), 2.0 * float(reply.uncertainty), spec.low_limit, spec.high_limit,
                        bounded_below=spec.kind.value in BOUNDED_BELOW)
@@ -271,20 +288,22 @@ class SlraDevice:
                 return False, took
         return True, took
 
-    def _frame_plan(self, group: Any) -> Any:
+    def _frame_plan(self, group: ViewGroup) -> FramePlan:
         """The frames the group's wanted members need (the most any of them needs)."""
 
         plans = [frames_for(self.specs[m], self.vctx) for m in self._members(group, group.anchor) if m in self.specs]
         return max(plans, key=lambda p: p.count) if plans else frames_for(self.specs[group.anchor], self.vctx)
 
-    def _reapproach(self, q_view: np.ndarray, view_pose: Any) -> Any:
+    def _reapproach(self, q_view: np.ndarray, view_pose: ArrayLike) -> MotionReply:
         """Back off REAPPROACH_M along the line of sight and return to q_view (6,): the
         controller's reply (its time; the arm settles with a new repeatability draw)."""
 
         world = self.world
         pose = np.asarray(view_pose, dtype=float)
         look = pose[:3, 2] / np.linalg.norm(pose[:3, 2])      # the sensor looks along its z axis
-        tcp = world.held_tool.tcp.matrix()
+        tool = world.held_tool
+        assert tool is not None   # a SCAN re-approaches with the SLRA in hand (checked there)
+        tcp = tool.tcp.matrix()
         q_back = q_view + joint_translation(world.model, q_view, tcp, -REAPPROACH_M * look)
         traj = from_waypoints(world.model, [np.asarray(world.q), q_back, q_view], speed_scale=RETRACT_SPEED)
         return self.controller.execute(traj, command="reapproach")
@@ -300,7 +319,8 @@ class SlraDevice:
         frames = self._frames.get(group.id) if group is not None else None
         if not frames:
             return Completion(now, exception_reply("NO_IMAGE", f"no frame for {spec_id}", spec_id))
-        replies, took = {}, 0.0
+        replies: dict[str, VisionReply] = {}
+        took = 0.0
         for m in self._members(group, spec_id):
             used = frames[:frames_for(self.specs[m], self.vctx).count]
             replies[m] = _guarded_measure(measure_frames, used, self.specs[m], self.vctx)
@@ -308,7 +328,7 @@ class SlraDevice:
         self.stats["vision_s"] += took
         data = tuple(_value(m, r) for m, r in replies.items())
         reply = replies[spec_id]
-        if not reply.ok:
+        if isinstance(reply, VisionException):     # not reply.ok
             return Completion(now + took, Reply.exception(
                 Term("VISION", (reply.reason.value,)), f"vision: {reply.reason.value}: {reply.detail}", data=data))
         value, sigma = float(reply.value), float(reply.uncertainty)

@@ -27,7 +27,6 @@ Each takes its stated time (:data:`SECONDS`) on the simulated clock.
 from __future__ import annotations
 
 from collections.abc import Callable
-from typing import Any
 
 import numpy as np
 
@@ -37,13 +36,17 @@ from ita.executive.adapters import Completion, PoseResolver
 from ita.executive.commands import Command, Reply
 from ita.logic.terms import Term
 from ita.robot import from_waypoints
+from ita.robot.controller import RobotController
 from ita.sensors.ultrasonic import (
     GaugeException,
     GaugeSpec,
+    UltrasonicGauge,
     interpret,
     velocity_calibration,
 )
 from ita.sim.faults import CONTROLLER, GAUGE, STATION, Fault
+from ita.sim.ultrasonic import UltrasonicSim
+from ita.sim.world import SimWorld
 
 __all__ = ["CAL_BLOCK_U_MM", "CAL_STEP_MM", "SECONDS", "StationCommands"]
 
@@ -75,8 +78,8 @@ class StationCommands:
     (ita.sensors.ultrasonic.UltrasonicGauge) whose velocity a block reading sets (None:
     readings of the block set nothing)."""
 
-    def __init__(self, world: Any, poses: PoseResolver, controller: Any, gauge_sim: Any,
-                 spec: GaugeSpec = GaugeSpec(), gauge: Any = None) -> None:
+    def __init__(self, world: SimWorld, poses: PoseResolver, controller: RobotController, gauge_sim: UltrasonicSim,
+                 spec: GaugeSpec = GaugeSpec(), gauge: UltrasonicGauge | None = None) -> None:
         self.world = world
         self.poses = poses
         self.controller = controller

@@ -51,6 +51,7 @@ from ita.diagnosis.tests import Situation, TestBench, TestRun
 from ita.logic.terms import Term, Var
 from ita.logic.world import WorldModel
 from ita.planning import NoPlanError
+from ita.sensors.ultrasonic import Reading
 from ita.sequence.plan import choose_tool
 from ita.task.measure import (
     MeasureOutcome,
@@ -373,6 +374,7 @@ class ExceptionHandler:
             raw = getattr(reading.source, "thickness_mm", None) if reading is not None else None
             if reading is None or raw is None:
                 return "no reading to accept", None
+            assert isinstance(reading.source, Reading)  # of the sources, only a gauge Reading has a thickness
             value = MeasuredValue(situation.spec_id, float(raw), float(reading.source.u_mm), source=reading.source)
             return f"reading {raw:.3f} accepted", MeasureOutcome(
                 situation.spec_id, situation.tool, MeasureStatus.MEASURED, value, None, (), None, None,

@@ -48,6 +48,7 @@ from ita.planning.state import WorldState
 from ita.sequence.cost import rack_seconds
 from ita.specs.model import Tool, is_ultrasonic
 from ita.task.measure import MeasureOutcome, MeasureStatus, execute_goals, measure_one
+from ita.vision.context import VisionResult
 
 if TYPE_CHECKING:
     from ita.executive import ExecutionReport
@@ -314,6 +315,7 @@ class TestBench:
             outcome = "displaced" if out.value is not None and "out_of_view" in (out.reason or "") else "unclear"
         else:
             spec = s.specs[spec_id]
+            assert isinstance(out.value.source, VisionResult)  # an SLRA value measured: Vision's result
             centre = np.asarray(out.value.source.diagnostics.get("center", spec.point[:2]), dtype=np.float64)[:2]
             off = float(np.linalg.norm(centre - np.asarray(spec.point[:2], dtype=float)))
             outcome = "displaced" if off > DISPLACED_MM else "ok"
