@@ -16,18 +16,20 @@ Reasoner could not place for that tool cannot be done; nothing is planned for it
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from enum import Enum
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from ita.devices.data import MeasuredValue, measured_values, scan_frames
-from ita.logic.terms import Term
+from ita.logic.terms import Term, TermValue
 from ita.planning import NoPlanError
 from ita.planning.state import NOTHING, Place, PoseKind, QualitativePose, WorldState
 
 if TYPE_CHECKING:
     from ita.executive import ExecutionReport
     from ita.planning import OperationPlan
+    from ita.sensors.slra_frame import RangeFrame
     from ita.task.session import Session
 
 __all__ = ["MeasureOutcome", "MeasureStatus", "execute_goals", "execute_measurement", "measure_one",
@@ -68,12 +70,12 @@ class MeasureOutcome:
     recovered_arm: bool = False
 
     @property
-    def frames(self) -> tuple[Any, ...]:
+    def frames(self) -> tuple[RangeFrame, ...]:
         """The range frames the plan took (SLRA measurements)."""
         return () if self.report is None else scan_frames(self.report)
 
 
-def state_after(plan: Any, report: Any) -> WorldState:
+def state_after(plan: OperationPlan, report: ExecutionReport) -> WorldState:
     """The world state after a plan that stopped: the initial state with the results of
     the steps that completed applied (moves, contact, tool pick-ups and put-downs)."""
     state = plan.initial_state
@@ -105,7 +107,7 @@ def placement_problem(session: Session, spec_id: str, tool: str) -> str | None:
     return None
 
 
-def _dimension(spec_id: str, report: Any) -> MeasuredValue | None:
+def _dimension(spec_id: str, report: ExecutionReport) -> MeasuredValue | None:
     """The value of a ``dimension(Id, Tool, Val, Sigma)`` result (a device that sends no
     data with its reply)."""
     for res in report.results:
@@ -166,8 +168,8 @@ def execute_measurement(session: Session, spec_id: str, tool: str, plan: Operati
                           plan.final_state, t0, t1)
 
 
-def execute_goals(session: Session, goals: list[Any], state: WorldState, *, name: str = ""
-                  ) -> tuple[Any, Any, WorldState, str]:
+def execute_goals(session: Session, goals: Sequence[TermValue], state: WorldState, *, name: str = ""
+                  ) -> tuple[OperationPlan | None, ExecutionReport | None, WorldState, str]:
     """Plan `goals` (terms such as ``calibrated(us_probe_1)``) from `state` and run the plan
     now: (plan, report, state after, note).  No plan: (None, None, state, why).  A failed
     step frees the arm if it is stuck."""

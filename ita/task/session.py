@@ -12,7 +12,7 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -76,7 +76,7 @@ class Session:
     setup_seconds: float = 0.0
     simulated: str = "generated"
     _specs: dict[str, MeasurementSpec] = field(default_factory=dict, repr=False)
-    _specs_of: Any = field(default=None, repr=False)
+    _specs_of: PlanningContext | None = field(default=None, repr=False)   # the context _specs are of
 
     @property
     def specs(self) -> dict[str, MeasurementSpec]:
