@@ -13,10 +13,13 @@ fill in the causes (``broken_probe(probe)`` -> ``broken_probe(us_probe_1)``).
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Protocol
 
-from ita.logic.terms import Term
+from ita.logic.terms import Term, TermValue
 from ita.specs.model import is_ultrasonic
+
+if TYPE_CHECKING:
+    from ita.executive import ExecutionReport
 
 __all__ = ["Classified", "classify", "classify_reply"]
 
@@ -53,14 +56,22 @@ class Classified:
         return [Term("=", (k, v)) for k, v in self.context]
 
 
-def _name_and_arg(payload: Any) -> tuple[str, str | None]:
+class Reported(Protocol):
+    """What :func:`classify` reads: a measurement's round trip (ita.task.measure
+    .MeasureOutcome) or any other run with its execution report (None: nothing ran)."""
+
+    @property
+    def report(self) -> ExecutionReport | None: ...
+
+
+def _name_and_arg(payload: TermValue | None) -> tuple[str, str | None]:
     if isinstance(payload, Term):
         arg = payload.args[0] if payload.args else None
         return payload.name, (str(arg) if arg is not None else None)
     return str(payload), None
 
 
-def classify_reply(kind: str, payload: Any) -> str | None:
+def classify_reply(kind: str, payload: TermValue | None) -> str | None:
     """The exception of a failure of `kind` (``exception``, ``timeout``,
     ``unexpected_reply``) with reply `payload`; None when kb/faults.pl has none for it."""
     if kind == "timeout":
@@ -77,7 +88,7 @@ def classify_reply(kind: str, payload: Any) -> str | None:
     return _OTHER.get(name)
 
 
-def classify(outcome: Any, *, held: str | None, tool: str | None, slra_class: str = "slra_tool",
+def classify(outcome: Reported, *, held: str | None, tool: str | None, slra_class: str = "slra_tool",
              tool_class: str | None = None) -> Classified | None:
     """The exception of a failed measurement's round trip (ita.task.measure
     .MeasureOutcome with a failed report), in the context of the tool in hand `held`

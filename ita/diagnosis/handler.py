@@ -41,16 +41,17 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from types import SimpleNamespace
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from ita.devices.data import MeasuredValue, measured_values
 from ita.diagnosis.classify import Classified, classify
 from ita.diagnosis.counts import FaultCounts
-from ita.diagnosis.knowledge import FaultKnowledge
+from ita.diagnosis.knowledge import DiagnosisStep, FaultKnowledge
 from ita.diagnosis.tests import Situation, TestBench, TestRun
-from ita.logic.terms import Term, Var
+from ita.logic.json_value import JsonObject
+from ita.logic.terms import Term, TermValue, Var
 from ita.logic.world import WorldModel
-from ita.planning import NoPlanError
+from ita.planning import NoPlanError, OperationPlan
 from ita.sensors.ultrasonic import Reading
 from ita.sequence.plan import choose_tool
 from ita.task.measure import (
@@ -61,6 +62,7 @@ from ita.task.measure import (
 )
 
 if TYPE_CHECKING:
+    from ita.executive import ExecutionReport
     from ita.task.session import Session
 
 __all__ = ["Diagnosis", "ExceptionHandler", "Handled"]
@@ -69,10 +71,10 @@ __all__ = ["Diagnosis", "ExceptionHandler", "Handled"]
 MAX_TESTS = 6
 
 #: a plan run for a diagnosis: its label, the plan and its execution report
-Executed = list[tuple[str, Any, Any]]
+Executed = list[tuple[str, OperationPlan, "ExecutionReport | None"]]
 
 
-def term_text(value: Any) -> str:
+def term_text(value: TermValue) -> str:
     """A term of the knowledge base as text, ``name(arg, ...)``; a variable (one the
     Operation Planner binds) as ``_``."""
     if isinstance(value, Var):
@@ -84,7 +86,7 @@ def term_text(value: Any) -> str:
     return str(value)
 
 
-def _kind(action: Any) -> tuple[str, tuple[Any, ...]]:
+def _kind(action: TermValue) -> tuple[str, tuple[TermValue, ...]]:
     """A recovery action's kind and arguments: ``achieve(G)`` -> ("achieve", (G,))."""
     return (action.name, tuple(action.args)) if isinstance(action, Term) else (str(action), ())
 
@@ -129,7 +131,7 @@ class Diagnosis:
         tests = "; ".join(f"{t.test} -> {t.outcome}" for t in self.tests) or "no test"
         return f"{self.exception}: {tests}; {found}; {self.recovery}"
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> JsonObject:
         return {"spec": self.spec_id, "exception": self.exception, "context": dict(self.context),
                 "reply": self.reply, "posterior": [[c, round(p, 4)] for c, p in self.posterior],
                 "expected_s": round(self.expected_s, 2), "tests": [t.to_dict() for t in self.tests],
@@ -146,7 +148,7 @@ class Handled:
 
     diagnosis: Diagnosis
     outcome: MeasureOutcome
-    executed: tuple[tuple[str, Any, Any], ...] = field(default_factory=tuple)
+    executed: tuple[tuple[str, OperationPlan, ExecutionReport | None], ...] = field(default_factory=tuple)
     nested: tuple[Diagnosis, ...] = ()          # second faults met while handling, each diagnosed on its own
 
 
@@ -211,7 +213,7 @@ class ExceptionHandler:
         if self.learn:
             FaultCounts.record(exc.exception, None if cause is None else self.knowledge.cause_name(cause))
         retried = next((r.measured for r in runs if r.measured is not None), None)
-        actions: list[Any] = []
+        actions: list[TermValue] = []
         updates: tuple[str, ...] = ()
         outcome: MeasureOutcome | None = retried
         recovery = "the retry during the tests measured it" if retried is not None else ""
@@ -227,7 +229,7 @@ class ExceptionHandler:
                               tuple(term_text(a) for a in actions), updates, recovery, t0, self.session.clock.now)
         return diagnosis, situation, outcome
 
-    def _second_fault(self, report: Any, situation: Situation, depth: int) -> Classified | None:
+    def _second_fault(self, report: ExecutionReport | None, situation: Situation, depth: int) -> Classified | None:
         """A fault of another device met by a test or a repair (a controller that stops
         answering while a window is being cleaned): its exception, when there is one to
         handle on its own (one level deep), else None."""
@@ -257,7 +259,7 @@ class ExceptionHandler:
 
     # -- 2. the tests -----------------------------------------------------------------------
     def _diagnose(self, exc: Classified, situation: Situation, executed: Executed, nested: list[Diagnosis], depth: int
-                  ) -> tuple[list[TestRun], Any, Any]:
+                  ) -> tuple[list[TestRun], DiagnosisStep, DiagnosisStep]:
         counts = FaultCounts.load().causes
         context = exc.context_terms()
         results: list[tuple[str, str]] = []
@@ -303,10 +305,11 @@ class ExceptionHandler:
             if run.measured is not None:   # the retry measured it: what the results say, no more tests
                 last = self.knowledge.step(exc.exception, context, counts, results, [], self.method)
                 break
+        assert first is not None and last is not None  # the loop asks the engine at least once
         return runs, first, last
 
     # -- 4. the world and the cell put right --------------------------------------------------
-    def _put_right(self, actions: Sequence[Any], situation: Situation, runs: list[TestRun], executed: Executed,
+    def _put_right(self, actions: Sequence[TermValue], situation: Situation, runs: list[TestRun], executed: Executed,
                    nested: list[Diagnosis], depth: int) -> _PutRight:
         """Make a recovery's actions in order (kb/faults.pl recovery/2 says what each kind
         means); a goal that cannot be achieved stops the actions after it."""
@@ -325,6 +328,7 @@ class ExceptionHandler:
             elif kind == "unless":              # the actions only when the condition does not hold now
                 if self.knowledge.holds_now(args[0]):
                     continue
+                assert isinstance(args[1], list)  # unless(Condition, Actions): a list of actions
                 inner = self._put_right(list(args[1]), situation, runs, executed, nested, depth)
                 updates += inner.updates
                 situation, accepted = inner.situation, inner.accepted or accepted
@@ -338,7 +342,7 @@ class ExceptionHandler:
             # retry: nothing to put right; the measurement is taken again (step 5)
         return _PutRight(tuple(updates), situation, accepted)
 
-    def _achieve(self, goal: Any, situation: Situation, executed: Executed, nested: list[Diagnosis],
+    def _achieve(self, goal: TermValue, situation: Situation, executed: Executed, nested: list[Diagnosis],
                  depth: int) -> tuple[str, Situation, bool]:
         """Plan `goal` from the arm's state (the Operation Planner, kb/operators.pl) and run
         the plan (the Plan Executive, on whichever devices its steps name: the arm, the SLRA,
@@ -350,6 +354,7 @@ class ExceptionHandler:
             executed.append((f"repair {label}", plan, report))
         second = self._second_fault(report, situation, depth)
         if second is not None:          # another fault stopped it: put that right, then again
+            assert report is not None   # a second fault is one of a report's
             situation = self._handle_second(second, replace(situation, state=state), report.started_s, executed,
                                             nested, depth)
             plan, report, state, note = self.bench.execute_goals([goal], situation.state, name=label)
@@ -358,13 +363,13 @@ class ExceptionHandler:
         situation = replace(situation, state=state)
         if plan is None or report is None:
             return f"not achieved {label}: {note}", situation, False
-        if not report.ok:
+        if report.failure is not None:
             return f"not achieved {label}: {note or report.failure.reason}", situation, False
         said = [o.reply.text for o in report.outcomes if o.reply.text]
         steps = ", ".join(st.text for st in plan.steps)
         return f"achieved {label}: {steps}" + (f" ({'; '.join(said)})" if said else ""), situation, True
 
-    def _accept(self, what: Any, situation: Situation, runs: list[TestRun]) -> tuple[str, MeasureOutcome | None]:
+    def _accept(self, what: TermValue, situation: Situation, runs: list[TestRun]) -> tuple[str, MeasureOutcome | None]:
         """The value an ``accept(What)`` recovery lets stand: the failed reading
         (``reading``), or the value a test made measured (``test(Test)``)."""
         s = self.session
@@ -434,6 +439,6 @@ class ExceptionHandler:
         return None, f"not done: no plan to take it again ({why or 'plan repair and replanning both failed'})"
 
 
-def _steps(plan: Any) -> Any:
+def _steps(plan: OperationPlan | None) -> str | Term:
     """A plan's length as recovery_way/3 takes it."""
     return "none" if plan is None else Term("steps", (len(plan.steps),))

@@ -13,16 +13,22 @@ Causes cross the bridge as terms and come back as text for people and the archiv
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Literal, TypeAlias, Union
 
-from ita.logic.terms import Term, Var
+from ita.logic.terms import Term, TermValue, Var
 from ita.planning.operation import format_term
 
 if TYPE_CHECKING:
     from ita.logic.bridge import KnowledgeBase
 
-__all__ = ["DiagnosisStep", "FaultKnowledge", "TestInfo"]
+__all__ = ["Choice", "DiagnosisStep", "FaultKnowledge", "TestInfo"]
+
+#: the engine's choice: a test to make (its name), the cause isolated (text), or the
+#: causes left unresolved (text)
+Choice: TypeAlias = Union[tuple[Literal["test"], str], tuple[Literal["isolated"], str],
+                          tuple[Literal["unresolved"], tuple[str, ...]]]
 
 
 @dataclass(frozen=True)
@@ -41,13 +47,14 @@ class DiagnosisStep:
     the test name, the cause or the causes left), the decision tree's expected cost, the
     posterior before the results and what remains after them (cause text, probability)."""
 
-    choice: tuple[str, Any]
+    choice: Choice
     expected_s: float
     posterior: tuple[tuple[str, float], ...]
     remaining: tuple[tuple[str, float], ...]
 
 
-def _pairs(value: Any) -> tuple[tuple[str, float], ...]:
+def _pairs(value: Iterable[Term]) -> tuple[tuple[str, float], ...]:
+    """``[Cause-P, ...]`` as (cause text, probability) pairs."""
     out = []
     for pair in value:
         cause, p = pair.args
@@ -88,7 +95,7 @@ class FaultKnowledge:
         kind = choice.name
         arg = choice.args[0]
         if kind == "test":
-            parsed: tuple[str, Any] = ("test", str(arg))
+            parsed: Choice = ("test", str(arg))
         elif kind == "isolated":
             parsed = ("isolated", format_term(arg))
         else:
@@ -107,24 +114,24 @@ class FaultKnowledge:
         """Whether some cause of kb/faults.pl predicts `outcome` of `test` (it is a fault's sign)."""
         return self.kb.once("faults", "predicts", test, Var("C"), outcome) is not None
 
-    def recovery(self, cause: str) -> list[Any]:
+    def recovery(self, cause: str) -> list[TermValue]:
         """The recovery actions of an isolated cause (text as :meth:`step` gives it):
         ``faults:recovery/2``, a variable left for the planner as a :class:`Var`."""
         solution = self.kb.once("faults", "recovery", self.cause_term(cause), Var("A"))
         return list(solution["A"]) if solution else []
 
-    def holds_now(self, condition: Any) -> bool:
+    def holds_now(self, condition: TermValue) -> bool:
         """Whether the condition of an ``unless(Condition, Actions)`` recovery action holds
         of the world model now (``faults:holds_now/1``)."""
         return self.kb.holds("faults", "holds_now", condition)
 
-    def update_world(self, change: Any) -> None:
+    def update_world(self, change: TermValue) -> None:
         """Make the world model say `change`, a ``world(Change)`` recovery action
         (``faults:world_update/1``)."""
         self.kb.one("faults", "world_update", change)
 
     @staticmethod
-    def cause_term(cause: str) -> Any:
+    def cause_term(cause: str) -> str | Term:
         """``broken_probe(us_probe_1)`` -> Term; ``arm_drift`` -> the atom."""
         if "(" in cause and cause.endswith(")"):
             name, _, arg = cause[:-1].partition("(")

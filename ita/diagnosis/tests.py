@@ -18,7 +18,7 @@ Executive on the devices; its outcome is read from the replies:
     measure_reference_feature a tooling hole's diameter, its centre against nominal: ok | displaced | unclear
     compare_neighbours        no motion: the reading against its neighbours' readings: ok | outlier
 
-Any test whose own move runs into something has the outcome ``bump`` (an obstacle
+A test whose own move runs into something has the outcome ``bump`` (an obstacle
 against the stopped arm: kb/faults.pl's obstacle_at_arm).
 
 A test that cannot be made (no plan, a path that fails, a precondition the cell cannot
@@ -33,7 +33,7 @@ import math
 import statistics
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -41,7 +41,8 @@ from ita.devices.data import MeasuredValue
 from ita.devices.stations import CAL_STEP_MM
 from ita.diagnosis.classify import classify_reply
 from ita.kinematics import move_time
-from ita.logic.terms import Term
+from ita.logic.json_value import JsonObject
+from ita.logic.terms import Term, TermValue
 from ita.logic.world import WorldModel
 from ita.part.model import Hole, HoleRole
 from ita.planning.state import WorldState
@@ -51,7 +52,7 @@ from ita.task.measure import MeasureOutcome, MeasureStatus, execute_goals, measu
 from ita.vision.context import VisionResult
 
 if TYPE_CHECKING:
-    from ita.executive import ExecutionReport
+    from ita.executive import ExecutionFailure, ExecutionReport
     from ita.planning import OperationPlan
     from ita.task.session import Session
 
@@ -100,13 +101,13 @@ class TestRun:
     def seconds(self) -> float:
         return self.t1 - self.t0
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> JsonObject:
         return {"test": self.test, "outcome": self.outcome, "estimated_s": round(self.estimated_s, 2),
                 "seconds": round(self.seconds, 2), "note": self.note,
                 "plan": [s.text for s in self.plan.steps] if self.plan is not None else []}
 
 
-def _bumped(report: Any) -> bool:
+def _bumped(report: ExecutionReport | None) -> bool:
     """Whether a test's plan stopped on a BUMP of its own motion."""
     if report is None or report.failure is None:
         return False
@@ -114,7 +115,7 @@ def _bumped(report: Any) -> bool:
     return isinstance(payload, Term) and payload.name == "BUMP"
 
 
-def _timed_out(failure: Any) -> bool:
+def _timed_out(failure: ExecutionFailure) -> bool:
     """Whether a failed step is the controller not answering (a time-out, a TIMEOUT reply,
     or a device's reply that its motion timed out, REAPPROACH(timeout))."""
     payload = failure.reply.payload
@@ -123,7 +124,7 @@ def _timed_out(failure: Any) -> bool:
         isinstance(payload, Term) and bool(payload.args) and str(payload.args[0]) == "timeout")
 
 
-def _gauge_outcome(payload: Any) -> str:
+def _gauge_outcome(payload: TermValue | None) -> str:
     exc = classify_reply("exception", payload)
     return {"no_echo": "no_echo", "no_couplant_film": "no_couplant", "doubled_thickness": "doubled",
             "corrupt_reply": "garbage", "misaligned": "misaligned", "no_contact": "misaligned",
@@ -249,14 +250,14 @@ class TestBench:
         plan, report, state, note = self.execute_goals([goal()], situation.state, name=test)
         outcome = "not_run" if report is None else self._outcome(test, report)
         return TestRun(test, outcome, estimated_s, t0, clock.now, state, plan, report,
-                       note or ("" if report is None or report.ok else report.failure.reason))
+                       note or ("" if report is None or report.failure is None else report.failure.reason))
 
-    def execute_goals(self, goals: list[Any], state: WorldState, *, name: str = ""
-                      ) -> tuple[Any, Any, WorldState, str]:
+    def execute_goals(self, goals: Sequence[TermValue], state: WorldState, *, name: str = ""
+                      ) -> tuple[OperationPlan | None, ExecutionReport | None, WorldState, str]:
         """Plan `goals` from `state` and run the plan (ita.task.measure.execute_goals)."""
         return execute_goals(self.session, goals, state, name=name)
 
-    def _outcome(self, test: str, report: Any) -> str:
+    def _outcome(self, test: str, report: ExecutionReport) -> str:
         if report.failure is not None:
             failure = report.failure
             payload = failure.reply.payload
@@ -268,13 +269,16 @@ class TestBench:
             if test == "read_cal_block" and name == "GAUGE" and failure.command.name == "CALIBRATE":
                 return _gauge_outcome(payload)
             if test == "scan_cal_block" and name == "VISION" and failure.command.name == "CALIBRATE":
+                assert isinstance(payload, Term)  # VISION(Reason)
                 return "too_few_pixels" if payload.args and payload.args[0] == "too_few_pixels" else "garbage"
             if test == "rescan_second_standoff" and failure.command.name == "RESCAN":
                 return "fails_again"
             return "not_run"                     # the test's own moves failed: nothing learnt
         last = report.outcomes[-1]
+        payload = last.reply.payload
         if test == "read_cal_block":
-            value = float(last.reply.payload.args[0])
+            assert isinstance(payload, Term)  # the block's reading: VALUE(V)
+            value = float(payload.args[0])
             block = CAL_STEP_MM
             if abs(value - block) <= CAL_TOLERANCE * block:
                 return "ok"
@@ -282,7 +286,8 @@ class TestBench:
                 return "doubled"
             return "garbage"
         if test == "check_couplant_station":
-            return "empty" if float(last.reply.payload.args[0]) < 5.0 else "ok"
+            assert isinstance(payload, Term)  # the station's level: LEVEL(Percent)
+            return "empty" if float(payload.args[0]) < 5.0 else "ok"
         return "ok"
 
     def _measure_again(self, test: str, situation: Situation, estimated_s: float, t0: float) -> TestRun:
