@@ -18,13 +18,14 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, SupportsFloat, cast
 
 import numpy as np
 from numpy.typing import ArrayLike
 
 from ita.archive import StoredFrame
 from ita.devices.data import ArmPath, MeasuredValue, ScanData, arm_paths
+from ita.logic.json_value import JsonObject, JsonValue
 from ita.vision.patches import View
 
 if TYPE_CHECKING:
@@ -46,11 +47,11 @@ _SCALARS = ("edge_points", "rim_rms", "pixel_mm", "mode", "datum", "rms", "edge_
 class MeasurementDetails:
     """details: spec id -> its JSON-ready details; frames: the plan's stored frames."""
 
-    details: Mapping[str, dict[str, Any]] = field(default_factory=dict)
+    details: Mapping[str, JsonObject] = field(default_factory=dict)
     frames: tuple[StoredFrame, ...] = ()
 
 
-def _plan(outcome: MeasureOutcome) -> dict[str, Any] | None:
+def _plan(outcome: MeasureOutcome) -> JsonObject | None:
     plan = outcome.plan
     if plan is None:
         return None
@@ -58,12 +59,12 @@ def _plan(outcome: MeasureOutcome) -> dict[str, Any] | None:
             "steps": [{"n": s.number, "text": s.text, "after": list(s.predecessors)} for s in plan.steps]}
 
 
-def _path(cmd: str, name: str, started: float | None, path: ArmPath) -> dict[str, Any]:
+def _path(cmd: str, name: str, started: float | None, path: ArmPath) -> JsonObject:
     return {"cmd": cmd, "name": name.lower(), "t0": started, "tool": path.tool, "times": list(path.times),
             "tcp": [list(p) for p in path.tcp], "q_end": list(path.q[-1]) if path.q else None}
 
 
-def _paths(outcome: MeasureOutcome, plan_no: int) -> list[dict[str, Any]]:
+def _paths(outcome: MeasureOutcome, plan_no: int) -> list[JsonObject]:
     report = outcome.report
     if report is None:
         return []
@@ -86,16 +87,20 @@ def _pixels(view: View, xy: ArrayLike, z: float) -> list[list[float]]:
     return [[round(float(r), 2), round(float(c), 2)] for r, c in rc if math.isfinite(r) and math.isfinite(c)]
 
 
-def _scalar(v: Any) -> Any:
+def _scalar(v: object) -> JsonValue:
+    """A diagnostic or reading value as a JSON scalar (a number rounded, an enum's text);
+    None for anything else."""
     if isinstance(v, (bool, int, str)) or v is None:
         return v
     if isinstance(v, float) or hasattr(v, "item"):
-        f = float(v)
+        f = float(cast(SupportsFloat, v))     # a float or a numpy scalar
         return round(f, 6) if math.isfinite(f) else None
-    return getattr(v, "value", None) if isinstance(getattr(v, "value", None), str) else None
+    value = getattr(v, "value", None)
+    return value if isinstance(value, str) else None
 
 
-def vision_overlay(frame: RangeFrame, placement: PartPlacement, spec: MeasurementSpec, value: MeasuredValue) -> dict[str, Any]:
+def vision_overlay(frame: RangeFrame, placement: PartPlacement, spec: MeasurementSpec, value: MeasuredValue
+                   ) -> JsonObject:
     """What Vision saw of `spec` in `frame` (a RangeFrame), in the frame's pixels (row,
     col): patch [r0, r1, c0, c1], rim and edge points, the fitted circle, the nominal
     point; and the reason when it failed."""
@@ -103,7 +108,7 @@ def vision_overlay(frame: RangeFrame, placement: PartPlacement, spec: Measuremen
     source = value.source
     diag = dict(getattr(source, "diagnostics", {}) or {})
     z = float(spec.point[2])
-    out: dict[str, Any] = {}
+    out: JsonObject = {}
     nominal = view.pixel_of(np.asarray([spec.point], dtype=float))[0]
     if np.all(np.isfinite(nominal)):
         out["nominal"] = [round(float(nominal[0]), 2), round(float(nominal[1]), 2)]
@@ -133,9 +138,9 @@ def vision_overlay(frame: RangeFrame, placement: PartPlacement, spec: Measuremen
     return out
 
 
-def _gauge(value: MeasuredValue) -> dict[str, Any]:
+def _gauge(value: MeasuredValue) -> JsonObject:
     src = value.source
-    out: dict[str, Any] = {"value": value.value, "u": value.u}
+    out: JsonObject = {"value": value.value, "u": value.u}
     for name in ("thickness_mm", "u_mm", "amplitude", "dwell_s", "probe", "coverage_k", "velocity_factor", "message"):
         if hasattr(src, name):
             out[name] = _scalar(getattr(src, name))
@@ -162,8 +167,8 @@ def measurement_details(session: Session, outcome: MeasureOutcome, *, plan_no: i
     missing is left out."""
     specs = session.specs
     main = outcome.spec_id
-    base: dict[str, Any] = {"tool": outcome.tool, "group": group, "plan_no": plan_no}
-    mine: dict[str, Any] = dict(base)
+    base: JsonObject = {"tool": outcome.tool, "group": group, "plan_no": plan_no}
+    mine: JsonObject = dict(base)
     plan = _plan(outcome)
     if plan is not None:
         mine["plan"] = plan
@@ -175,7 +180,7 @@ def measurement_details(session: Session, outcome: MeasureOutcome, *, plan_no: i
     for n, scan in enumerate(scans):
         if scan.frames:
             frames.append(StoredFrame.of(scan.frames[0], main, n, group=scan.group, frames_in_scan=len(scan.frames)))
-    details: dict[str, dict[str, Any]] = {main: mine}
+    details: dict[str, JsonObject] = {main: mine}
     values: list[MeasuredValue] = [v for v in (outcome.value, *outcome.others) if v is not None]
     placement = session.ctx.workcell.part
     for value in values:
@@ -185,8 +190,9 @@ def measurement_details(session: Session, outcome: MeasureOutcome, *, plan_no: i
             continue
         if scans and scans[-1].frames:
             try:
-                d["vision"] = vision_overlay(scans[-1].frames[0], placement, spec, value)
-                d["vision"]["frame"] = len(scans) - 1
+                overlay = vision_overlay(scans[-1].frames[0], placement, spec, value)
+                d["vision"] = overlay
+                overlay["frame"] = len(scans) - 1
             except Exception as exc:  # noqa: BLE001 - a picture must never cost a result
                 d["vision"] = {"error": f"{type(exc).__name__}: {exc}"}
         else:

@@ -18,7 +18,7 @@ values' own (:mod:`ita.toplevel.network`, :mod:`ita.toplevel.heights`): they are
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -27,6 +27,7 @@ from ita.devices.arm import RECOVER_SECONDS
 from ita.devices.stations import CAL_STEP_MM
 from ita.executive import LogKind
 from ita.executive.commands import term_text
+from ita.logic.json_value import JsonObject, JsonValue
 from ita.logic.terms import Term
 
 if TYPE_CHECKING:
@@ -94,7 +95,7 @@ def archive_events(report: ExecutionReport, plan_no: int) -> list[Event]:
         cmd = f"{plan_no}.{step}"
         if e.kind is LogKind.SEND:
             assert name is not None, "a SEND is a step's"
-            payload: dict[str, Any] = {"cmd": cmd, "name": name.lower(), "category": _CATEGORY.get(name, "other"),
+            payload: JsonObject = {"cmd": cmd, "name": name.lower(), "category": _CATEGORY.get(name, "other"),
                                        "message": term_text(e.payload)}
             if step in ends:
                 payload["end"] = ends[step]
@@ -147,7 +148,7 @@ def measurement_events(out: MeasureOutcome, group: int | None, plan_no: int) -> 
 
 
 def plan_events(plan: OperationPlan, report: ExecutionReport, spec_id: str | None, purpose: str, plan_no: int,
-                **start: Any) -> list[Event]:
+                **start: JsonValue) -> list[Event]:
     """The archive events of a plan (number `plan_no`) run for something other than a
     measurement's own round trip (a diagnosis' tests and repairs, a calibration): its
     start with `purpose` (and `start`'s entries), the executive's log, its end."""

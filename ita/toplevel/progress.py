@@ -10,7 +10,9 @@ from __future__ import annotations
 import time
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
+
+from ita.logic.json_value import JsonObject
 
 if TYPE_CHECKING:
     from ita.sequence.next_step import Step
@@ -84,7 +86,7 @@ class RunSummary:
     def cycle_s(self) -> float:
         return self.sim_end_s - self.sim_start_s
 
-    def to_dict(self) -> dict[str, Any]:
+    def to_dict(self) -> JsonObject:
         return {"run_id": self.run_id, "status": self.status, "done": self.done, "total": self.total,
                 "counts": dict(self.counts), "simulated_cycle_s": round(self.sim_end_s, 3),
                 "simulated_this_session_s": round(self.cycle_s, 3), "wall_s": round(self.wall_s, 3),

@@ -18,10 +18,11 @@ from __future__ import annotations
 from collections import Counter
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
 from ita.archive import Decision, Event, Outcome, Result, StoredFrame
 from ita.devices.data import MeasuredValue
+from ita.logic.json_value import JsonValue
 
 if TYPE_CHECKING:
     from ita.archive import Archive
@@ -41,7 +42,7 @@ class Attached:
     """What the archive keeps beside a result: its details (:mod:`ita.toplevel.details`)
     and its plan's stored range frames."""
 
-    details: Mapping[str, Any] | None = None
+    details: Mapping[str, JsonValue] | None = None
     frames: tuple[StoredFrame, ...] = ()
 
 
@@ -52,7 +53,7 @@ NOTHING_ATTACHED = Attached()
 def why_uncertain(result: Result, value: MeasuredValue | None) -> Result:
     """An uncertain result with why added to its reason: U over the tolerance zone and the
     largest term of the uncertainty budget its device reported (Vision's ``budget``:
-    term -> standard uncertainty, mm).  Any other result as it is."""
+    term -> standard uncertainty, mm).  Every other result as it is."""
     if result.decision is not Decision.UNCERTAIN or result.U is None:
         return result
     zone = result.upper - result.lower

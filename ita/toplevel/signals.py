@@ -22,7 +22,7 @@ import threading
 import time
 from collections.abc import Callable
 from types import FrameType
-from typing import TYPE_CHECKING, Any, TextIO
+from typing import TYPE_CHECKING, TextIO
 
 if TYPE_CHECKING:
     from ita.archive import Archive
@@ -48,7 +48,7 @@ class RunSignals:
         self.message = message
         self.poll_interval = poll_interval
         self._last_poll = 0.0
-        self._saved: dict[int, Callable[[int, FrameType | None], Any] | int | None] = {}
+        self._saved: dict[int, Callable[[int, FrameType | None], object] | int | None] = {}
 
     # -- signals ---------------------------------------------------------------------
     def __enter__(self) -> RunSignals:

@@ -6,7 +6,9 @@
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
+
+from ita.logic.json_value import JsonValue
 
 if TYPE_CHECKING:
     from ita.archive import Archive
@@ -16,7 +18,7 @@ __all__ = ["start_run"]
 
 
 def start_run(session: Session, archive: Archive, *, limit: int | None = None, run_id: str | None = None,
-              settings: Mapping[str, Any] | None = None) -> str:
+              settings: Mapping[str, JsonValue] | None = None) -> str:
     """Register a new run of the session's part in `archive`: the measurements it sets out
     to do are the first `limit` of the sequence plan (all by default), plus those the plan
     cannot do (recorded as such).  run_id: the id to give it (the System Monitor names the
