@@ -219,6 +219,26 @@ def test_vision_measures_while_the_next_plan_moves_the_arm(knowledge_base, slra_
     assert slow.started[2][0] == pytest.approx(16.1)      # waits for the vision stream (7.1 + 9)
 
 
+def test_a_plan_that_fails_while_another_stream_finishes_the_plan_before_reports_where_each_stood(
+        knowledge_base, slra_plan):
+    """Vision still measures the first plan's image when the second plan's first arm step
+    fails: the failure says where each stream of the second plan stood (vision: nothing of
+    it started), and the executive goes on to the next plan."""
+    arm = FakeDevice(lookahead=True, durations={"MOVE": 2.0, "RETRACT": 0.1})
+    vision = FakeDevice(durations={"SCAN": 3.0, "MEASURE": 9.0})
+    ex = executive(knowledge_base, arm, vision)
+    first = ex.execute(slra_plan, start_s=0.0)
+    assert first.ok and ex.settled() == pytest.approx(16.1)
+    arm.exceptions[1] = Term("BUMP", ("link_3", "bulkhead"))
+    second = ex.execute(slra_plan, start_s=first.finished_s)
+    failure = second.failure
+    assert failure is not None and failure.step.number == 1 and failure.at_s == pytest.approx(7.2)
+    positions = {p.stream: p for p in failure.streams}
+    assert positions[SLRA].running is None and positions[SLRA].done == ()
+    assert positions[SLRA].pending == (4, 5) and failure.cancelled == (2, 3, 4, 5)
+    assert ex.execute(slra_plan, start_s=second.finished_s).failure is not None   # step 1 still bumps
+
+
 def test_a_failing_measure_is_no_trailing_command(knowledge_base, slra_plan):
     arm, vision = devices(exceptions={5: Term("VISION", ("out_of_view",))})
     ex = executive(knowledge_base, arm, vision)

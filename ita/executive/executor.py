@@ -29,7 +29,7 @@ import math
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from enum import Enum
-from typing import TYPE_CHECKING, Any, Protocol, TypeAlias, Union
+from typing import TYPE_CHECKING, Protocol, TypeAlias, Union
 
 from ita.executive.adapters import DeviceAdapter
 from ita.executive.commands import (
@@ -242,6 +242,7 @@ class _Stream:
     adapter: DeviceAdapter
     next_item: int = 0
     running: Command | None = None
+    busy: bool = False              # still running a trailing command of the plan before
     started_s: float = 0.0
     blocked: Wait | None = None
     done: list[int] = field(default_factory=list)
@@ -252,7 +253,7 @@ class _Stream:
 
     @property
     def finished(self) -> bool:
-        return self.running is None and self.next_item >= len(self.items)
+        return self.running is None and not self.busy and self.next_item >= len(self.items)
 
     def position(self) -> StreamPosition:
         pending = tuple(i.step for i in self.items[self.next_item:] if isinstance(i, Command))
@@ -263,8 +264,8 @@ class _Stream:
         )
 
 
-_Pending = tuple[float, int, int, Command, Reply | None]   # a reply (None: a time-out) due
-_BUSY: Any = object()     # a stream still running a trailing command of a plan before
+# a reply (None: a time-out) due; no command: a stream's trailing command of the plan before ends
+_Pending = tuple[float, int, int, Command | None, Reply | None]
 _Failed = tuple[FailureKind, _Stream, Command, Reply]      # why, where, what, the reply
 _Log = Callable[..., None]
 
@@ -326,8 +327,8 @@ def run_streams(
         for run in runs:
             free_at = busy_until.get(str(run.commands.stream), -math.inf)
             if free_at > now:                       # still busy with the last plan's trailing command
-                run.running = _BUSY
-                heapq.heappush(pending, (free_at, run.index, -1, _BUSY, None))
+                run.busy = True
+                heapq.heappush(pending, (free_at, run.index, -1, None, None))
             commands = [i for i in run.items if isinstance(i, Command)]
             if commands and not run.adapter.lookahead and commands[-1].step not in waited:
                 trailing.add(commands[-1].step)
@@ -337,12 +338,12 @@ def run_streams(
         their replies as their steps' and end the plan now; whether it did (see the docstring)."""
         if busy_until is None or not pending:
             return False
-        live = [p for p in pending if p[3] is not _BUSY]
+        live = [(at, index, step, command, reply) for at, index, step, command, reply in pending
+                if command is not None]
         if not live or any(p[2] not in trailing or p[4] is None or p[4].kind is not ReplyKind.NORMAL
                            or p[3].result_of(p[4].payload) is None for p in live):
             return False
-        if any(r.next_item < len(r.items) or (r.running is not None and r.running is not _BUSY
-                                               and r.running.step not in trailing) for r in runs):
+        if any(r.next_item < len(r.items) or (r.running is not None and r.running.step not in trailing) for r in runs):
             return False
         for at, index, step, command, reply in sorted(live):
             assert reply is not None  # every live one was answered (checked above)
@@ -356,8 +357,7 @@ def run_streams(
             run.running = None
             busy_until[str(run.commands.stream)] = at
         for run in runs:
-            if run.running is _BUSY:
-                run.running = None
+            run.busy = False
         pending.clear()
         return True
 
@@ -371,8 +371,8 @@ def run_streams(
             clock.advance(now - clock.now)
         while pending and pending[0][0] == now:  # simultaneous replies are all taken
             _, index, _, command, reply = heapq.heappop(pending)
-            if command is _BUSY:                 # the stream's trailing command of a plan before is over
-                runs[index].running = None
+            if command is None:                  # the stream's trailing command of a plan before is over
+                runs[index].busy = False
                 continue
             found = _receive(runs[index], command, reply, now, completed, outcomes, log)
             failure_info = failure_info or found  # the first failure, in stream order, stops the plan
@@ -392,8 +392,7 @@ def run_streams(
     cancelled: list[int] = []
     for run in runs:
         run.adapter.stop(now)
-        if run.running is _BUSY:
-            run.running = None
+        run.busy = False
         if run.running is not None and run is not failed:
             log(LogKind.CANCELLED, run, run.running.step, "aborted")
             cancelled.append(run.running.step)
@@ -414,7 +413,7 @@ def run_streams(
 def _advance(run: _Stream, now: float, completed: set[int], pending: list[_Pending], log: _Log) -> None:
     """Let an idle stream go on at `now`: through satisfied WAITs, up to the next command
     sent or the first unsatisfied WAIT."""
-    while run.running is None and run.next_item < len(run.items):
+    while run.running is None and not run.busy and run.next_item < len(run.items):
         item = run.items[run.next_item]
         if isinstance(item, Wait):
             if run.blocked is not item:
