@@ -98,7 +98,9 @@ case "$action" in
     run)   exec "$venv/bin/ita" inspect "$@" ;;
     test)
         set +e
-        "$venv/bin/python" -m pytest "$@"
+        # two workers (pytest-xdist), each file's tests on one of them (module fixtures and a
+        # plunit file run once); `-n 0` runs them in this process
+        "$venv/bin/python" -m pytest -n 2 --dist loadfile "$@"
         rc=$?
         # pytest exits 5 when no test was collected: that is a failure for us too.
         exit $rc ;;

@@ -195,7 +195,7 @@ def test_start_stop_continue_from_the_page(site, builtin_part) -> None:
     run_id = b.current_url.rsplit("/", 1)[-1]
     _wait(b, "return Number((document.getElementById('live-done') || {}).textContent || 0) >= 2", 240)
     b.find_element("id", "btn-stop").click()
-    _wait(b, "return document.getElementById('control-msg').textContent", 10)
+    _wait(b, "return document.getElementById('control-msg').textContent", 30)
     assert b.find_element("id", "control-msg").text == "STOP sent"
     _wait(b, "return (document.getElementById('live-state') || {}).textContent === 'stopped'", 60)
     with Archive.open(archive_path(site["runs"])) as a:
