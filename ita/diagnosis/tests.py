@@ -203,7 +203,7 @@ class TestBench:
                       "rescan_second_standoff": "slra_tool", "measure_reference_feature": "slra_tool"}.get(test)
         place = {"read_cal_block": "cal_block", "scan_cal_block": "cal_block",
                  "check_couplant_station": "couplant_station"}.get(test)
-        held = self.session.world.held
+        held = self.session.held
         setup = 0.0
         tool = held
         if need_class is not None:
@@ -219,19 +219,19 @@ class TestBench:
             return 0.0
         slot = self.session.ctx.workcell.slot_of(tool).name
         q = self.session.mkb.rack.get(slot)
-        return 0.0 if q is None else float(move_time(self.session.world.model, self.session.world.q, q))
+        return 0.0 if q is None else float(move_time(self.session.arm_model, self.session.joints, q))
 
     def _move_s(self, place: str, tool: str | None) -> float:
         try:
             q = self.session.reasoner.station(place, tool).q
         except KeyError:
             return math.inf
-        return 2.0 * float(move_time(self.session.world.model, self.session.world.q, q))
+        return 2.0 * float(move_time(self.session.arm_model, self.session.joints, q))
 
     # -- running ----------------------------------------------------------------------------
     def run(self, test: str, situation: Situation, estimated_s: float = 0.0) -> TestRun:
         """Make `test` in the cell now; its outcome (see the module docstring)."""
-        clock = self.session.world.clock
+        clock = self.session.clock
         t0 = clock.now
         if test == "compare_neighbours":
             return self._compare(situation, estimated_s, t0)
@@ -327,7 +327,7 @@ class TestBench:
         return TestRun(test, outcome, estimated_s, t0, out.t1, out.state, out.plan, out.report, out.reason or "")
 
     def _compare(self, situation: Situation, estimated_s: float, t0: float) -> TestRun:
-        clock = self.session.world.clock
+        clock = self.session.clock
         clock.advance(self.seconds.get("compare_neighbours", 0.1))
         values = list(self.neighbours(situation.spec_id))
         reading = situation.reading

@@ -121,7 +121,7 @@ def measure_one(session: Session, spec_id: str, state: WorldState, tool: str) ->
     module docstring).  The simulated clock ends at the plan's end."""
 
     spec = session.specs[spec_id]
-    clock = session.world.clock
+    clock = session.clock
     t0 = clock.now
     problem = placement_problem(session, spec_id, tool)
     if problem is not None:
@@ -139,7 +139,7 @@ def execute_measurement(session: Session, spec_id: str, tool: str, plan: Operati
                         ) -> MeasureOutcome:
     """Run `plan` (a measurement's plan, planned or repaired) from `t0` (default now) and
     read its value back: the second half of :func:`measure_one`."""
-    clock = session.world.clock
+    clock = session.clock
     t0 = clock.now if t0 is None else t0
     report = session.executive.execute(plan, start_s=t0)
     if clock.now < report.finished_s:
@@ -177,7 +177,7 @@ def execute_goals(session: Session, goals: Sequence[TermValue], state: WorldStat
         plan = session.planner.plan_goals(goals, state, name=name)
     except NoPlanError as exc:
         return None, None, state, f"no plan: {exc.reason}"
-    clock = session.world.clock
+    clock = session.clock
     report = session.executive.execute(plan, start_s=clock.now)
     if clock.now < report.finished_s:
         clock.advance(report.finished_s - clock.now)

@@ -20,6 +20,8 @@ from ita.devices import ArmDevice, GaugeCommands, PersonDevice, SlraDevice
 from ita.devices.stations import StationCommands
 from ita.executive import PlanExecutive
 from ita.geometry import GeometricReasoner
+from ita.kinematics import ArmModel
+from ita.kinematics.fk import FloatArray
 from ita.logic.bridge import KnowledgeBase
 from ita.offline.prepare import prepare_inspection
 from ita.part.specfile import check_measurable
@@ -95,6 +97,16 @@ class Session:
     def held(self) -> str | None:
         """The tool the arm holds now (None: none)."""
         return self.world.held
+
+    @property
+    def joints(self) -> FloatArray:
+        """The arm's joint positions now, as its controller reports them (rad)."""
+        return self.world.q
+
+    @property
+    def arm_model(self) -> ArmModel:
+        """The arm's kinematic model (from the workcell's URDF)."""
+        return self.world.model
 
     def planned_tool(self, spec_id: str) -> str | None:
         """The tool the prepared sequence plan takes `spec_id` with (None: not planned)."""

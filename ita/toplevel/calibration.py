@@ -63,7 +63,7 @@ class ProbeCalibration:
     def calibrate(self, probe: str, state: WorldState) -> WorldState:
         """Read the calibration block with `probe` (module docstring); the state after."""
         self.calibrated.add(probe)
-        clock = self.session.world.clock
+        clock = self.session.clock
         t0 = clock.now
         plan: OperationPlan | None
         report: ExecutionReport | None

@@ -122,9 +122,9 @@ class TopLevel:
         each measurement and at the end."""
         s = self.session
         last = self.archive.last_sim_time(self.run_id) or 0.0
-        if s.world.clock.now < last:
-            s.world.clock.advance(last - s.world.clock.now)
-        started = Started(time.perf_counter(), s.world.clock.now, len(self.results.done))
+        if s.clock.now < last:
+            s.clock.advance(last - s.clock.now)
+        started = Started(time.perf_counter(), s.clock.now, len(self.results.done))
         plan = replace(s.plan, handed_out=tuple(i for g in s.plan.groups for i in g.order if self._skipped(i)))
         state = WorldState(arm=the_arm(s.kb))
         status = RunStatus.COMPLETED
@@ -142,7 +142,7 @@ class TopLevel:
                 result = next_step(s.ctx, plan)
                 plan = result.plan
                 if result.resequenced:
-                    self.archive.record_event(self.run_id, sequence_event(result.reason, plan, s.world.clock.now))
+                    self.archive.record_event(self.run_id, sequence_event(result.reason, plan, s.clock.now))
                 step = result.step
                 if step is None:
                     break
@@ -159,7 +159,7 @@ class TopLevel:
                     break
         except StopNow:
             status = RunStatus.STOPPED
-        end_t = max(s.world.clock.now, s.executive.settled())     # the last trailing Vision reply too
+        end_t = max(s.clock.now, s.executive.settled())     # the last trailing Vision reply too
         if status is RunStatus.COMPLETED:
             self._finish()
         done, total = len(self.results.done), len(self.todo)
@@ -198,7 +198,7 @@ class TopLevel:
 
     def _progress(self, started: Started, step: Step | None, status: str) -> Progress:
         return progress(self.run_id, started, done=len(self.results.done), total=len(self.todo), step=step,
-                        status=status, sim_s=self.session.world.clock.now, exceptions=self.exceptions,
+                        status=status, sim_s=self.session.clock.now, exceptions=self.exceptions,
                         counts=self.results.counts)
 
     # -- one step ------------------------------------------------------------------------------

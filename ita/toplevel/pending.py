@@ -118,7 +118,7 @@ class HeldPositions:
                         sim_time_end=p.t1, reason=f"from its own frame: the network was not solved ({exc})"),
                         [], self.kept.pop(p.spec_id, NOTHING_ATTACHED))
                 continue
-            self.archive.record_event(self.run_id, network_event(key, solution, self.session.world.clock.now))
+            self.archive.record_event(self.run_id, network_event(key, solution, self.session.clock.now))
             for r in decided:
                 self.pending.pop(r.spec_id, None)
                 self.results.record(r, [], self.kept.pop(r.spec_id, NOTHING_ATTACHED))
