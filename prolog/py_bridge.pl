@@ -1,5 +1,6 @@
 :- module(py_bridge,
           [ py_run/5,                   % +Module, +Goal, +Reported, +Limit, -Reply
+            attached/3,                 % +Name, +Args, -Result
             load_source_files/2,        % +Files, -Diagnostics
             file_module/2               % +File, -Module
           ]).
@@ -18,6 +19,16 @@ reported variables in each solution, or `error(MessageString, GoalString)` when 
 goal raised an exception.  Prolog strings come back to Python as plain strings,
 like atoms.
 
+The other direction: attached/3 is how Prolog calls Python.  A goal
+`attached(Name, Args, Result)` is answered by the Python function that the ITA
+process attached under Name for the duration of its call (`KnowledgeBase.attached()`,
+ita/logic/attached.py).  The arguments go to Python as text written like a reply and
+read by the same tokenizer; the solutions come back as terms that Python builds with
+the C interface, as it builds its goals.  The Python side is the foreign predicate
+py_attached_call/3, which bridge.py registers in this module when it starts Prolog:
+in any other process (a plain `swipl`, the sandbox of `ita kb query`) there is none,
+and attached/3 raises an existence error.
+
 load_source_files/2 loads files while a message hook collects every error and warning
 with its file, line and column; on any error it unloads the whole batch again, so a
 caller never works with a half-loaded knowledge base.
@@ -33,6 +44,7 @@ caller never works with a half-loaded knowledge base.
 
 :- multifile user:message_hook/3.
 :- dynamic user:message_hook/3.
+:- multifile prolog:error_message//1.
 
 %   While load_source_files/2 runs in this thread, errors and warnings are recorded
 %   (and not printed); at all other times the hook lets messages through untouched.
@@ -117,6 +129,46 @@ error_reply(Error, GoalText, error(Message, GoalText)) :-
 %   (The other options that matter, dotlists(false), portray(false),
 %   character_escapes(true) and max_depth(0), are the defaults.)
 reply_options([quoted(true), ignore_ops(true), brace_terms(false), numbervars(false)]).
+
+
+                 /*******************************
+                 *     ATTACHED PROCEDURES      *
+                 *******************************/
+
+%!  attached(+Name:atom, +Args:list, -Result) is nondet.
+%
+%   Result is a solution of the Python procedure attached under Name, called on the
+%   terms of Args.  A semidet procedure has no solution or one, a nondet one any number;
+%   they are computed together before the first is returned, so no choice point is
+%   left after the last.  Unbound variables of Args reach Python as variables that it
+%   cannot bind: Result is the only output.  Raises
+%   `existence_error(attached_procedure, Name/N)`, N the length of Args, when no
+%   procedure Name is attached for the goals of this thread (or in a process that is
+%   not ITA's), `attached_procedure_error(Name/N, PythonType, Message)` when the
+%   Python function raised an exception, and
+%   `permission_error(call, attached_procedure, outside_a_bridge_call)` when called
+%   by a thread that Prolog started rather than by a goal that Python runs.
+
+attached(Name, Args, Result) :-
+    must_be(atom, Name),
+    must_be(list, Args),
+    (   current_predicate(py_attached_call/3)
+    ->  reply_options(Options),
+        format(string(Text), "~W", [Args, Options]),
+        py_attached_call(Name, Text, Solutions),
+        member(Result, Solutions)
+    ;   length(Args, Arity),
+        existence_error(attached_procedure, Name/Arity)
+    ).
+
+prolog:error_message(existence_error(attached_procedure, Name/Arity)) -->
+    [ 'No attached procedure ~w/~w: none of that name is attached for the goals of this thread'-
+      [Name, Arity] ].
+prolog:error_message(attached_procedure_error(Name/Arity, Type, Message)) -->
+    [ 'Attached procedure ~w/~w raised ~w: ~w'-[Name, Arity, Type, Message] ].
+prolog:error_message(permission_error(call, attached_procedure, outside_a_bridge_call)) -->
+    [ 'Attached procedures answer only the goals that Python runs through the bridge, \c
+       in the thread that runs them (not a thread that Prolog started)' ].
 
 
                  /*******************************

@@ -40,6 +40,23 @@ test(bad_limit_refused, true(Reply = error(_, _))) :-
 test(bad_module_refused, true(Reply = error(_, _))) :-
     reply(_, true, [], all, Reply).
 
+% In a process without Python (this one, the sandbox of `ita kb query`) no procedure
+% is attached: the Python side, py_attached_call/3, is not there.
+test(attached_without_python_is_an_existence_error,
+     error(existence_error(attached_procedure, double/1))) :-
+    attached(double, [1], _).
+
+test(attached_name_must_be_an_atom, error(type_error(atom, "double"))) :-
+    attached("double", [1], _).
+
+test(attached_args_must_be_a_list, error(type_error(list, 1))) :-
+    attached(double, 1, _).
+
+test(attached_existence_error_message,
+     true(sub_string(Message, 0, _, _, "No attached procedure double/1"))) :-
+    catch(attached(double, [1], _), Error, true),
+    message_text(Error, Message).
+
 test(load_reports_syntax_error_and_unloads,
      [ setup(tmp_file_stream(text, File, S)), cleanup(delete_file(File)),
        true(Line-Loaded == 2-false) ]) :-

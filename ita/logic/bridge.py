@@ -14,13 +14,31 @@ the goal is built term by term through SWI-Prolog's C interface and handed to
 with quotes or spaces is just an atom.  Answers come back as quoted text that
 :func:`ita.logic.terms.read_term` decodes.
 
+Prolog calls Python the other way, through attached procedures (ita.logic.attached):
+``py_bridge:attached(Name, Args, Result)`` is answered by the Python function that
+:meth:`KnowledgeBase.attached` attached under ``Name`` for the duration of a ``with``
+block, in the thread that entered it::
+
+    with kb.attached({"double": lambda x: 2 * x}):
+        kb.once("py_bridge", "attached", "double", [21], Var("R"))   # {'R': 42}
+
+Its Python side is one foreign predicate, ``py_bridge:py_attached_call/3``, registered
+here through ctypes: the arguments arrive as text that Prolog wrote and read_term
+reads, the solutions go back as terms built with the C interface, like a goal's
+arguments.  An exception of the function becomes a Prolog exception naming the
+procedure; nothing escapes the C callback.
+
 SWI-Prolog can be initialised only once per process and has one global database, so the
 engine is necessarily a process-wide singleton.  It is created on first use by
 :func:`_engine` under a lock and kept out of sight; a :class:`KnowledgeBase` is the
 explicit handle the rest of the code passes around.  Every query runs under the
-engine's lock (pyswip's "query open" state is shared by all threads) and is closed
-before the lock is released; a thread other than the one that initialised Prolog
-borrows a Prolog engine for the duration of its call.
+engine's lock, a re-entrant one, and is closed before the lock is released: an
+attached procedure may run goals of its own in the same thread, each a query that
+SWI-Prolog nests inside the one that called it (``PL_call_predicate`` from a foreign
+predicate) and closes before it returns, so queries open and close in LIFO order;
+another thread waits for the outermost call to end.  A thread other than the one
+that initialised Prolog borrows a Prolog engine for the duration of its outermost
+call.
 """
 
 from __future__ import annotations
@@ -28,12 +46,14 @@ from __future__ import annotations
 import ctypes
 import math
 import threading
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
+from contextlib import AbstractContextManager
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TypeAlias, cast
 
 from ita.errors import KBLoadError, Location, PrologError
 from ita.logic import sandbox
+from ita.logic.attached import AttachedProcedures, Procedure
 from ita.logic.model import Diagnostic, PredicateDoc, ProofNode, QueryResult, Severity
 from ita.logic.pldoc import doc_comments
 from ita.logic.sandbox import SandboxFiles
@@ -58,6 +78,7 @@ _BRIDGE_MODULES = frozenset(Path(f).stem for f in _BRIDGE_FILES)
 # SWI-Prolog.h constants used with PL_get_nchars / PL_put_chars.
 _PL_ATOM = 2
 _PL_STRING = 6
+_CVT_ATOM = 0x0001
 _CVT_STRING = 0x0002
 _BUF_STACK = 0x00010000
 _REP_UTF8 = 0x00100000
@@ -131,11 +152,27 @@ class _Engine:
         self._attach_engine = _cfunc(lib["PL_thread_attach_engine"], int_, [ctypes.c_void_p])
         self._destroy_engine = _cfunc(lib["PL_thread_destroy_engine"], int_, [])
         self._predicate = _cfunc(lib["PL_predicate"], ctypes.c_void_p, [char_p, int_, char_p])
+        self._unify = _cfunc(lib["PL_unify"], int_, [size_t, size_t])
+        self._raise_exception = _cfunc(lib["PL_raise_exception"], int_, [size_t])
         self._length = size_t()
         self._chars = char_p()
         self._length_ref = ctypes.byref(self._length)
         self._chars_ref = ctypes.byref(self._chars)
+        #: the procedures attached by each thread (see ita.logic.attached)
+        self.procedures = AttachedProcedures()
+        #: per thread: how deep it is in run(), and the exceptions attached procedures
+        #: raised during its runs (each run takes those raised while it ran)
+        self._calls = threading.local()
         self._bootstrap()
+        # py_bridge:py_attached_call/3, the Python side of py_bridge:attached/3; the
+        # ctypes callback is kept here, for as long as Prolog may call it
+        self._attached_callback = _FOREIGN_3(self._answer_attached)
+        register = _cfunc(lib["PL_register_foreign_in_module"], int_,
+                          [char_p, char_p, int_, ctypes.c_void_p, int_])
+        if not register(b"py_bridge", b"py_attached_call", 3,
+                        ctypes.cast(self._attached_callback, ctypes.c_void_p), 0):
+            raise KBLoadError([(Location(str(resource_dir("prolog") / _BRIDGE_FILES[0])),
+                                "cannot register py_bridge:py_attached_call/3")])
 
     def _bootstrap(self) -> None:
         """Load the bridge's own Prolog files; fail loudly if they did not load."""
@@ -163,23 +200,49 @@ class _Engine:
                                 f"bridge self-test failed: {reply!r}")])
 
     def run(self, module: str, name: str, args: Sequence[TermValue], limit: int | None
-            ) -> tuple[tuple[str, ...], TermValue]:
+            ) -> tuple[tuple[str, ...], list[list[TermValue]]]:
         """``py_bridge:py_run/5`` on ``module:name(args...)``: the names of the reported
-        variables (sorted), and the decoded reply (a list of value lists, one per
-        solution, or an ``error(Message, GoalText)`` term)."""
+        variables (sorted), and the values of each in each solution.
+
+        Raises :class:`~ita.errors.PrologError` when the goal raised; when an attached
+        procedure's exception caused that, the Python exception is its ``__cause__``.
+        Re-entrant: an attached procedure may run goals, in the same thread, while
+        its caller's goal runs (SWI-Prolog nests the queries; each is closed before
+        the one that called it goes on).  Other threads wait for the engine's lock.
+        """
+        calls = self._calls
         with self._lock:
-            borrowed = self._thread_self() == -1
+            depth = getattr(calls, "depth", 0)
+            if depth == 0:
+                calls.raised = []
+            raised: list[tuple[str, BaseException]] = calls.raised
+            mark = len(raised)
+            borrowed = depth == 0 and self._thread_self() == -1
             if borrowed and self._attach_engine(None) < 0:
                 raise PrologError("py_run", "cannot attach a Prolog engine to this thread")
+            calls.depth = depth + 1
             try:
                 names, text = self._run(module, name, args, limit)
             finally:
+                calls.depth = depth
                 if borrowed:
                     self._destroy_engine()
+                mine = raised[mark:]
+                del raised[mark:]
+        for _, exc in mine:
+            if not isinstance(exc, Exception):  # KeyboardInterrupt, SystemExit: not Prolog's to catch
+                raise exc
+        goal = f"{module}:{name}/{len(args)}"
         try:
-            return names, read_term(text)
+            reply = read_term(text)
         except ValueError as exc:
-            raise PrologError(f"{module}:{name}/{len(args)}", f"cannot read the reply: {exc}") from None
+            raise PrologError(goal, f"cannot read the reply: {exc}") from None
+        if type(reply) is not list:
+            assert isinstance(reply, Term)  # py_run/5 replies the solutions or error(Message, GoalText)
+            message, goal_text = reply.args
+            cause = next((exc for text, exc in reversed(mine) if text in message), None)
+            raise PrologError(goal_text or goal, message) from cause
+        return names, cast("list[list[TermValue]]", reply)  # one list of values per solution
 
     def _run(self, module: str, name: str, args: Sequence[TermValue], limit: int | None
              ) -> tuple[tuple[str, ...], str]:
@@ -222,6 +285,73 @@ class _Engine:
             return names, ctypes.string_at(self._chars, self._length.value).decode("utf-8")
         finally:
             self._discard_frame(fid)
+
+    def _answer_attached(self, name_ref: int, text_ref: int, out_ref: int) -> int:
+        """``py_bridge:py_attached_call(+Name, +ArgsText, -Solutions)``, called by Prolog.
+
+        Runs the procedure attached under Name in this thread on the arguments (the
+        text of a list, as py_run/5 writes its replies) and unifies Solutions with
+        the list of its solutions, built as terms.  Whatever goes wrong becomes a
+        Prolog exception: nothing may escape a ctypes callback.
+        """
+        try:
+            if getattr(self._calls, "depth", 0) == 0:
+                # not inside run() of this thread (a thread Prolog started, say): the
+                # engine's state is not ours to touch, the lock not held
+                return self._raise_constant(
+                    "error(permission_error(call, attached_procedure, outside_a_bridge_call), _)")
+            name = self._text(name_ref, _CVT_ATOM)
+            args = read_term(self._text(text_ref, _CVT_STRING))
+            if not isinstance(args, list):
+                raise TypeError(f"the arguments are not a list: {args!r}")
+            indicator = Term("/", (name, len(args)))
+            procedure = self.procedures.find(name)
+            if procedure is None:
+                return self._raise_term(Term("error", (
+                    Term("existence_error", ("attached_procedure", indicator)), Var("_"))))
+            try:
+                solutions = self.procedures.solutions(procedure, args)
+                result = self._new_term_ref()
+                ok = self._put_nil(result)
+                head = self._new_term_ref()
+                for solution in reversed(solutions):
+                    self._put(head, solution, {})  # each solution has variables of its own
+                    ok = ok and self._cons_list(result, head, result)
+                if not ok:
+                    raise PrologError("py_bridge", "cannot build the list of solutions")
+            except BaseException as exc:  # noqa: BLE001 - every exception goes back to Prolog
+                kind = type(exc).__name__
+                self._calls.raised.append((f"{name}/{len(args)} raised {kind}", exc))
+                return self._raise_term(Term("error", (
+                    Term("attached_procedure_error", (indicator, kind, Str(str(exc) or kind))),
+                    Var("_"))))
+            return int(self._unify(out_ref, result))
+        except BaseException as exc:  # noqa: BLE001 - a failure of the bridge itself
+            depth: int = getattr(self._calls, "depth", 0)
+            if depth and not isinstance(exc, Exception):
+                self._calls.raised.append(("", exc))  # a KeyboardInterrupt goes on in Python
+            return self._raise_constant(
+                "error(resource_error(python_bridge), _)" if isinstance(exc, MemoryError)
+                else "error(system_error(attached_procedure_call_failed), _)")
+
+    def _text(self, ref: int, flags: int) -> str:
+        """The text of the atom or string in `ref`."""
+        if not self._get_nchars(ref, self._length_ref, self._chars_ref, flags | _REP_UTF8 | _BUF_STACK):
+            raise ValueError("not text")
+        return ctypes.string_at(self._chars, self._length.value).decode("utf-8")
+
+    def _raise_term(self, value: TermValue) -> int:
+        """Raise the Prolog exception `value` (built as data) from a foreign predicate."""
+        ref = self._new_term_ref()
+        self._put(ref, value, {})
+        return int(self._raise_exception(ref))
+
+    def _raise_constant(self, text: str) -> int:
+        """Raise the exception that constant `text` (never data) reads as."""
+        ref = self._new_term_ref()
+        if not self._chars_to_term(text.encode("ascii"), ref):
+            return 0
+        return int(self._raise_exception(ref))
 
     def _atom(self, text: str) -> int:
         """The handle of atom `text`, from the cache or made (and registered) now."""
@@ -318,6 +448,11 @@ class _Engine:
         return int(self._chars_to_term(text.encode("ascii"), ref))
 
 
+#: The C type of a deterministic foreign predicate of arity 3:
+#: ``foreign_t f(term_t, term_t, term_t)`` (foreign_t and term_t are uintptr_t).
+_FOREIGN_3 = ctypes.CFUNCTYPE(ctypes.c_size_t, ctypes.c_size_t, ctypes.c_size_t, ctypes.c_size_t)
+
+
 def _cfunc(function: Any, restype: Any, argtypes: list[Any]) -> Any:
     """`function` of libswipl with its C signature declared."""
     function.restype = restype
@@ -385,12 +520,7 @@ class KnowledgeBase:
             raise ValueError(f"limit must be positive, got {limit}")
         if not (isinstance(module, str) and isinstance(name, str)):
             raise TypeError(f"module and name must be str, got {module!r} and {name!r}")
-        names, reply = self._engine.run(str.__str__(module), str.__str__(name), args, limit)
-        if type(reply) is not list:
-            assert isinstance(reply, Term)  # py_run/5 replies the solutions or error(Message, GoalText)
-            message, goal_text = reply.args
-            raise PrologError(goal_text or f"{module}:{name}/{len(args)}", message)
-        rows = cast("list[list[TermValue]]", reply)  # one list of values per solution
+        names, rows = self._engine.run(str.__str__(module), str.__str__(name), args, limit)
         return [dict(zip(names, values)) for values in rows]
 
     def once(self, module: str, name: str, *args: TermValue) -> Solution | None:
@@ -409,6 +539,27 @@ class KnowledgeBase:
         if solution is None:
             raise PrologError(f"{module}:{name}/{len(args)}", "failed where it always succeeds")
         return solution
+
+    def attached(self, procedures: Mapping[str, Procedure]) -> AbstractContextManager[None]:
+        """Attach Python functions as the answers of ``py_bridge:attached(Name, Args,
+        Result)`` for the goals this thread runs until the ``with`` block ends::
+
+            with kb.attached({"double": lambda x: 2 * x, "divisors": nondet(divisors)}):
+                kb.call("my_module", "uses_them", Var("X"))
+
+        `procedures` maps each name to a function of the terms of ``Args`` that returns
+        one solution or None (semidet), or to :func:`ita.logic.attached.nondet` of a
+        function that returns an iterable of solutions.  Solutions are any
+        :data:`~ita.logic.terms.TermValue`, passed to Prolog as data, as call arguments
+        are.  A function may itself call this knowledge base (in this thread: another
+        thread waits until the outer call is over, so a function must not wait for a
+        thread that calls Prolog).  An exception it raises is a Prolog exception
+        naming the procedure, then the outer call's :class:`~ita.errors.PrologError`,
+        whose ``__cause__`` is the exception.  An inner block may attach a name
+        again; the outer function is back when it ends.  Other threads, and the
+        sandbox of :meth:`run_user_query`, see none of these procedures.
+        """
+        return self._engine.procedures.scope(procedures)
 
     # -- the kb commands -----------------------------------------------------------
 
