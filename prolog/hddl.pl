@@ -855,9 +855,20 @@ ancestor(Types, T, A, Visited) :-
 %   added.  Reading counts against the time limit.
 
 hddl_solve(DomainFile, ProblemFile, Options, Result) :-
+    get_time(T0),
     read_hddl(DomainFile, ProblemFile, hddl_task(Module, State, Tasks, Goal)),
-    merge_options([goal(Goal)], Options, PlanOptions),
-    htn_plan(Module, State, Tasks, PlanOptions, Result).
+    (   select_option(time_limit(Limit), Options, Options1)
+    ->  get_time(T1),
+        Left is max(0, Limit - (T1 - T0)),
+        Options2 = [time_limit(Left)|Options1]
+    ;   Options2 = Options
+    ),
+    merge_options([goal(Goal)], Options2, PlanOptions),
+    htn_plan(Module, State, Tasks, PlanOptions, Result0),
+    (   Result0 = no_plan(time_limit(_)), nonvar(Limit)
+    ->  Result = no_plan(time_limit(Limit))
+    ;   Result = Result0
+    ).
 
 %!  solve_cli is det.
 %

@@ -128,7 +128,8 @@ network_entry(Entry, t(Id, Task)) :-
 
 limits(Options, limits(Deadline, Seconds, MaxNodes)) :-
     (   option(time_limit(Seconds), Options)
-    ->  must_be(nonneg, Seconds),
+    ->  must_be(number, Seconds),
+        (   Seconds >= 0 -> true ; domain_error(nonneg_seconds, Seconds) ),
         get_time(Now),
         Deadline is Now + Seconds
     ;   Deadline = inf, Seconds = inf

@@ -27,6 +27,7 @@ COMMANDS: dict[str, str] = {
     "plan": "ita.cli.plan:plan",
     "macrop": "ita.cli.plan:macrop",
     "pddl": "ita.cli.pddl:pddl",
+    "htn": "ita.cli.htn:htn",
     "path": "ita.cli.path:path",
     "runs": "ita.cli.runs:runs",
     "results": "ita.cli.results:results",
