@@ -33,6 +33,7 @@ COMMANDS: dict[str, str] = {
     "results": "ita.cli.results:results",
     "report": "ita.cli.report:report",
     "inspect": "ita.cli.inspect:inspect",
+    "tasks": "ita.cli.inspect:tasks",
     "continue": "ita.cli.inspect:continue_",
     "monitor": "ita.cli.inspect:monitor",
     "measure": "ita.cli.measure:measure",

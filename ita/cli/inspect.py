@@ -175,10 +175,12 @@ def _closing(session: Any) -> Iterator[Any]:
 @click.option("--network/--no-network", default=True, show_default=True,
               help="Decide the fastener holes' positions by a network adjustment of the SLRA frames of each "
                    "face (pending until the face's last position frame), instead of each on its own frame.")
+@click.option("--task", "job", default="inspect_part", show_default=True, metavar="NAME",
+              help="The job to run: a job of kb/tasks.pl, planned by the HTN planner (`ita tasks` lists them).")
 @reports_errors
 def inspect(part_dir: Path | None, limit: int | None, seed: int, runs_dir: Path | None, as_json: bool,
             fault_rate: float, fault_kinds: str | None, scripts: tuple[str, ...], run_id: str | None,
-            alarm_after: int | None, network: bool) -> None:
+            alarm_after: int | None, network: bool, job: str) -> None:
     """Inspect the part (in the simulated workcell): every measurement of the sequence
     plan, planned, executed, measured and recorded in the runs archive as it is made.
 
@@ -197,16 +199,21 @@ def inspect(part_dir: Path | None, limit: int | None, seed: int, runs_dir: Path 
       2  bad input (part, specs, options)
     """
     from ita.archive import Archive, archive_path
+    from ita.logic.bridge import KnowledgeBase
     from ita.sim.inject import InjectionPlan
     from ita.task import open_session
-    from ita.toplevel import start_run
+    from ita.toplevel import jobs, start_run
 
     injection = InjectionPlan.parse(fault_rate, fault_kinds, scripts, seed)   # bad options fail before any work
     view = LiveView()
+    known = [name for name, _ in jobs(KnowledgeBase())]
+    if job not in known:
+        raise click.BadParameter(f"no job {job!r} in kb/tasks.pl (the jobs: {', '.join(known)})",
+                                 param_hint="--task")
     session = open_session(part_dir, seed=seed, progress=lambda m: view.note(f"{m} ..."))
     with _closing(session):
         with Archive.open(archive_path(runs_dir)) as archive:
-            settings: dict[str, Any] = {"network": network}
+            settings: dict[str, Any] = {"network": network, "task": job}
             if alarm_after is not None:
                 settings["alarm_after"] = alarm_after
             if injection.active:
@@ -312,3 +319,16 @@ def monitor(run: str, send: str | None, once: bool, interval: float, runs_dir: P
                 time.sleep(interval)
             except KeyboardInterrupt:
                 return
+
+
+@click.command("tasks")
+@reports_errors
+def tasks() -> None:
+    """List the jobs the Top Level can run (`ita inspect --task NAME`): the jobs of
+    kb/tasks.pl, each a task network the HTN planner decomposes (docs/architecture.md,
+    "Top Level", says how to add one)."""
+    from ita.logic.bridge import KnowledgeBase
+    from ita.toplevel import jobs
+
+    for name, description in jobs(KnowledgeBase()):
+        click.echo(f"{name:<16} {description}")

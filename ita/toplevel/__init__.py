@@ -7,7 +7,9 @@
         run_id = start_run(session, archive, limit=12)
         summary = TopLevel(session, archive, run_id, signals).run(on_progress=print)
 
-Modules: :mod:`~ita.toplevel.loop` (the sequence-level loop and its step),
+Modules: :mod:`~ita.toplevel.loop` (the run: its job of kb/tasks.pl planned by the HTN
+planner, the plan's actions carried out), :mod:`~ita.toplevel.agenda` (an HTN plan being
+carried out, planned again where an outcome differs),
 :mod:`~ita.toplevel.start` (registering a run), :mod:`~ita.toplevel.progress` (the live
 view's progress, the run's summary), :mod:`~ita.toplevel.recording` (results to the
 archive, the failures-in-a-row alarm), :mod:`~ita.toplevel.pending` (results held for a
@@ -22,7 +24,7 @@ measure` and the Exception Handler (:mod:`ita.diagnosis`) below this level.
 """
 
 from ita.toplevel.events import archive_events
-from ita.toplevel.loop import TopLevel
+from ita.toplevel.loop import TopLevel, job_tasks, jobs
 from ita.toplevel.progress import Progress, RunSummary
 from ita.toplevel.signals import RunSignals, StopNow
 from ita.toplevel.start import start_run
@@ -34,5 +36,7 @@ __all__ = [
     "StopNow",
     "TopLevel",
     "archive_events",
+    "job_tasks",
+    "jobs",
     "start_run",
 ]

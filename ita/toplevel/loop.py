@@ -1,23 +1,35 @@
-"""The Top Level: the sequence-level loop of an inspection run.
+"""The Top Level: an inspection run carried out as the plan of a high-level planner.
 
     session = open_session(part_dir, seed=1)                 # prepares first if needed
     run_id = start_run(session, archive, limit=12)
     summary = TopLevel(session, archive, run_id, signals).run(on_progress=show)
 
-The loop (seed, "Top Level"): the next measurement from the Sequence Planner
-(``next_step``: resources checked, resequencing when a tool is gone); a plan for it from
-the Operation Planner with the tool the Sequence Planner chose (MACROP lookup first), from
-the world state the previous plan left; its execution by the Plan Executive on the
-devices (ita.devices), the Geometric Reasoner resolving the plan's qualitative poses from
-the MKB (one round trip: :func:`ita.task.measure.measure_one`); the result to the
-archive the moment it exists, with the plan's events, in one transaction
-(:mod:`ita.toplevel.recording`).  An exception reply or a time-out: the Exception Handler
-(:mod:`ita.toplevel.handling`) diagnoses it, puts the cell right and measures again; a
-measurement still not done is recorded so with the reason, the world state is taken from
-the steps that did complete, the arm is freed if it is stuck, and the loop goes on.  A
-measurement the Geometric Reasoner could not place, or that the Sequence Planner put in
-its cannot-be-done group, is recorded cannot-be-done.  A probe reads the calibration
-block before its first reading (:mod:`ita.toplevel.calibration`).
+The seed's wish for its hard-coded Top Level, "a high-level planner that can call on
+special-purpose functions such as the current sequence planner as tools", is what this
+is: the job (kb/tasks.pl, ``inspect_part``) is planned by the HTN planner
+(prolog/htn.pl) from the run's state, and the Top Level carries out the plan's
+primitive tasks one by one (:mod:`ita.toplevel.agenda`).  The planner asks the Top
+Level's tools through attached procedures: the Sequence Planner's next measurement from
+a position of the sequence plan (``next_step``: resources checked, resequencing when a
+tool is gone), whether a measurement is still to do, whether a probe reads the
+calibration block first.  Before each action its preconditions are checked again; an
+action whose preconditions no longer hold (a measurement another's frame measured
+meanwhile, a record after a failed reading) has its task planned again from there, and
+an outcome that makes the rest of the plan wrong (an interrupt, a STOP, the alarm, a
+recovery that changed the world model) has everything left planned again.
+
+The primitive tasks: a measurement's round trip (the Operation Planner's plan with the
+tool the Sequence Planner chose, MACROP lookup first, from the world state the previous
+plan left; its execution by the Plan Executive on the devices, the Geometric Reasoner
+resolving the plan's qualitative poses from the MKB: :func:`ita.task.measure.measure_one`);
+the Exception Handler on a failure (:mod:`ita.toplevel.handling`: it diagnoses, puts
+the cell right and measures again); the result to the archive the moment it exists,
+with the plan's events, in one transaction (:mod:`ita.toplevel.recording`); a probe's
+reading of the calibration block before its first reading
+(:mod:`ita.toplevel.calibration`); pending results settled.  A measurement still not
+done is recorded so with the reason, the world state taken from the steps that did
+complete.  A measurement the Geometric Reasoner could not place, or that the Sequence
+Planner put in its cannot-be-done group, is recorded cannot-be-done.
 
 SLRA view groups: a frame taken for one measurement serves every member of its view
 group (the MKB); the members' results are recorded as soon as Vision has them, and the
@@ -31,10 +43,11 @@ thickness of its webs the run still has to measure; each is decided when the las
 what it waits for is done, and a run that completes decides everything left.
 `ita continue` reads them back and does not measure them again.
 
-Between measurements the loop obeys INTERRUPT (leave after the current plan, status
-INTERRUPTED) and STOP (raised at once as StopNow, status STOPPED), from Ctrl-C or from
-the archive's control table (`ita monitor`); so many measurements not done in a row
-stop it with an alarm.  A run is continued (`ita continue`) by skipping every spec the
+Before each measurement the Top Level reads the control table: INTERRUPT (leave after
+the current measurement, status INTERRUPTED) and STOP (raised at once as StopNow,
+status STOPPED), from Ctrl-C or from `ita monitor`; so many measurements not done in a
+row stop it with an alarm.  Each is a fact of the plan's state, and the job's methods
+end the run accordingly.  A run is continued (`ita continue`) by skipping every spec the
 archive has a result for: nothing is measured twice, nothing is lost.
 """
 
@@ -47,9 +60,15 @@ from typing import TYPE_CHECKING
 
 from ita.archive import Outcome, RunStatus
 from ita.archive.timeline import breakdown, intervals, span
+from ita.errors import PrologError
+from ita.logic.attached import Procedure
+from ita.logic.bridge import KnowledgeBase
+from ita.logic.terms import Term, TermValue, Var
+from ita.logic.world import WorldModel
 from ita.planning.state import WorldState
 from ita.sequence.next_step import Step, next_step, the_arm
 from ita.task.measure import MeasureOutcome, MeasureStatus, measure_one
+from ita.toplevel.agenda import Action, Agenda, Facts, with_facts
 from ita.toplevel.calibration import ProbeCalibration
 from ita.toplevel.details import MeasurementDetails, measurement_details
 from ita.toplevel.events import (
@@ -76,7 +95,28 @@ if TYPE_CHECKING:
     from ita.archive import Archive, Event
     from ita.task.session import Session
 
-__all__ = ["MAX_FAILURES_IN_A_ROW", "Progress", "RunSummary", "TopLevel", "start_run"]
+__all__ = ["JOB", "MAX_FAILURES_IN_A_ROW", "Progress", "RunSummary", "TASKS", "TopLevel", "job_tasks", "jobs",
+           "start_run"]
+
+#: the knowledge base module of the Top Level's jobs (kb/tasks.pl) and the default job
+TASKS = "tasks"
+JOB = "inspect_part"
+#: the actions that begin a measurement: the control table is read before the first of them
+_POLL_BEFORE = frozenset({"note_resequence", "calibrate_probe", "measure"})
+
+
+def jobs(kb: KnowledgeBase) -> list[tuple[str, str]]:
+    """The jobs of kb/tasks.pl: (name, description), in the order written."""
+    return [(str(r["N"]), str(r["D"])) for r in kb.call(TASKS, "job", Var("N"), Var("_T"), Var("D"))]
+
+
+def job_tasks(kb: KnowledgeBase, name: str) -> list[TermValue]:
+    """The task network of job `name` (kb/tasks.pl job/3); PrologError when there is none."""
+    found = kb.once(TASKS, "job", name, Var("T"), Var("_D"))
+    tasks = None if found is None else found["T"]
+    if not isinstance(tasks, list):
+        raise PrologError(f"{TASKS}:job/3", f"no job {name!r} (ita tasks lists them)")
+    return list(tasks)
 
 
 class TopLevel:
@@ -95,6 +135,7 @@ class TopLevel:
         self.session = session
         self.archive = archive
         self.run_id = run_id
+        self.job = str(info.settings.get("task", JOB))
         self.signals = signals or RunSignals(message=None)
         ids = info.settings.get("specs")
         self.todo: list[str] = list(ids) if ids is not None else list(session.specs)
@@ -110,6 +151,8 @@ class TopLevel:
         self.exceptions = 0
         self.frames = 0
         self.diagnoses = 0
+        self._remade: dict[int, str] = {}          # sequence plan position -> why it was remade there
+        self._left: dict[int, list[TermValue]] = {}
 
     def _skipped(self, spec_id: str) -> bool:
         """Whether the loop passes `spec_id` by: recorded, waiting, or not the run's."""
@@ -125,43 +168,52 @@ class TopLevel:
         if s.clock.now < last:
             s.clock.advance(last - s.clock.now)
         started = Started(time.perf_counter(), s.clock.now, len(self.results.done))
-        plan = replace(s.plan, handed_out=tuple(i for g in s.plan.groups for i in g.order if self._skipped(i)))
-        state = WorldState(arm=the_arm(s.kb))
-        status = RunStatus.COMPLETED
-        alarm = ""
-        current: Step | None = None
-        try:
-            for spec_id, reason in s.plan.cannot:
-                if spec_id in self.todo_set and spec_id not in self.results.done:
-                    self.results.unmeasured(spec_id, Outcome.CANNOT_BE_DONE, reason)
-            while True:
-                self.signals.poll(self.archive, self.run_id)
-                if self.signals.interrupt:
-                    status = RunStatus.INTERRUPTED
-                    break
-                result = next_step(s.ctx, plan)
-                plan = result.plan
-                if result.resequenced:
-                    self.archive.record_event(self.run_id, sequence_event(result.reason, plan, s.clock.now))
-                step = result.step
-                if step is None:
-                    break
-                if self._skipped(step.spec_id):
+        self._cursors = [replace(s.plan, handed_out=tuple(i for g in s.plan.groups for i in g.order
+                                                          if self._skipped(i)))]
+        self._next: dict[int, TermValue | None] = {}
+        self._state = WorldState(arm=the_arm(s.kb))
+        self._outcomes: dict[str, tuple[Step, MeasureOutcome, list[Event], int]] = {}
+        self._steps: dict[str, Step] = {}
+        self._status = RunStatus.COMPLETED
+        self._alarm = ""
+        self._current: Step | None = None
+        self._on_progress = on_progress
+        self._started = started
+        facts: Facts = {}
+        agenda = self.agenda = Agenda(s.kb, TASKS)
+        procedures: dict[str, Procedure] = {"next_measurement": self._next_measurement, "nothing_left": self._nothing_left,
+                                            "to_measure": self._to_measure,
+                                            "calibration_due": self._calibration_due}
+        with s.kb.attached(procedures):
+            agenda.plan(job_tasks(s.kb, self.job), facts)
+            polled = False
+            while (action := agenda.next()) is not None:
+                try:
+                    if not polled and action.name in _POLL_BEFORE:
+                        polled = True
+                        self.signals.poll(self.archive, self.run_id)
+                        if self.signals.interrupt:
+                            facts = with_facts(facts, ["interrupted"])
+                            agenda.replan_rest(facts)
+                            continue
+                    if not agenda.applicable(action, facts):
+                        if not agenda.replan_parent(facts):
+                            agenda.replan_rest(facts)
+                        continue
+                    observed, rest_wrong = self._carry_out(action)
+                except StopNow:
+                    facts = with_facts(facts, ["stopped"])
+                    self._status = RunStatus.STOPPED
+                    agenda.replan_rest(facts)
                     continue
-                current = step
-                state = self._measure(step, state)
-                self.pending.settle()
-                if on_progress is not None:
-                    on_progress(self._progress(started, current, "measuring"))
-                alarm = self.failures.alarm
-                if alarm:
-                    status = RunStatus.STOPPED
-                    break
-        except StopNow:
-            status = RunStatus.STOPPED
+                facts = with_facts(agenda.done(action, facts), observed)
+                if action.name == "settle_pending":
+                    polled = False
+                if rest_wrong:
+                    self._next.clear()          # the Sequence Planner's answers are of the world before
+                    agenda.replan_rest(facts)
         end_t = max(s.clock.now, s.executive.settled())     # the last trailing Vision reply too
-        if status is RunStatus.COMPLETED:
-            self._finish()
+        status, alarm, current = self._status, self._alarm, self._current
         done, total = len(self.results.done), len(self.todo)
         self.archive.set_status(self.run_id, status, event=run_end_event(
             status, end_t, reason=alarm or self.signals.reason or None, done=done, total=total))
@@ -179,17 +231,6 @@ class TopLevel:
             on_progress(self._progress(started, current, status.value))
         return summary
 
-    def _finish(self) -> None:
-        """A completed run: decide everything pending; what the Sequence Planner no longer
-        hands out is recorded not done (a view group's frame could not measure it) or
-        cannot be done."""
-        self.pending.settle(final=True)
-        for spec_id in [i for i in self.todo if i not in self.results.done and not self.pending.waiting(i)]:
-            if spec_id in self.failed_in_others:
-                self.results.unmeasured(spec_id, Outcome.NOT_DONE, self.failed_in_others[spec_id])
-            else:
-                self.results.unmeasured(spec_id, Outcome.CANNOT_BE_DONE, "not handed out by the sequence planner")
-
     def breakdown(self) -> dict[str, float]:
         """The run's cycle-time breakdown from its recorded events (ita.archive.timeline)."""
         events = self.archive.events(self.run_id)
@@ -201,36 +242,144 @@ class TopLevel:
                         status=status, sim_s=self.session.clock.now, exceptions=self.exceptions,
                         counts=self.results.counts)
 
-    # -- one step ------------------------------------------------------------------------------
-    def _measure(self, step: Step, state: WorldState) -> WorldState:
-        """Measure one step (and its view group's other members) and record it; a failure
-        goes to the Exception Handler, which diagnoses it, puts the cell right and takes
-        the measurement again.  The new state."""
-        state = self.calibration.before(step.spec_id, step.tool, state)
-        out = measure_one(self.session, step.spec_id, state, step.tool)
-        if out.status is MeasureStatus.CANNOT_BE_DONE:
-            self.results.unmeasured(step.spec_id, Outcome.CANNOT_BE_DONE, out.reason or "", tool=step.tool)
-            return out.state
-        if out.plan is None:
-            self.results.unmeasured(step.spec_id, Outcome.NOT_DONE, out.reason or "", tool=step.tool, t0=out.t0,
-                                    t1=out.t1)
-            return out.state
+    # -- the attached procedures: the Sequence Planner and the run's state, asked by the plan --
+    def _next_measurement(self, cursor: TermValue) -> TermValue | None:
+        """next(step(Spec, Tool, Group, Resequenced), Next): the Sequence Planner's next
+        measurement after position `cursor` of the sequence plan that the run still has
+        to do (those it has are handed out and passed by, as the seed's loop did), the
+        positions where it remade the plan on the way, and the position after it; None
+        (the goal fails) when nothing is left.  Remembered per position until the world
+        changes."""
+        k = int(str(cursor))
+        if k not in self._next:
+            plan = self._cursors[k]
+            remade: list[TermValue] = []
+            answer: TermValue | None = None
+            while True:
+                result = next_step(self.session.ctx, plan)
+                plan = result.plan
+                self._cursors.append(plan)
+                here = len(self._cursors) - 1
+                if result.resequenced:
+                    remade.append(here)
+                    self._remade[here] = result.reason or ""
+                step = result.step
+                if step is None:
+                    self._left[k] = remade
+                    break
+                if self._skipped(step.spec_id):
+                    continue
+                self._steps[step.spec_id] = step
+                answer = Term("next", (Term("step", (step.spec_id, step.tool, step.group, remade)), here))
+                break
+            self._next[k] = answer
+        return self._next[k]
+
+    def _nothing_left(self, cursor: TermValue) -> TermValue | None:
+        """The positions where the plan was remade, when nothing is left after `cursor`."""
+        if self._next_measurement(cursor) is not None:
+            return None
+        return list(self._left[int(str(cursor))])
+
+    def _to_measure(self, spec_id: TermValue) -> TermValue | None:
+        return None if self._skipped(str(spec_id)) else "true"
+
+    def _calibration_due(self, spec_id: TermValue, tool: TermValue) -> TermValue | None:
+        return "true" if self.calibration.due(str(spec_id), str(tool)) else None
+
+    def _world(self) -> tuple[tuple[str, str, str], ...]:
+        """The world model's tools, their conditions and locations (what a recovery changes)."""
+        world = WorldModel(self.session.kb)
+        return tuple((t, world.condition(t), str(world.location(t))) for t in world.tools())
+
+    # -- the plan's actions -----------------------------------------------------------------------
+    def _carry_out(self, action: Action) -> tuple[list[TermValue], bool]:
+        """Carry out one primitive task of the plan (kb/tasks.pl); the facts observed (to add
+        to the plan's state) and whether the rest of the plan is wrong now."""
+        name, args = action.name, [str(a) for a in action.args]
+        s = self.session
+        if name == "record_unplaceable":
+            for spec_id, reason in s.plan.cannot:
+                if spec_id in self.todo_set and spec_id not in self.results.done:
+                    self.results.unmeasured(spec_id, Outcome.CANNOT_BE_DONE, reason)
+        elif name == "note_resequence":
+            k = int(args[0])
+            self.archive.record_event(self.run_id, sequence_event(self._remade[k], self._cursors[k], s.clock.now))
+        elif name == "calibrate_probe":
+            self._state = self.calibration.calibrate(args[0], self._state)
+        elif name == "measure":
+            return self._measure(self._steps[args[0]]), False
+        elif name == "handle_exception":
+            before = self._world()
+            self._handle(args[0])
+            return [], self._world() != before
+        elif name == "record":
+            self._conclude(args[0])
+        elif name == "settle_pending":
+            self.pending.settle()
+            if self._on_progress is not None:
+                self._on_progress(self._progress(self._started, self._current, "measuring"))
+            self._alarm = self.failures.alarm
+            if self._alarm:
+                return ["alarm"], True
+        elif name == "decide_pending":
+            self.pending.settle(final=True)
+        elif name == "record_leftovers":
+            for spec_id in [i for i in self.todo if i not in self.results.done and not self.pending.waiting(i)]:
+                if spec_id in self.failed_in_others:
+                    self.results.unmeasured(spec_id, Outcome.NOT_DONE, self.failed_in_others[spec_id])
+                else:
+                    self.results.unmeasured(spec_id, Outcome.CANNOT_BE_DONE, "not handed out by the sequence planner")
+        elif name == "end_run":
+            self._status = RunStatus(args[0])
+        else:
+            raise PrologError(f"{TASKS}:operator/4", f"the Top Level has no action {action.term}")
+        return [], False
+
+    def _measure(self, step: Step) -> list[TermValue]:
+        """Measure one step (and its view group's other members); the facts observed:
+        ``failed(Spec)`` when the round trip ended in an exception (the plan then has the
+        Exception Handler diagnose it, put the cell right and measure again)."""
+        self._current = step
+        out = measure_one(self.session, step.spec_id, self._state, step.tool)
+        if out.status is MeasureStatus.CANNOT_BE_DONE or out.plan is None:
+            self._outcomes[step.spec_id] = (step, out, [], 0)
+            return []
         plan_no = self.plans.next()
         events = measurement_events(out, step.group, plan_no)
         if any(e.kind == "command" and e.payload.get("name") == "scan" for e in events):
             self.frames += 1
+        self._outcomes[step.spec_id] = (step, out, events, plan_no)
         if out.status is not MeasureStatus.MEASURED and out.report is not None and not out.report.ok:
             self.exceptions += 1
-            handled = self.handle(out)
-            if handled is not None:
-                self.diagnoses += 1
-                events += diagnosis_events(handled, self.plans)
-                if handled.outcome.report is not None:
-                    plan_no = self.plans.last
-                out = replace(handled.outcome, others=out.others + handled.outcome.others)
+            return [Term("failed", (step.spec_id,))]
+        return []
+
+    def _handle(self, spec_id: str) -> None:
+        """The Exception Handler on the failed measurement of `spec_id`."""
+        step, out, events, plan_no = self._outcomes[spec_id]
+        handled = self.handle(out)
+        if handled is not None:
+            self.diagnoses += 1
+            events += diagnosis_events(handled, self.plans)
+            if handled.outcome.report is not None:
+                plan_no = self.plans.last
+            out = replace(handled.outcome, others=out.others + handled.outcome.others)
+        self._outcomes[spec_id] = (step, out, events, plan_no)
+
+    def _conclude(self, spec_id: str) -> None:
+        """Record the measurement of `spec_id` as it ended (module docstring)."""
+        step, out, events, plan_no = self._outcomes.pop(spec_id)
+        self._state = out.state
+        if out.status is MeasureStatus.CANNOT_BE_DONE:
+            self.results.unmeasured(step.spec_id, Outcome.CANNOT_BE_DONE, out.reason or "", tool=step.tool)
+            return
+        if out.plan is None:
+            self.results.unmeasured(step.spec_id, Outcome.NOT_DONE, out.reason or "", tool=step.tool, t0=out.t0,
+                                    t1=out.t1)
+            return
         extra = measurement_details(self.session, out, plan_no=plan_no, group=step.group)
         self._record(step, out, events, extra)
-        return out.state
 
     def _record(self, step: Step, out: MeasureOutcome, events: list[Event], extra: MeasurementDetails) -> None:
         """Record the step's result (or hold it pending) and those of its view group's
