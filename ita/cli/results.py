@@ -37,9 +37,12 @@ def _signed(x: float | None, digits: int = 4) -> str:
 @click.option("--csv", "as_csv", is_flag=True, help="Print CSV (every column, a header line first) instead of a table.")
 @click.option("--failed", is_flag=True, help="Only results not proven to conform: does not conform, "
               "uncertain, not done, cannot be done.")
+@click.option("--qif", "qif_file", type=click.Path(path_type=Path),
+              help="Write every result as one QIF 3.0 results document to this file (atomically) instead "
+                   "of printing them.")
 @reports_errors
 def results(run: str, runs_dir: Path | None, part_dir: Path | None, as_json: bool, as_csv: bool,
-            failed: bool) -> None:
+            failed: bool, qif_file: Path | None) -> None:
     """List the results of RUN (an id, a unique prefix of one, or "last").
 
     Per result: kind, tool, nominal, measured value, deviation, tolerance, expanded
@@ -49,11 +52,23 @@ def results(run: str, runs_dir: Path | None, part_dir: Path | None, as_json: boo
     conform.  Millimetres throughout.  --csv and --json carry every column (also the
     limits, u, k, position in the band, times and the spec's point).  With --part, RUN
     must be a run of that part ("last": its last run).
+
+    --qif FILE writes the run as a QIF 3.0 results document (ISO 23952) for a quality
+    system: per result its characteristic (definition with the tolerance, nominal,
+    item named by the spec id), feature, device and measurement (value with its
+    uncertainty, status PASS, FAIL, INDETERMINATE or NOT_ANALYZED), the overall
+    inspection status from the part's verdict, and the run's traceability.  The part's
+    specs (of --part, else of the run's part) give the features' directions.
     """
     from ita.report.data import COLUMNS
 
     if as_json and as_csv:
         raise click.UsageError("--json and --csv exclude each other")
+    if qif_file is not None:
+        if as_json or as_csv or failed:
+            raise click.UsageError("--qif writes every result to its file: it excludes --json, --csv and --failed")
+        _write_qif(run, runs_dir, part_dir, qif_file)
+        return
     with open_archive(runs_dir) as archive:
         run_id = resolve_run(archive, run, part_dir)
         rows = [result_dict(r) for r in archive.results(run_id, failed_only=failed)]
@@ -83,3 +98,17 @@ def results(run: str, runs_dir: Path | None, part_dir: Path | None, as_json: boo
     for line in (header, *table):
         click.echo("  ".join(c.rjust(w) if i in right else c.ljust(w)
                              for i, (c, w) in enumerate(zip(line, widths))).rstrip())
+
+
+def _write_qif(run: str, runs_dir: Path | None, part_dir: Path | None, qif_file: Path) -> None:
+    from ita.files.atomic import output_path
+    from ita.qif.results import export_run
+
+    output_path(qif_file, what="--qif")  # refuse before the work, not after
+    with open_archive(runs_dir) as archive:
+        run_id = resolve_run(archive, run, part_dir)
+        done = export_run(archive, run_id, qif_file, part_dir=part_dir)
+    for warning in done.warnings:
+        click.echo(f"warning: {warning}", err=True)
+    click.echo(f"{done.path}: QIF 3.0 results of run {done.run_id} ({done.results} results, "
+               f"inspection status {done.inspection_status})")
