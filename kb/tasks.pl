@@ -56,6 +56,8 @@ runs it and `ita tasks` lists them.
 
 job(inspect_part, [inspect_part],
     'measure every measurement of the run once, in the sequence plan\'s order (the default)').
+job(reinspect, [reinspect],
+    'measure again what a run (--from RUN) left unproven: uncertain, does not conform, not done').
 
 %!  operator(?Head, ?Pre:list, ?Del:list, ?Add:list) is nondet.
 %
@@ -79,6 +81,10 @@ operator(end_run(Status),           [], [], [ended(Status)]).
 % -- a whole part -----------------------------------------------------------------------
 method(in_sequence, inspect_part, [],
        [record_unplaceable, measure_rest(0), close_run]).
+
+% -- what a run left unproven: the run holds those measurements alone ----------------------
+method(in_sequence, reinspect, [],
+       [measure_rest(0), close_run]).
 
 % -- the measurements still to do, from a position (Cursor) of the sequence plan ---------
 method(halted, measure_rest(_Cursor), [or([[interrupted], [stopped], [alarm]])], []).

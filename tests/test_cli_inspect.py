@@ -56,3 +56,63 @@ def test_continue_unknown_run(finished_run) -> None:
     runs, _, _ = finished_run
     result = CliRunner().invoke(main, ["continue", "no-such-run", "--runs-dir", str(runs)])
     assert result.exit_code == 2 and "no run" in result.stderr
+
+
+def test_reinspect_measures_again_exactly_the_unproven_results_of_a_run(tmp_path, builtin_part) -> None:
+    """A run whose results conform, are uncertain, do not conform, were not done or cannot
+    be done: `--task reinspect --from RUN` makes a new run of the uncertain, the
+    nonconforming and the not done alone, each measured once."""
+    from ita.archive import Archive, Outcome, Result, archive_path
+    from ita.specs.io import read_specs
+
+    runs = tmp_path / "runs"
+    specs = [s for s in read_specs(builtin_part.specs_path) if s.kind.value == "web_thickness"][:6]
+    with Archive.open(archive_path(runs)) as archive:
+        source = archive.create_run(builtin_part.name, builtin_part.directory, seed=0, total=len(specs))
+        a, b, c, d, e, f = specs
+        archive.record_result(source, Result.measured(a, a.nominal, 0.001))
+        archive.record_result(source, Result.measured(b, b.nominal, 0.001))
+        archive.record_result(source, Result.measured(c, c.nominal + c.upper, 0.01))       # uncertain
+        archive.record_result(source, Result.measured(d, d.nominal + 3 * d.upper, 0.001))  # does not conform
+        archive.record_result(source, Result.unmeasured(e, Outcome.NOT_DONE, "dry couplant"))
+        archive.record_result(source, Result.unmeasured(f, Outcome.CANNOT_BE_DONE, "no tool"))
+    again = CliRunner().invoke(main, ["inspect", "--task", "reinspect", "--from", source, "--runs-dir", str(runs),
+                                      "--json"])
+    assert again.exit_code == 0, again.output
+    summary = json.loads(again.stdout)
+    with Archive.open(archive_path(runs)) as archive:
+        info = archive.run(summary["run_id"])
+        results = archive.results(summary["run_id"])
+    assert info.settings["task"] == "reinspect" and info.settings["from"] == source
+    assert sorted(r.spec_id for r in results) == sorted([c.id, d.id, e.id]) and summary["total"] == 3
+    assert all(r.outcome is Outcome.MEASURED for r in results)
+    refused = CliRunner().invoke(main, ["inspect", "--task", "reinspect", "--runs-dir", str(runs)])
+    assert refused.exit_code == 2 and "--from RUN" in refused.output
+
+
+@pytest.mark.slow
+def test_reinspect_measures_again_exactly_what_a_run_left_unproven(tmp_path, builtin_part) -> None:
+    """A run with faults injected leaves some results not done (or uncertain); `--task
+    reinspect --from RUN` makes a new run of those alone, and measures each once."""
+    from ita.archive import Archive, archive_path
+    from ita.toplevel import unproven
+
+    runs = tmp_path / "runs"
+    first = CliRunner().invoke(main, ["inspect", "--limit", "6", "--faults", "0.6", "--seed", "5", "--alarm-after",
+                                      "0", "--runs-dir", str(runs), "--json"])
+    assert first.exit_code == 0, first.output
+    source = json.loads(first.stdout)["run_id"]
+    with Archive.open(archive_path(runs)) as archive:
+        left = unproven(archive, source)
+    assert left, "the faults left nothing unproven: pick a rate that does"
+    again = CliRunner().invoke(main, ["inspect", "--task", "reinspect", "--from", source, "--runs-dir", str(runs),
+                                      "--json"])
+    assert again.exit_code == 0, again.output
+    summary = json.loads(again.stdout)
+    with Archive.open(archive_path(runs)) as archive:
+        info = archive.run(summary["run_id"])
+        results = archive.results(summary["run_id"])
+    assert info.settings["task"] == "reinspect" and info.settings["from"] == source
+    assert sorted(r.spec_id for r in results) == sorted(left) and summary["total"] == len(left)
+    refused = CliRunner().invoke(main, ["inspect", "--task", "reinspect", "--runs-dir", str(runs)])
+    assert refused.exit_code == 2 and "--from RUN" in refused.output

@@ -177,10 +177,13 @@ def _closing(session: Any) -> Iterator[Any]:
                    "face (pending until the face's last position frame), instead of each on its own frame.")
 @click.option("--task", "job", default="inspect_part", show_default=True, metavar="NAME",
               help="The job to run: a job of kb/tasks.pl, planned by the HTN planner (`ita tasks` lists them).")
+@click.option("--from", "from_run", default=None, metavar="RUN",
+              help="With --task reinspect: the run whose unproven results (uncertain, does not conform, not "
+                   "done) to measure again; the new run holds those alone.")
 @reports_errors
 def inspect(part_dir: Path | None, limit: int | None, seed: int, runs_dir: Path | None, as_json: bool,
             fault_rate: float, fault_kinds: str | None, scripts: tuple[str, ...], run_id: str | None,
-            alarm_after: int | None, network: bool, job: str) -> None:
+            alarm_after: int | None, network: bool, job: str, from_run: str | None) -> None:
     """Inspect the part (in the simulated workcell): every measurement of the sequence
     plan, planned, executed, measured and recorded in the runs archive as it is made.
 
@@ -202,7 +205,7 @@ def inspect(part_dir: Path | None, limit: int | None, seed: int, runs_dir: Path 
     from ita.logic.bridge import KnowledgeBase
     from ita.sim.inject import InjectionPlan
     from ita.task import open_session
-    from ita.toplevel import jobs, start_run
+    from ita.toplevel import jobs, start_run, unproven
 
     injection = InjectionPlan.parse(fault_rate, fault_kinds, scripts, seed)   # bad options fail before any work
     view = LiveView()
@@ -210,15 +213,32 @@ def inspect(part_dir: Path | None, limit: int | None, seed: int, runs_dir: Path 
     if job not in known:
         raise click.BadParameter(f"no job {job!r} in kb/tasks.pl (the jobs: {', '.join(known)})",
                                  param_hint="--task")
+    if (job == "reinspect") != (from_run is not None):
+        raise click.UsageError("--from RUN goes with --task reinspect, and reinspect needs it")
+    specs: list[str] | None = None
+    source: str | None = None
+    if from_run is not None:
+        with Archive.open(archive_path(runs_dir), create=False) as old:
+            source = old.resolve(from_run)
+            specs = unproven(old, source)
+            source_part = old.run(source).part
+        if not specs:
+            click.echo(f"run {source}: every result is proven to conform; nothing to measure again")
+            return
     session = open_session(part_dir, seed=seed, progress=lambda m: view.note(f"{m} ..."))
     with _closing(session):
+        if source is not None and session.part.name != source_part:
+            raise click.UsageError(f"run {source} inspected part {source_part}, not {session.part.name} "
+                                   "(give its part with --part)")
         with Archive.open(archive_path(runs_dir)) as archive:
             settings: dict[str, Any] = {"network": network, "task": job}
+            if source is not None:
+                settings["from"] = source
             if alarm_after is not None:
                 settings["alarm_after"] = alarm_after
             if injection.active:
                 settings["faults"] = injection.to_dict()
-            run_id = start_run(session, archive, limit=limit, run_id=run_id, settings=settings)
+            run_id = start_run(session, archive, limit=limit, run_id=run_id, settings=settings, specs=specs)
             view.note(f"run {run_id}: {archive.run(run_id).total} measurements of {session.part.name} "
                       f"(set up in {session.setup_seconds:.1f} s)")
             _run(session, archive, run_id, as_json, view)
