@@ -1,6 +1,7 @@
 """`ita results RUN --qif FILE`: a run as one QIF 3.0 results document, valid against the
 official schema (../shared/qif/schema/), every result with its status and uncertainty,
-the inspection status the part's verdict."""
+the inspection status the part's verdict; and ITA's own export read back as the same
+specs (`ita spec import FILE.qif --out DIR`)."""
 
 from __future__ import annotations
 
@@ -206,6 +207,20 @@ def test_a_whole_part_that_conforms_passes(builtin_part, kinds, schema, tmp_path
     doc = valid(schema, out)
     check_against_archive(doc, runs)
     assert doc.xpath("//q:InspectionStatusEnum/text()", namespaces=NS) == ["PASS", "PASS"]
+
+
+def test_the_round_trip_of_its_own_export_gives_back_the_same_specs(builtin_part, kinds, tmp_path: Path) -> None:
+    runs = tmp_path / "runs"
+    with Archive.open(runs / "archive.sqlite") as a:
+        record_kinds_run(a, kinds, builtin_part.directory)
+    out = tmp_path / "own.qif"
+    assert run("results", "last", "--runs-dir", str(runs), "--qif", str(out)).exit_code == 0
+    res = run("spec", "import", str(out), "--out", str(tmp_path / "back"))
+    assert res.exit_code == 0, res.output
+    back = read_specs(tmp_path / "back" / "specs.csv")
+    assert back == kinds                                   # every field but the note, in order
+    assert (tmp_path / "back" / "refused.csv").read_text(encoding="utf-8").strip() == \
+        "id,qif_type,reason,qif_id,name,line"
 
 
 def test_specs_the_part_no_longer_has_are_written_as_points(builtin_part, kinds, schema, tmp_path: Path) -> None:

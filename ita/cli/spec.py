@@ -183,14 +183,44 @@ def remove_cmd(spec_ids: tuple[str, ...], part_dir: Path | None) -> None:
 @click.argument("file", type=click.Path(path_type=Path, dir_okay=False))
 @click.option("--replace", "replace_all", is_flag=True,
               help="Replace all of the part's specs instead of adding to them.")
+@click.option("--out", "out_dir", type=click.Path(path_type=Path),
+              help="FILE is a QIF 3 file (MBD or plan): write its characteristics as DIR/specs.csv (those ITA "
+                   "measures) and DIR/refused.csv (the others, with the reason) instead of importing into the part.")
+@click.option("--expand-patterns", is_flag=True,
+              help="With --out: a characteristic of several features (4X) becomes one spec per feature instead "
+                   "of a refusal.")
 @part_option
 @reports_errors
-def import_cmd(file: Path, replace_all: bool, part_dir: Path | None) -> None:
-    """Import the specs of FILE (CSV, same schema); all rows or none."""
-    from ita.part import specfile
+def import_cmd(file: Path, replace_all: bool, out_dir: Path | None, expand_patterns: bool,
+               part_dir: Path | None) -> None:
+    """Import the specs of FILE (CSV, same schema); all rows or none.
 
-    n = specfile.import_file(_load_part(part_dir), file, replace_all=replace_all)
-    click.echo(f"imported {n} specs from {file}")
+    With --out DIR, FILE is a QIF 3 file: every characteristic is one row of
+    DIR/specs.csv (ITA's spec format, the point and direction from the feature's nominal
+    geometry, the tolerance, the datums) or of DIR/refused.csv (id, QIF type, reason).
+    Nothing is written when FILE is not QIF 3.  Check the result with `ita spec validate
+    DIR/specs.csv --part P`, then import it into the part."""
+    if out_dir is None:
+        if expand_patterns:
+            raise click.UsageError("--expand-patterns goes with --out (a QIF file)")
+        if file.suffix.lower() == ".qif":
+            raise click.UsageError("a QIF file is imported with --out DIR: its specs.csv and refused.csv go there")
+        from ita.part import specfile
+
+        n = specfile.import_file(_load_part(part_dir), file, replace_all=replace_all)
+        click.echo(f"imported {n} specs from {file}")
+        return
+    if replace_all:
+        raise click.UsageError("--replace imports into the part; --out writes files (give one of them)")
+    from ita.qif.specs_in import import_qif
+
+    done = import_qif(file, out_dir, expand_patterns=expand_patterns)
+    for warning in done.warnings:
+        click.echo(f"warning: {warning}", err=True)
+    click.echo(f"{file}: {done.characteristics} characteristics: {done.mapped} mapped to {done.specs} specs "
+               f"({done.specs_path}), {done.refused} refused ({done.refused_path})")
+    for reason, n in done.reasons.items():
+        click.echo(f"  refused {n:>3}: {reason}")
 
 
 @spec.command("export")

@@ -45,13 +45,14 @@ from pathlib import Path
 from ita import __version__
 from ita.archive.model import RunInfo, StoredResult
 from ita.archive.store import Archive
-from ita.errors import InputError
+from ita.errors import InputError, ItaError
 from ita.files.atomic import output_path, write_atomic
 from ita.qif.kinds import CHARACTERISTICS, KIND_ATTRIBUTE, UNKNOWN_KIND
 from ita.qif.tree import NS, VERSION, XSI, Element, decimal, el, ids, listing, to_bytes, triple
 from ita.report.data import Verdict, collect, status_of, summarize
 from ita.specs.io import read_spec_table
 from ita.specs.model import MeasurementKind, MeasurementSpec, Tool, Vec3
+from ita.workcell.load import load_workcell
 
 #: a result's status -> the QIF characteristic status
 STATUS = {"conforms": "PASS", "does_not_conform": "FAIL", "uncertain": "INDETERMINATE",
@@ -499,9 +500,6 @@ def _part_specs(part_dir: Path | None) -> tuple[dict[str, MeasurementSpec], str 
 
 def _tool_classes(part_dir: Path | None) -> dict[str, Tool]:
     """Tool name -> class from the part's workcell (the built-in cell's without its own)."""
-    from ita.errors import ItaError
-    from ita.workcell.load import load_workcell
-
     own = None if part_dir is None else Path(part_dir) / "workcell.toml"
     try:
         cell = load_workcell(own if own is not None and own.is_file() else None)
