@@ -122,8 +122,9 @@ def test_a_plan_with_items_counts_its_items(tmp_path: Path) -> None:
     specs, refused = import_to(path, tmp_path / "out")
     assert len(specs) + len(refused) == 26
     accounted(path, specs, refused)
-    # items are named by their balloon numbers: the ids
+    # items are named by their balloon numbers: the ids; features by their items' names
     assert all(re.fullmatch(r"\d+", s.id) for s in specs)
+    assert {"CYLINDER6", "DATUM_J"} <= {s.feature for s in specs}
 
 
 # ----------------------------------------------------------------------------- every shape

@@ -115,12 +115,13 @@ def _opt_length(doc: QifFile, e: Element | None, what: str) -> float | None:
     return None if e is None else doc.length(e, pmi=False, what=what)
 
 
-def read_feature(doc: QifFile, nominal: Element) -> Feature:
-    """The geometry of a feature nominal (Refuse when what it has is malformed)."""
+def read_feature(doc: QifFile, nominal: Element, name: str | None = None) -> Feature:
+    """The geometry of a feature nominal (Refuse when what it has is malformed); `name`:
+    its item's FeatureName, else the nominal's Name."""
     tag = local(nominal)
     ftype = tag[: -len("FeatureNominal")] if tag.endswith("FeatureNominal") else tag
     qid = nominal.get("id", "").strip()
-    name = text(nominal, "Name") or ""
+    name = name or text(nominal, "Name") or ""
     definition = doc.ref(kid(nominal, "FeatureDefinitionId"))
     where = f"feature {qid}"
     internal = (text(definition, "InternalExternal") or "").upper() if definition is not None else ""
@@ -201,6 +202,19 @@ def feature_targets(doc: QifFile, row: Row) -> list[list[Element]]:
     if len(found) != 2:
         raise Refuse(f"a distance among {len(found)} features: ITA measures a distance between two")
     return [found]
+
+
+def item_names(doc: QifFile, row: Row) -> dict[str, str]:
+    """Feature nominal id -> the FeatureName of the row's feature item for it (an item's
+    features are named on their items)."""
+    names: dict[str, str] = {}
+    if row.tag.endswith("CharacteristicItem"):
+        for _, item in doc.refs(kid(row.element, "FeatureItemIds")):
+            nominal = doc.ref(kid(item, "FeatureNominalId")) if item is not None else None
+            name = text(item, "FeatureName") if item is not None else None
+            if nominal is not None and name:
+                names.setdefault(nominal.get("id", "").strip(), name)
+    return names
 
 
 def _origin(doc: QifFile, nominal: Element) -> Element | None:
@@ -544,6 +558,7 @@ def map_row(doc: QifFile, row: Row, *, expand_patterns: bool = False) -> Mapped 
         said = row.attributes.get(KIND_ATTRIBUTE)
         stated = next((k for k in KINDS_OF[row.stem] if k.value == said), None)
         targets = feature_targets(doc, row)
+        names = item_names(doc, row)
         if not targets:
             raise Refuse("no feature: nothing says where it is")
         if len(targets) > 1 and not expand_patterns:
@@ -555,7 +570,8 @@ def map_row(doc: QifFile, row: Row, *, expand_patterns: bool = False) -> Mapped 
             if said and stated is None:
                 context.notes.append(f"its {KIND_ATTRIBUTE} {said!r} is no kind of a {row.stem} characteristic")
             try:
-                draft = MAPPERS[row.stem](context, [read_feature(doc, e) for e in group])
+                features = [read_feature(doc, e, names.get(e.get("id", "").strip())) for e in group]
+                draft = MAPPERS[row.stem](context, features)
             except Refuse as exc:
                 raise Refuse(f"feature {n + 1} of {len(targets)}: {exc.reason}" if len(targets) > 1
                              else exc.reason) from None
