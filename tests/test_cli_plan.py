@@ -76,3 +76,18 @@ def test_macrop_list_show_clear(run, ids):
     cleared = run("macrop", "clear")
     assert "cleared 1 learned MACROP" in cleared.stdout
     assert "m1" not in run("macrop", "list").stdout
+
+
+def test_plan_top_prints_the_jobs_decomposition_and_carries_nothing_out(run, tmp_path):
+    """`ita plan --top`: the Top Level's plan of the whole default job for the built-in
+    part, its tasks with the methods that decomposed them and what the Sequence Planner
+    was asked; no run is recorded in the user's archive."""
+    result = run("plan", "--top", "--lines", "30")
+    assert result.exit_code == 0, result.output
+    lines = result.output.splitlines()
+    assert lines[0].startswith("job inspect_part: ") and " actions, " in lines[0]
+    assert lines[1] == "inspect_part  <- in_sequence" and lines[2] == "  record_unplaceable"
+    assert "asked: next_measurement(0, step(" in lines[3] and "<- calibrate_first" in result.output
+    assert lines[-1].startswith("... ") and lines[-1].endswith(" more tasks") and len(lines) == 32
+    wrong = run("plan", "--top", "X-1")
+    assert wrong.exit_code == 2 and "give no MEAS_ID" in wrong.output

@@ -77,7 +77,13 @@ def format_plan(plan: "OperationPlan", kind: str, new_macrop: bool | None = None
 
 
 @click.command()
-@click.argument("meas_id")
+@click.argument("meas_id", required=False)
+@click.option("--top", is_flag=True, help="Print the HTN decomposition of the Top Level's job for the part instead "
+              "(kb/tasks.pl: tasks, methods, the attached procedures asked); nothing is carried out.")
+@click.option("--task", "job", default="inspect_part", show_default=True, metavar="NAME",
+              help="With --top: the job (`ita tasks` lists them).")
+@click.option("--lines", type=click.IntRange(min=1), default=60, show_default=True,
+              help="With --top: print at most so many lines of the tree.")
 @click.option("--from-scratch", is_flag=True, help="Skip MACROP lookup: plan, generalize and store.")
 @click.option("--holding", "holding", default=None, metavar="TOOL",
               help="Start with TOOL in hand (default: an empty hand).")
@@ -88,12 +94,21 @@ def format_plan(plan: "OperationPlan", kind: str, new_macrop: bool | None = None
 @click.option("--json", "as_json", is_flag=True, help="Print the plan as JSON.")
 @part_option
 @reports_errors
-def plan(meas_id: str, from_scratch: bool, holding: str | None, after: str | None, tool: str | None,
-         as_json: bool, part_dir: Path | None) -> None:
+def plan(meas_id: str | None, top: bool, job: str, lines: int, from_scratch: bool, holding: str | None,
+         after: str | None, tool: str | None, as_json: bool, part_dir: Path | None) -> None:
     """Plan measurement MEAS_ID with the tool the Sequence Planner chooses: MACROP lookup
-    first, else plan from scratch and learn."""
+    first, else plan from scratch and learn.  With --top, the Top Level's plan of a whole
+    job for the part instead: its HTN decomposition."""
     from ita.planning import NoPlanError, WorldState
     from ita.specs.io import read_specs
+
+    if top:
+        if meas_id is not None:
+            raise click.UsageError("--top plans the whole job: give no MEAS_ID")
+        _top(part_dir, job, lines)
+        return
+    if meas_id is None:
+        raise click.UsageError("give MEAS_ID (or --top for the job's plan)")
 
     planner, part = _planner(part_dir)
     with planner:
@@ -123,6 +138,40 @@ def plan(meas_id: str, from_scratch: bool, holding: str | None, after: str | Non
         click.echo(json.dumps(data, indent=2))
     else:
         click.echo(format_plan(result, specs[meas_id].kind.value, new_macrop))
+
+
+def _top(part_dir: Path | None, job: str, lines: int) -> None:
+    """Print the HTN plan of `job` for the part: a run registered in a temporary archive
+    and planned, nothing carried out."""
+    import tempfile
+    import time
+
+    from ita.archive import Archive
+    from ita.logic.bridge import KnowledgeBase
+    from ita.task import open_session
+    from ita.toplevel import TopLevel, jobs, start_run
+    from ita.toplevel.agenda import tree_lines
+
+    known = [name for name, _ in jobs(KnowledgeBase())]
+    if job not in known:
+        raise click.BadParameter(f"no job {job!r} in kb/tasks.pl (the jobs: {', '.join(known)})",
+                                 param_hint="--task")
+    if job == "reinspect":
+        raise click.UsageError("reinspect plans from a run: `ita inspect --task reinspect --from RUN` shows it")
+    session = open_session(part_dir)
+    try:
+        with tempfile.TemporaryDirectory(prefix="ita-top-") as tmp, \
+                Archive.open(Path(tmp) / "runs.sqlite") as archive:
+            run_id = start_run(session, archive, settings={"task": job})
+            top = TopLevel(session, archive, run_id)
+            t0 = time.perf_counter()
+            agenda = top.plan_job()
+            took = time.perf_counter() - t0
+    finally:
+        session.close()
+    click.echo(f"job {job}: {len(agenda.steps)} actions, {len(agenda.nodes)} tasks, planned in {took:.2f} s")
+    for line in tree_lines(agenda, lines):
+        click.echo(line)
 
 
 @click.group()

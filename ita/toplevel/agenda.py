@@ -32,7 +32,7 @@ from ita.logic.bridge import KnowledgeBase
 from ita.logic.terms import Term, TermValue, Var
 from ita.planning.operation import format_term
 
-__all__ = ["Action", "Agenda", "Facts", "NoPlan", "TreeNode", "fact_text", "with_facts"]
+__all__ = ["Action", "Agenda", "Facts", "NoPlan", "TreeNode", "fact_text", "tree_lines", "with_facts"]
 
 HTN = "htn"
 
@@ -296,3 +296,35 @@ class Agenda:
 
 def _tuple(value: TermValue) -> tuple[TermValue, ...]:
     return tuple(value) if isinstance(value, list) else ()
+
+
+def tree_lines(agenda: Agenda, limit: int | None = None) -> list[str]:
+    """The decomposition tree as indented lines: each task with the method that
+    decomposed it and the attached procedures its preconditions asked (`limit`: at most
+    so many lines, then how many more there are).  A task's last subtask that repeats it
+    (the measurements still to do) is drawn at its parent's depth, so a long job stays
+    readable."""
+    lines: list[str] = []
+    stack: list[tuple[int, int]] = [(0, r) for r in reversed(agenda.roots)]
+    while stack:
+        depth, nid = stack.pop()
+        if limit is not None and len(lines) >= limit:
+            break
+        node = agenda.nodes[nid]
+        text = "  " * depth + format_term(node.task)
+        if not node.primitive:
+            text += f"  <- {format_term(node.method)}"
+        if node.calls:
+            text += "   asked: " + "; ".join(format_term(c) for c in node.calls)
+        lines.append(text)
+        children = node.children
+        for i, child in reversed(list(enumerate(children))):
+            same = i == len(children) - 1 and _functor(agenda.nodes[child].task) == _functor(node.task)
+            stack.append((depth if same else depth + 1, child))
+    if len(agenda.nodes) > len(lines):
+        lines.append(f"... {len(agenda.nodes) - len(lines)} more tasks")
+    return lines
+
+
+def _functor(value: TermValue) -> str | None:
+    return value.name if isinstance(value, Term) else None

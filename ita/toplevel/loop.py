@@ -151,8 +151,35 @@ class TopLevel:
         self.exceptions = 0
         self.frames = 0
         self.diagnoses = 0
+        # the plan's state on the Python side: positions of the sequence plan (the first:
+        # the stored plan with what the run has done handed out), the Sequence Planner's
+        # answers per position, the arm's state, the measurements between their actions
+        self._cursors = [replace(session.plan, handed_out=tuple(i for g in session.plan.groups for i in g.order
+                                                                if self._skipped(i)))]
         self._remade: dict[int, str] = {}          # sequence plan position -> why it was remade there
         self._left: dict[int, list[TermValue]] = {}
+        self._next: dict[int, TermValue | None] = {}
+        self._state = WorldState(arm=the_arm(session.kb))
+        self._outcomes: dict[str, tuple[Step, MeasureOutcome, list[Event], int]] = {}
+        self._steps: dict[str, Step] = {}
+        self._status = RunStatus.COMPLETED
+        self._alarm = ""
+        self._current: Step | None = None
+        self._on_progress: Callable[[Progress], None] | None = None
+        self._started = Started(time.perf_counter(), session.clock.now, len(self.results.done))
+        self.agenda = Agenda(session.kb, TASKS)
+
+    def _procedures(self) -> dict[str, Procedure]:
+        """The attached procedures of kb/tasks.pl, answered by this run."""
+        return {"next_measurement": self._next_measurement, "nothing_left": self._nothing_left,
+                "to_measure": self._to_measure, "calibration_due": self._calibration_due}
+
+    def plan_job(self) -> Agenda:
+        """The plan of the run's job from where the run stands, nothing carried out
+        (`ita plan --top`): its actions and its decomposition tree."""
+        with self.session.kb.attached(self._procedures()):
+            self.agenda.plan(job_tasks(self.session.kb, self.job), {})
+        return self.agenda
 
     def _skipped(self, spec_id: str) -> bool:
         """Whether the loop passes `spec_id` by: recorded, waiting, or not the run's."""
@@ -168,23 +195,11 @@ class TopLevel:
         if s.clock.now < last:
             s.clock.advance(last - s.clock.now)
         started = Started(time.perf_counter(), s.clock.now, len(self.results.done))
-        self._cursors = [replace(s.plan, handed_out=tuple(i for g in s.plan.groups for i in g.order
-                                                          if self._skipped(i)))]
-        self._next: dict[int, TermValue | None] = {}
-        self._state = WorldState(arm=the_arm(s.kb))
-        self._outcomes: dict[str, tuple[Step, MeasureOutcome, list[Event], int]] = {}
-        self._steps: dict[str, Step] = {}
-        self._status = RunStatus.COMPLETED
-        self._alarm = ""
-        self._current: Step | None = None
         self._on_progress = on_progress
         self._started = started
         facts: Facts = {}
         agenda = self.agenda = Agenda(s.kb, TASKS)
-        procedures: dict[str, Procedure] = {"next_measurement": self._next_measurement, "nothing_left": self._nothing_left,
-                                            "to_measure": self._to_measure,
-                                            "calibration_due": self._calibration_due}
-        with s.kb.attached(procedures):
+        with s.kb.attached(self._procedures()):
             agenda.plan(job_tasks(s.kb, self.job), facts)
             polled = False
             while (action := agenda.next()) is not None:
