@@ -211,14 +211,15 @@ domain(File, Exprs, domain(Name, Reqs, Types, Constants, Preds, TaskDecls, Opera
     ),
     findall(T, ( member(l(L, [':task'|Body]), Sections), task_decl(File, L, Body, T) ), TaskDecls),
     findall(N/A, member(N/A-_, TaskDecls), TaskKeys),
-    Env = env(File, Types, Constants, Preds),
-    findall(O-K, ( member(l(L, [':action'|Body]), Sections), action(Env, L, Body, O, K) ), OpKeys),
+    Env0 = env(File, Types, Constants, Preds, any),
+    findall(O-K, ( member(l(L, [':action'|Body]), Sections), action(Env0, L, Body, O, K) ), OpKeys),
     pairs_keys_values(OpKeys, Operators, ActionKeys),
     forall(( member(K, ActionKeys), memberchk(K, TaskKeys) ),
            ( K = N/_, section_line(Sections, ':action', N, L),
              hddl_error(File, L, "~w is both an action and a task", [N]) )),
     append(ActionKeys, TaskKeys, Known),
-    findall(M, ( member(l(L, [':method'|Body]), Sections), method(Env, Known, TaskKeys, L, Body, M) ),
+    Env = env(File, Types, Constants, Preds, Known),
+    findall(M, ( member(l(L, [':method'|Body]), Sections), method(Env, TaskKeys, L, Body, M) ),
             Methods).
 
 domain_section(File, l(Line, [Key|_])) :-
@@ -337,7 +338,7 @@ add_param(var(Name)-Type, V-Type, Map0, Map) :-
 
 action(Env, Line, [Name|Body], operator(Head, Pre, Del, Add), Name/Arity) :-
     atom(Name), !,
-    Env = env(File, _, _, _),
+    Env = env(File, _, _, _, _),
     keywords(File, Line, Body, Pairs),
     forall(member(K-_, Pairs),
            (   memberchk(K, [':parameters', ':precondition', ':effect'])
@@ -360,7 +361,7 @@ action(Env, Line, [Name|Body], operator(Head, Pre, Del, Add), Name/Arity) :-
     maplist(arg(1), Adds, Add),
     maplist(arg(1), Dels, Del).
 action(Env, Line, _, _, _) :-
-    Env = env(File, _, _, _),
+    Env = env(File, _, _, _, _),
     hddl_error(File, Line, "(:action NAME ...) expected", []).
 
 check_variables(File, Line, Params) :-
@@ -371,7 +372,7 @@ check_variables(File, Line, Params) :-
            )).
 
 effects(Env, Map, Line, Expr, Effects) :-
-    Env = env(File, _, _, _),
+    Env = env(File, _, _, _, _),
     (   Expr = l(L, Items) -> true ; L = Line, Items = Expr ),
     (   Items == []
     ->  Effects = []
@@ -401,7 +402,7 @@ effects(Env, Map, Line, Expr, Effects) :-
 %   bound).
 
 formula_conjuncts(Env, Map, Line, Expr, Conjuncts) :-
-    Env = env(File, _, _, _),
+    Env = env(File, _, _, _, _),
     (   Expr = l(L, Items) -> true ; L = Line, Items = Expr ),
     (   Items == []
     ->  Conjuncts = []
@@ -460,7 +461,7 @@ sub_formula(Env, Map, L, F, Lits) :-
     place(Conjuncts, [], [], eager, Lits).
 
 quantified(Env, Map, QL, QVars, _F, Map1, Local, Gen) :-
-    Env = env(File, _, _, _),
+    Env = env(File, _, _, _, _),
     typed_list(File, QL, QVars, Typed),
     check_variables(File, QL, Typed),
     foldl(add_param, Typed, Local, Map, Map1),
@@ -477,7 +478,7 @@ var_in(Vars, V) :-
     member(W, Vars), W == V, !.
 
 atom_term(Env, Map, Line, Expr, Term) :-
-    Env = env(File, _, _, Preds),
+    Env = env(File, _, _, Preds, _),
     (   Expr = l(L, [Name|Args]), atom(Name)
     ->  maplist(term_arg(Env, Map, L), Args, TArgs),
         length(Args, Arity),
@@ -504,17 +505,17 @@ check_predicate(File, Line, Preds, Name, Arity) :-
 term_arg(Env, Map, Line, var(Name), V) :- !,
     (   get_assoc(Name, Map, V-_)
     ->  true
-    ;   Env = env(File, _, _, _),
+    ;   Env = env(File, _, _, _, _),
         hddl_error(File, Line, "variable ?~w is not a parameter here", [Name])
     ).
 term_arg(_, _, _, A, A) :-
     atom(A), !.
 term_arg(Env, _, Line, l(L, _), _) :- !,
-    Env = env(File, _, _, _),
+    Env = env(File, _, _, _, _),
     (   L == 0 -> L1 = Line ; L1 = L ),
     hddl_error(File, L1, "an argument (a ?variable or an object) expected, not a list", []).
 term_arg(Env, _, Line, X, _) :-
-    Env = env(File, _, _, _),
+    Env = env(File, _, _, _, _),
     hddl_error(File, Line, "an argument expected, not ~w", [X]).
 
 %   place(+Conjuncts, +Params, +Seen, +Rest, -Lits): the literals of a conjunction
@@ -566,9 +567,9 @@ place_unseen(lazy(Used), V-T, Lit) :-
                  *            METHODS           *
                  *******************************/
 
-method(Env, Known, TaskKeys, Line, [Name|Body], method(Name, Task, Pre, Subtasks)) :-
+method(Env, TaskKeys, Line, [Name|Body], method(Name, Task, Pre, Subtasks)) :-
     atom(Name), !,
-    Env = env(File, _, _, _),
+    Env = env(File, _, _, _, _),
     keywords(File, Line, Body, Pairs),
     forall(member(K-_, Pairs),
            (   memberchk(K, [':parameters', ':task', ':precondition', ':ordered-subtasks',
@@ -598,21 +599,14 @@ method(Env, Known, TaskKeys, Line, [Name|Body], method(Name, Task, Pre, Subtasks
     ),
     append(Conjuncts0, CConjuncts, Conjuncts),
     network(Env, Map, Line, Name, Pairs, Subtasks),
-    forall(member(S, Subtasks),
-           ( functor(S, SN, SA),
-             (   memberchk(SN/SA, Known)
-             ->  true
-             ;   hddl_error(File, Line, "method ~w: subtask ~w/~d is neither a task nor an action",
-                            [Name, SN, SA])
-             ) )),
     term_variables(Task-Subtasks, Used),
     place(Conjuncts, VarTypes, [], lazy(Used), Pre).
-method(Env, Line, _, _, _, _) :-
-    Env = env(File, _, _, _),
+method(Env, _, Line, _, _) :-
+    Env = env(File, _, _, _, _),
     hddl_error(File, Line, "(:method NAME ...) expected", []).
 
 task_term(Env, Map, Line, Expr, Task) :-
-    Env = env(File, _, _, _),
+    Env = env(File, _, _, _, _),
     (   Expr = l(L, [Name|Args]), atom(Name)
     ->  maplist(term_arg(Env, Map, L), Args, TArgs),
         Task =.. [Name|TArgs]
@@ -627,7 +621,7 @@ task_term(Env, Map, Line, Expr, Task) :-
 %   order, from :ordered-subtasks (or :ordered-tasks), or from :subtasks (or :tasks)
 %   and :ordering.
 network(Env, Map, Line, Owner, Pairs, Tasks) :-
-    Env = env(File, _, _, _),
+    Env = env(File, _, _, _, _),
     (   member(K, [':ordered-subtasks', ':ordered-tasks']), memberchk(K-Expr, Pairs)
     ->  subtask_list(Env, Map, Line, Expr, Labelled),
         pairs_values(Labelled, Tasks)
@@ -655,7 +649,21 @@ subtask(Env, Map, Line, Expr, Label-Task, N0, N) :-
     ->  Label = Label0,
         task_term(Env, Map, L, l(TL, TItems), Task)
     ;   Label = '$unlabelled'(N0),
-        task_term(Env, Map, Line, Expr, Task)
+        (   Expr = l(L, _) -> true ; L = Line ),
+        task_term(Env, Map, L, Expr, Task)
+    ),
+    known_task(Env, L, Task).
+
+%   known_task(+Env, +Line, +Task): Task is a declared task or an action.
+known_task(env(File, _, _, _, Known), Line, Task) :-
+    functor(Task, Name, Arity),
+    (   Known == any
+    ->  true
+    ;   memberchk(Name/Arity, Known)
+    ->  true
+    ;   memberchk(Name/Other, Known)
+    ->  hddl_error(File, Line, "~w has ~d arguments here but ~d where it is declared", [Name, Arity, Other])
+    ;   hddl_error(File, Line, "~w/~d is neither a task nor an action", [Name, Arity])
     ).
 
 ordering(File, Line, Expr, Before) :-
@@ -732,27 +740,20 @@ problem(File, Exprs, Domain, problem(Name, Objects, RootParams, Roots, Init, Goa
     typed_list(File, ObjLine, ObjItems, Objects),
     append(Constants, Objects, All),
     forall(member(_-T, All), check_type(File, ObjLine, Types, T)),
-    Env = env(File, Types, Constants, Preds),
-    empty_assoc(Empty),
-    section_items(':init', Sections, InitItems, InitLine),
-    maplist(init_fact(Env, Empty, InitLine, All), InitItems, Init),
     findall(N/A, member(N/A-_, TaskDecls), TaskKeys),
     findall(N/A, ( member(operator(H, _, _, _), Operators), functor(H, N, A) ), ActionKeys),
     append(TaskKeys, ActionKeys, Known),
+    Env = env(File, Types, Constants, Preds, Known),
+    empty_assoc(Empty),
+    section_items(':init', Sections, InitItems, InitLine),
+    maplist(init_fact(Env, Empty, InitLine, All), InitItems, Init),
     (   memberchk(l(HL, [':htn'|HtnBody]), Sections)
     ->  keywords(File, HL, HtnBody, Pairs),
         (   memberchk(':parameters'-l(PL, Ps), Pairs) -> true ; Ps = [], PL = HL ),
         typed_list(File, PL, Ps, Params),
         check_variables(File, PL, Params),
         param_map(Params, Map, RootParams),
-        network(Env, Map, HL, 'the problem\'s :htn', Pairs, Roots),
-        forall(member(R, Roots),
-               ( functor(R, RN, RA),
-                 (   memberchk(RN/RA, Known)
-                 ->  true
-                 ;   hddl_error(File, HL, "the :htn names ~w/~d, which is neither a task nor an action",
-                                [RN, RA])
-                 ) ))
+        network(Env, Map, HL, 'the problem\'s :htn', Pairs, Roots)
     ;   RootParams = [], Roots = []
     ),
     (   memberchk(l(GL, [':goal', GoalExpr]), Sections)
@@ -784,7 +785,7 @@ check_type(File, Line, _, T) :-
     hddl_error(File, Line, "type ~w is not declared in :types", [T]).
 
 init_fact(Env, Map, Line, Objects, Expr, Fact) :-
-    Env = env(File, _, _, _),
+    Env = env(File, _, _, _, _),
     (   Expr = l(L, [=|_])
     ->  hddl_error(File, L, "numeric fluents in :init are not supported", [])
     ;   Expr = l(L, [not|_])
