@@ -30,6 +30,7 @@ each with one piece of Python behind it (ita/toplevel/actions.py):
   - `settle_pending`, `decide_pending`: pending results decided when they can be, and
     all of them at the end;
   - `record_leftovers`: what was never handed out is recorded so;
+  - `report_cell`: the cell's state from its reference artifacts (a cell_check event);
   - `end_run(Status)`.
 
 *Attached procedures* (`call(Goal)` in a precondition) are answered by the Top Level's
@@ -58,6 +59,8 @@ job(inspect_part, [inspect_part],
     'measure every measurement of the run once, in the sequence plan\'s order (the default)').
 job(reinspect, [reinspect],
     'measure again what a run (--from RUN) left unproven: uncertain, does not conform, not done').
+job(cell_check, [cell_check],
+    'measure the cell\'s reference artifacts: each probe on the calibration block, the tooling holes with the SLRA').
 
 %!  operator(?Head, ?Pre:list, ?Del:list, ?Add:list) is nondet.
 %
@@ -72,6 +75,7 @@ operator(record(S),                 [not(failed(S))], [], []).
 operator(settle_pending,            [], [], []).
 operator(decide_pending,            [], [], []).
 operator(record_leftovers,          [], [], []).
+operator(report_cell,               [], [], []).
 operator(end_run(Status),           [], [], [ended(Status)]).
 
 %!  method(?Name, ?Task, ?Pre:list, ?Subtasks:list) is nondet.
@@ -85,6 +89,13 @@ method(in_sequence, inspect_part, [],
 % -- what a run left unproven: the run holds those measurements alone ----------------------
 method(in_sequence, reinspect, [],
        [measure_rest(0), close_run]).
+
+% -- the cell against its reference artifacts (the run holds the tooling holes' specs) -----
+method(artifacts, cell_check, [call(probes(Probes))],
+       [read_blocks(Probes), measure_rest(0), report_cell, close_run]).
+
+method(none_left, read_blocks([]), [], []).
+method(each_probe, read_blocks([Probe|Probes]), [], [calibrate_probe(Probe), read_blocks(Probes)]).
 
 % -- the measurements still to do, from a position (Cursor) of the sequence plan ---------
 method(halted, measure_rest(_Cursor), [or([[interrupted], [stopped], [alarm]])], []).
@@ -142,6 +153,10 @@ nothing_left(Cursor, Resequenced) :-
 %   since the plan was made: the Top Level then plans its measure_spec again.
 to_measure(Spec) :-
     py_bridge:attached(to_measure, [Spec], true).
+
+%   probes(-Probes): the cell's ultrasonic probes the arm can use now.
+probes(Probes) :-
+    py_bridge:attached(probes, [], Probes).
 
 %   calibration_due(+Spec, +Tool): Tool is a probe and Spec can be placed for it, so it
 %   reads the calibration block before measuring Spec (if not yet calibrated).

@@ -90,6 +90,31 @@ def test_reinspect_measures_again_exactly_the_unproven_results_of_a_run(tmp_path
     assert refused.exit_code == 2 and "--from RUN" in refused.output
 
 
+def test_cell_check_reads_the_block_with_each_probe_and_measures_the_tooling_holes(tmp_path, builtin_part) -> None:
+    """`--task cell_check`: a run of the part's tooling holes alone, each probe reading the
+    calibration block first, and a report of the cell's state (its artifacts' readings)."""
+    from ita.archive import Archive, archive_path
+    from ita.part.model import Hole, HoleRole
+    from ita.specs.io import read_specs
+
+    tooling = {f.id for f in builtin_part.features if isinstance(f, Hole) and f.role is HoleRole.TOOLING}
+    expected = sorted(s.id for s in read_specs(builtin_part.specs_path) if s.feature in tooling)
+    runs = tmp_path / "runs"
+    result = CliRunner().invoke(main, ["inspect", "--task", "cell_check", "--runs-dir", str(runs), "--json"])
+    assert result.exit_code == 0, result.output
+    summary = json.loads(result.stdout)
+    cell = summary["cell"]
+    assert sorted(h["spec"] for h in cell["tooling"]) == expected and summary["total"] == len(expected)
+    assert sorted(p["probe"] for p in cell["probes"]) == ["us_probe_1", "us_probe_2", "us_probe_90"]
+    assert all(p["ok"] and abs(p["reading_mm"] - p["block_mm"]) < 0.1 for p in cell["probes"])
+    assert all(h["centre_off_mm"] is not None and h["centre_off_mm"] < 1.0 for h in cell["tooling"])
+    assert cell["state"] == "as certified" or cell["state"].startswith("to look at: ")
+    with Archive.open(archive_path(runs)) as archive:
+        assert [e.kind for e in archive.events(summary["run_id"], kinds=["cell_check"])] == ["cell_check"]
+    refused = CliRunner().invoke(main, ["inspect", "--task", "cell_check", "--limit", "3", "--runs-dir", str(runs)])
+    assert refused.exit_code == 2 and "--limit" in refused.output
+
+
 @pytest.mark.slow
 def test_reinspect_measures_again_exactly_what_a_run_left_unproven(tmp_path, builtin_part) -> None:
     """A run with faults injected leaves some results not done (or uncertain); `--task

@@ -105,6 +105,18 @@ def _summary_text(summary: Any) -> str:
              + (f" ({d['wall_s_per_measurement'] * 1000:.0f} ms each)" if d["wall_s_per_measurement"] else ""),
              "  breakdown: " + ", ".join(f"{k} {v:.0f} s" for k, v in summary.breakdown.items() if v > 0),
              f"  exceptions {summary.exceptions}; SLRA scans {summary.frames}"]
+    if summary.cell is not None:
+        cell = summary.cell
+        lines.append(f"  the cell: {cell['state']}")
+        for probe in cell["probes"]:
+            reading = "no reading" if probe["reading_mm"] is None else f"reads {probe['reading_mm']:.4f} mm"
+            lines.append(f"    {probe['probe']}: calibration block {probe['block_mm']} mm, {reading}"
+                         f" ({'ok' if probe['ok'] else 'failed: ' + probe['note']})")
+        for hole in cell["tooling"]:
+            value = "not measured" if hole["value"] is None else \
+                f"{hole['value']:.4f} (nominal {hole['nominal']:.4f}, U {hole['U']:.4f})"
+            off = "" if hole["centre_off_mm"] is None else f", centre {hole['centre_off_mm']:.3f} mm off nominal"
+            lines.append(f"    {hole['spec']}: {value}, {hole['decision']}{off}")
     if summary.continue_hint:
         lines.append(f"  continue with: {summary.continue_hint}")
     return "\n".join(lines)
@@ -205,7 +217,7 @@ def inspect(part_dir: Path | None, limit: int | None, seed: int, runs_dir: Path 
     from ita.logic.bridge import KnowledgeBase
     from ita.sim.inject import InjectionPlan
     from ita.task import open_session
-    from ita.toplevel import jobs, start_run, unproven
+    from ita.toplevel import jobs, start_run, tooling_specs, unproven
 
     injection = InjectionPlan.parse(fault_rate, fault_kinds, scripts, seed)   # bad options fail before any work
     view = LiveView()
@@ -213,6 +225,8 @@ def inspect(part_dir: Path | None, limit: int | None, seed: int, runs_dir: Path 
     if job not in known:
         raise click.BadParameter(f"no job {job!r} in kb/tasks.pl (the jobs: {', '.join(known)})",
                                  param_hint="--task")
+    if job == "cell_check" and limit is not None:
+        raise click.UsageError("--limit does not go with --task cell_check: it measures the tooling holes")
     if (job == "reinspect") != (from_run is not None):
         raise click.UsageError("--from RUN goes with --task reinspect, and reinspect needs it")
     specs: list[str] | None = None
@@ -227,6 +241,10 @@ def inspect(part_dir: Path | None, limit: int | None, seed: int, runs_dir: Path 
             return
     session = open_session(part_dir, seed=seed, progress=lambda m: view.note(f"{m} ..."))
     with _closing(session):
+        if job == "cell_check":
+            specs = tooling_specs(session)
+            if not specs:
+                raise click.UsageError(f"part {session.part.name} has no tooling holes to check the cell on")
         if source is not None and session.part.name != source_part:
             raise click.UsageError(f"run {source} inspected part {source_part}, not {session.part.name} "
                                    "(give its part with --part)")

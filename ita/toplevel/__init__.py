@@ -27,7 +27,7 @@ from ita.toplevel.events import archive_events
 from ita.toplevel.loop import TopLevel, job_tasks, jobs
 from ita.toplevel.progress import Progress, RunSummary
 from ita.toplevel.signals import RunSignals, StopNow
-from ita.toplevel.start import start_run, unproven
+from ita.toplevel.start import start_run, tooling_specs, unproven
 
 __all__ = [
     "Progress",
@@ -39,5 +39,6 @@ __all__ = [
     "job_tasks",
     "jobs",
     "start_run",
+    "tooling_specs",
     "unproven",
 ]

@@ -53,16 +53,19 @@ archive has a result for: nothing is measured twice, nothing is lost.
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable
 from dataclasses import replace
 from typing import TYPE_CHECKING
 
-from ita.archive import Outcome, RunStatus
+from ita.archive import Event, Outcome, RunStatus
 from ita.archive.timeline import breakdown, intervals, span
+from ita.diagnosis.tests import DISPLACED_MM
 from ita.errors import PrologError
 from ita.logic.attached import Procedure
 from ita.logic.bridge import KnowledgeBase
+from ita.logic.json_value import JsonObject, JsonValue
 from ita.logic.terms import Term, TermValue, Var
 from ita.logic.world import WorldModel
 from ita.planning.state import WorldState
@@ -92,7 +95,7 @@ from ita.toplevel.signals import RunSignals, StopNow
 from ita.toplevel.start import start_run
 
 if TYPE_CHECKING:
-    from ita.archive import Archive, Event
+    from ita.archive import Archive
     from ita.task.session import Session
 
 __all__ = ["JOB", "MAX_FAILURES_IN_A_ROW", "Progress", "RunSummary", "TASKS", "TopLevel", "job_tasks", "jobs",
@@ -168,11 +171,13 @@ class TopLevel:
         self._on_progress: Callable[[Progress], None] | None = None
         self._started = Started(time.perf_counter(), session.clock.now, len(self.results.done))
         self.agenda = Agenda(session.kb, TASKS)
+        self.cell: JsonObject | None = None          # the job cell_check's report
 
     def _procedures(self) -> dict[str, Procedure]:
         """The attached procedures of kb/tasks.pl, answered by this run."""
         return {"next_measurement": self._next_measurement, "nothing_left": self._nothing_left,
-                "to_measure": self._to_measure, "calibration_due": self._calibration_due}
+                "to_measure": self._to_measure, "calibration_due": self._calibration_due,
+                "probes": self._probes}
 
     def plan_job(self) -> Agenda:
         """The plan of the run's job from where the run stands, nothing carried out
@@ -241,7 +246,8 @@ class TopLevel:
             devices={**{f"arm_{k}": v for k, v in s.arm.stats.items()},
                      **{f"slra_{k}": v for k, v in s.slra.stats.items()},
                      "path_planning_wall_s": s.arm.planning_seconds},
-            continue_hint=None if status is RunStatus.COMPLETED else f"ita continue {self.run_id}", alarm=alarm)
+            continue_hint=None if status is RunStatus.COMPLETED else f"ita continue {self.run_id}", alarm=alarm,
+            cell=self.cell)
         if on_progress is not None:
             on_progress(self._progress(started, current, status.value))
         return summary
@@ -302,6 +308,36 @@ class TopLevel:
     def _calibration_due(self, spec_id: TermValue, tool: TermValue) -> TermValue | None:
         return "true" if self.calibration.due(str(spec_id), str(tool)) else None
 
+    def _probes(self) -> TermValue:
+        """The cell's ultrasonic probes that are available now."""
+        world = WorldModel(self.session.kb)
+        return [t for t in world.tools() if self.calibration.is_probe(t) and world.available(t)]
+
+    def _cell_report(self) -> JsonObject:
+        """The cell's state from this run's reference artifacts: each probe's reading of
+        the calibration block, each tooling hole's result."""
+        probes: list[JsonValue] = [dict(e.payload) for e in self.archive.events(self.run_id, kinds=["calibration"])]
+        tooling: list[JsonValue] = []
+        problems: list[str] = []
+        for probe in probes:
+            assert isinstance(probe, dict)
+            if not probe.get("ok"):
+                problems.append(f"{probe.get('probe')} did not read the block")
+        for r in self.archive.results(self.run_id):
+            decision = r.decision.value if r.decision is not None else r.outcome.value
+            circle = self.archive.details(self.run_id, r.spec_id).get("vision", {}).get("circle_mm")
+            offset = None
+            if circle is not None and r.point is not None:    # the hole's centre against its nominal place
+                offset = round(math.hypot(circle["center"][0] - r.point[0], circle["center"][1] - r.point[1]), 4)
+            tooling.append({"spec": r.spec_id, "value": r.value, "nominal": r.nominal,
+                            "U": None if r.u is None else r.k * r.u, "decision": decision, "centre_off_mm": offset})
+            if decision != "conforms":
+                problems.append(f"{r.spec_id} {decision.replace('_', ' ')}")
+            if offset is not None and offset > DISPLACED_MM:
+                problems.append(f"{r.spec_id}'s centre {offset:.2f} mm off its place (part displaced, or the arm)")
+        state = "as certified" if not problems else "to look at: " + "; ".join(problems)
+        return {"state": state, "probes": probes, "tooling": tooling}
+
     def _world(self) -> tuple[tuple[str, str, str], ...]:
         """The world model's tools, their conditions and locations (what a recovery changes)."""
         world = WorldModel(self.session.kb)
@@ -345,6 +381,9 @@ class TopLevel:
                     self.results.unmeasured(spec_id, Outcome.NOT_DONE, self.failed_in_others[spec_id])
                 else:
                     self.results.unmeasured(spec_id, Outcome.CANNOT_BE_DONE, "not handed out by the sequence planner")
+        elif name == "report_cell":
+            self.cell = self._cell_report()
+            self.archive.record_event(self.run_id, Event("cell_check", "top", s.clock.now, self.cell))
         elif name == "end_run":
             self._status = RunStatus(args[0])
         else:

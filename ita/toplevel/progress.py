@@ -81,6 +81,7 @@ class RunSummary:
     devices: dict[str, float] = field(default_factory=dict)
     continue_hint: str | None = None
     alarm: str = ""             # why the Top Level stopped the run itself (failures in a row)
+    cell: JsonObject | None = None   # a cell check's report (the job cell_check)
 
     @property
     def cycle_s(self) -> float:
@@ -94,4 +95,5 @@ class RunSummary:
                 "recorded_now": self.measured_now, "exceptions": self.exceptions, "slra_scans": self.frames,
                 "breakdown_s": {k: round(v, 2) for k, v in self.breakdown.items()},
                 "devices": {k: round(v, 3) for k, v in self.devices.items()},
-                "continue": self.continue_hint, "alarm": self.alarm or None}
+                "continue": self.continue_hint, "alarm": self.alarm or None,
+                **({"cell": self.cell} if self.cell is not None else {})}

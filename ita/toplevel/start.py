@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING
 from ita.archive import Outcome
 from ita.archive.decision import Decision
 from ita.logic.json_value import JsonValue
+from ita.part.model import Hole, HoleRole
 
 if TYPE_CHECKING:
     from ita.archive import Archive
@@ -25,6 +26,13 @@ def unproven(archive: Archive, run_id: str) -> list[str]:
     return [r.spec_id for r in archive.results(run_id)
             if r.outcome is Outcome.NOT_DONE
             or (r.outcome is Outcome.MEASURED and r.decision in (Decision.UNCERTAIN, Decision.DOES_NOT_CONFORM))]
+
+
+def tooling_specs(session: Session) -> list[str]:
+    """The measurements of the part's tooling holes (the cell's reference artifacts on
+    the part: its datums in the fixture)."""
+    tooling = {f.id for f in session.part.features if isinstance(f, Hole) and f.role is HoleRole.TOOLING}
+    return [s.id for s in session.ctx.specs if s.feature in tooling]
 
 
 def start_run(session: Session, archive: Archive, *, limit: int | None = None, run_id: str | None = None,
