@@ -64,7 +64,36 @@ prolog:error_message(hddl(File, Line, Message)) -->
 parse_hddl(File, Codes, Expressions) :-
     must_be(codes, Codes),
     tokens(Codes, 1, Tokens),
-    expressions(Tokens, File, Expressions).
+    catch(expressions(Tokens, File, Expressions),
+          error(hddl(File, Line0, Message), Context),
+          (   sub_string(Message, _, _, _, "never closed")
+          ->  unclosed_line(Tokens, Line),
+              throw(error(hddl(File, Line, Message), Context))
+          ;   throw(error(hddl(File, Line0, Message), Context))
+          )).
+
+%   unclosed_line(+Tokens, -Line): the line of the parenthesis that is never closed,
+%   as well as it can be told: a keyword list (a section, :method, :action, :task: its
+%   first symbol starts with a colon; they do not nest) still open where the next one
+%   begins; else the innermost list open at the end.
+unclosed_line(Tokens, Line) :-
+    unclosed(Tokens, [], Line).
+
+unclosed([], Stack, Line) :-
+    (   Stack = [open(Line, _)|_] -> true ; Line = 1 ).
+unclosed([T|Ts], Stack, Line) :-
+    (   T = open(L), Ts = [sym(S, _)|_], atom(S), sub_atom(S, 0, 1, _, :)
+    ->  (   memberchk(open(Open, keyword), Stack)
+        ->  Line = Open
+        ;   unclosed(Ts, [open(L, keyword)|Stack], Line)
+        )
+    ;   T = open(L)
+    ->  unclosed(Ts, [open(L, list)|Stack], Line)
+    ;   T = close(_)
+    ->  (   Stack = [_|Stack1] -> true ; Stack1 = [] ),
+        unclosed(Ts, Stack1, Line)
+    ;   unclosed(Ts, Stack, Line)
+    ).
 
 tokens([], _, []).
 tokens([C|Cs], Line, Tokens) :-
