@@ -105,6 +105,11 @@ def _summary_text(summary: Any) -> str:
              + (f" ({d['wall_s_per_measurement'] * 1000:.0f} ms each)" if d["wall_s_per_measurement"] else ""),
              "  breakdown: " + ", ".join(f"{k} {v:.0f} s" for k, v in summary.breakdown.items() if v > 0),
              f"  exceptions {summary.exceptions}; SLRA scans {summary.frames}"]
+    if summary.planner:
+        f = summary.planner
+        lines.append(f"  top level: {f['actions']:.0f} actions of an HTN plan made in {f['plan_s']:.2f} s; "
+                     f"planned again {f['replans']:.0f} times (median {f['replan_median_s'] * 1000:.1f} ms, "
+                     f"largest {f['replan_max_s'] * 1000:.0f} ms)")
     if summary.cell is not None:
         cell = summary.cell
         lines.append(f"  the cell: {cell['state']}")

@@ -24,6 +24,7 @@ Planning again, two reaches:
 
 from __future__ import annotations
 
+import time
 from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
 
@@ -100,11 +101,14 @@ class Agenda:
         self.steps: list[Action] = []      # the plan's actions still to carry out, in order
         self.executed: list[int] = []      # action ids carried out, in order
         self.replans = 0
+        self.plan_seconds = 0.0                 # wall time of the first plan
+        self.replan_seconds: list[float] = []   # wall time of each plan made again
         self._effects: dict[str, tuple[list[TermValue], list[TermValue], list[TermValue]]] = {}
 
     # -- planning ---------------------------------------------------------------------------
     def plan(self, tasks: Iterable[TermValue], state: Facts) -> None:
         """Plan the ordered task network `tasks` from `state`; raises NoPlan."""
+        t0 = time.perf_counter()
         found = self.kb.once(HTN, "htn_plan", self.domain, list(state.values()), list(tasks), [], Var("R"))
         steps, tree = self._result(found)
         roots, nodes = tree
@@ -112,6 +116,7 @@ class Agenda:
         self._add_nodes(nodes, None)
         self.roots = [int(str(r)) for r in roots]
         self.steps = steps
+        self.plan_seconds = time.perf_counter() - t0
 
     def replan_parent(self, state: Facts) -> bool:
         """Plan the task just above the next action again from `state`, when none of its
@@ -173,6 +178,7 @@ class Agenda:
         """Plan the tasks `ids` (in order, none of their actions run) again from `state`;
         their subtrees and actions are replaced by the new ones."""
         self.replans += 1
+        t0 = time.perf_counter()
         network = [Term("-", (i, self.nodes[i].task)) for i in ids]
         found = self.kb.once(HTN, "htn_replan", self.domain, list(state.values()), network,
                              [Term("next_id", (max(self.nodes) + 1,))], Var("R"))
@@ -188,6 +194,7 @@ class Agenda:
         # the new actions take the place of the old ones: before the first kept one that
         # followed them in the plan (the replanned tasks are the front of what is left)
         self.steps = steps + kept
+        self.replan_seconds.append(time.perf_counter() - t0)
 
     def _result(self, found: dict[str, object] | None) -> tuple[list[Action], tuple[list[TermValue], list[TermValue]]]:
         result = None if found is None else found["R"]

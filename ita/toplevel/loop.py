@@ -173,6 +173,14 @@ class TopLevel:
         self.agenda = Agenda(session.kb, TASKS)
         self.cell: JsonObject | None = None          # the job cell_check's report
 
+    def _planner_figures(self) -> dict[str, float]:
+        """The HTN plan's figures: the first plan's wall time, how often it was planned
+        again and the median and largest wall time of that (s)."""
+        again = sorted(self.agenda.replan_seconds)
+        return {"plan_s": self.agenda.plan_seconds, "replans": float(len(again)),
+                "replan_median_s": again[len(again) // 2] if again else 0.0,
+                "replan_max_s": again[-1] if again else 0.0, "actions": float(len(self.agenda.executed))}
+
     def _procedures(self) -> dict[str, Procedure]:
         """The attached procedures of kb/tasks.pl, answered by this run."""
         return {"next_measurement": self._next_measurement, "nothing_left": self._nothing_left,
@@ -247,7 +255,7 @@ class TopLevel:
                      **{f"slra_{k}": v for k, v in s.slra.stats.items()},
                      "path_planning_wall_s": s.arm.planning_seconds},
             continue_hint=None if status is RunStatus.COMPLETED else f"ita continue {self.run_id}", alarm=alarm,
-            cell=self.cell)
+            cell=self.cell, planner=self._planner_figures())
         if on_progress is not None:
             on_progress(self._progress(started, current, status.value))
         return summary

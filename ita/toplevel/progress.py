@@ -82,6 +82,7 @@ class RunSummary:
     continue_hint: str | None = None
     alarm: str = ""             # why the Top Level stopped the run itself (failures in a row)
     cell: JsonObject | None = None   # a cell check's report (the job cell_check)
+    planner: dict[str, float] = field(default_factory=dict)   # the HTN plan's figures (plan_s, replans, ...)
 
     @property
     def cycle_s(self) -> float:
@@ -96,4 +97,5 @@ class RunSummary:
                 "breakdown_s": {k: round(v, 2) for k, v in self.breakdown.items()},
                 "devices": {k: round(v, 3) for k, v in self.devices.items()},
                 "continue": self.continue_hint, "alarm": self.alarm or None,
+                "planner": {k: round(v, 4) for k, v in self.planner.items()},
                 **({"cell": self.cell} if self.cell is not None else {})}
