@@ -751,7 +751,7 @@ no_predecessor(Labels, Before, L) :-
 %   problem(Name, Objects, RootParams, Roots, Init, Goal)
 
 problem(File, Exprs, Domain, problem(Name, Objects, RootParams, Roots, Init, Goal)) :-
-    Domain = domain(DomainName, _, Types, Constants, Preds, TaskDecls, Operators, _),
+    Domain = domain(_, _, Types, Constants, Preds, TaskDecls, Operators, _),
     (   member(l(_, [define, l(_, [problem, Name])|Sections]), Exprs)
     ->  true
     ;   Exprs = [l(Line, _)|_]
@@ -759,11 +759,8 @@ problem(File, Exprs, Domain, problem(Name, Objects, RootParams, Roots, Init, Goa
     ;   hddl_error(File, 1, "not an HDDL problem: the file is empty", [])
     ),
     forall(member(S, Sections), problem_section(File, S)),
-    (   memberchk(l(DL, [':domain', Named]), Sections), Named \== DomainName
-    ->  hddl_error(File, DL, "the problem is for domain ~w, the domain file defines ~w",
-                   [Named, DomainName])
-    ;   true
-    ),
+    %   The problem's (:domain NAME) is not checked against the domain's name: IPC
+    %   instances exist whose names differ (2020 partial-order Transport).
     forall(member(l(L, [':requirements'|Rs]), Sections), maplist(requirement(File, L), Rs)),
     section_items(':objects', Sections, ObjItems, ObjLine),
     typed_list(File, ObjLine, ObjItems, Objects),
