@@ -17,7 +17,14 @@ import pytest
 from click.testing import CliRunner
 
 from ita.cli import main
-from ita.htn import Decomposition, HtnPlan, format_ipc, parse_ipc, solve_hddl, verify_plan
+from ita.htn import (
+    Decomposition,
+    HtnPlan,
+    format_ipc,
+    parse_ipc,
+    solve_hddl,
+    verify_plan,
+)
 from ita.htn.hddl import read_domain, read_problem
 from ita.htn.solve import NoPlan
 from ita.htn.verify import verify_files

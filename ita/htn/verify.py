@@ -23,7 +23,16 @@ from collections.abc import Iterator
 from itertools import product
 from pathlib import Path
 
-from ita.htn.hddl import Domain, Formula, Method, Params, Problem, TaskRef, read_domain, read_problem
+from ita.htn.hddl import (
+    Domain,
+    Formula,
+    Method,
+    Params,
+    Problem,
+    TaskRef,
+    read_domain,
+    read_problem,
+)
 from ita.htn.plan import Atom, HtnPlan, parse_ipc
 
 Fact = tuple[str, tuple[str, ...]]

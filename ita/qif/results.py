@@ -48,7 +48,18 @@ from ita.archive.store import Archive
 from ita.errors import InputError, ItaError
 from ita.files.atomic import output_path, write_atomic
 from ita.qif.kinds import CHARACTERISTICS, KIND_ATTRIBUTE, UNKNOWN_KIND
-from ita.qif.tree import NS, VERSION, XSI, Element, decimal, el, ids, listing, to_bytes, triple
+from ita.qif.tree import (
+    NS,
+    VERSION,
+    XSI,
+    Element,
+    decimal,
+    el,
+    ids,
+    listing,
+    to_bytes,
+    triple,
+)
 from ita.report.data import Verdict, collect, status_of, summarize
 from ita.specs.io import read_spec_table
 from ita.specs.model import MeasurementKind, MeasurementSpec, Tool, Vec3
