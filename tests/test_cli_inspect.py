@@ -28,6 +28,23 @@ def test_inspect_prints_a_summary_and_progress(finished_run) -> None:
     assert "3/3" in stderr and "run r" in stderr          # the live view (plain lines off a TTY)
 
 
+def test_a_run_keeps_its_htn_plan_and_the_report_shows_it(finished_run, tmp_path) -> None:
+    """The Top Level's plan (the job's HTN decomposition, its figures) is kept with the run;
+    the report (and so the System Monitor's run page) has a section of it."""
+    from ita.archive import Archive, archive_path
+
+    runs, summary, stderr = finished_run
+    with Archive.open(archive_path(runs)) as archive:
+        trees = archive.events(summary["run_id"], kinds=["task_tree"])
+    assert len(trees) == 1 and trees[0].payload["job"] == "inspect_part"
+    assert trees[0].payload["lines"][0] == "inspect_part  <- in_sequence"
+    assert summary["planner"]["actions"] >= 3 * 3 and summary["planner"]["plan_s"] > 0
+    page = tmp_path / "r.html"
+    report = CliRunner().invoke(main, ["report", summary["run_id"], "--runs-dir", str(runs), "-o", str(page)])
+    assert report.exit_code == 0, report.output
+    assert "The Top Level's plan (HTN)" in page.read_text() and "in_sequence" in page.read_text()
+
+
 def test_monitor_once_and_refusals(finished_run) -> None:
     runs, summary, _ = finished_run
     run_id = summary["run_id"]

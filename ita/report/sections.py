@@ -121,6 +121,23 @@ def _events(data: ReportData, ctx: Context) -> dict[str, Any]:
                      "resequencing of the run, with what it recorded." if rows else "No exceptions.")}
 
 
+def _task_tree(data: ReportData, ctx: Context) -> dict[str, Any] | None:
+    """The Top Level's plan: the HTN decomposition of the run's job (its first lines, as
+    the run kept them; the last session's when the run was continued)."""
+    trees = [e for e in data.events if e.kind == "task_tree"]
+    if not trees:
+        return None
+    payload = trees[-1].payload
+    lines = [str(line) for line in payload.get("lines", [])]
+    figures_ = payload.get("planner", {})
+    note = (f"Job {payload.get('job')}: the tasks, the method that decomposed each and what the Sequence Planner "
+            f"was asked. {figures_.get('actions', 0):.0f} actions; planned in {figures_.get('plan_s', 0):.2f} s, "
+            f"planned again {figures_.get('replans', 0):.0f} times.")
+    rows = [("\u00a0" * (len(line) - len(line.lstrip(" "))) + line.lstrip(" "),) for line in lines]
+    return {"kind": "kv", "title": "The Top Level's plan (HTN)", "id": "task_tree", "header": ["task  <- method"],
+            "rows": rows, "note": note, "collapsed": True}
+
+
 def _exceptions(data: ReportData, ctx: Context) -> dict[str, Any] | None:
     """The Exception Handler's diagnoses: the exception, each test in order with its
     result and cost, the cause isolated, the world updated, the recovery."""
@@ -210,6 +227,7 @@ SECTIONS: tuple[tuple[str, Builder], ...] = (
     ("breakdown", _breakdown),
     ("events", _events),
     ("exceptions", _exceptions),
+    ("task_tree", _task_tree),
     ("tours", _tours),
     ("scoring", _scoring),
 )

@@ -71,7 +71,7 @@ from ita.logic.world import WorldModel
 from ita.planning.state import WorldState
 from ita.sequence.next_step import Step, next_step, the_arm
 from ita.task.measure import MeasureOutcome, MeasureStatus, measure_one
-from ita.toplevel.agenda import Action, Agenda, Facts, with_facts
+from ita.toplevel.agenda import Action, Agenda, Facts, tree_lines, with_facts
 from ita.toplevel.calibration import ProbeCalibration
 from ita.toplevel.details import MeasurementDetails, measurement_details
 from ita.toplevel.events import (
@@ -104,6 +104,8 @@ __all__ = ["JOB", "MAX_FAILURES_IN_A_ROW", "Progress", "RunSummary", "TASKS", "T
 #: the knowledge base module of the Top Level's jobs (kb/tasks.pl) and the default job
 TASKS = "tasks"
 JOB = "inspect_part"
+#: lines of the plan's decomposition tree kept with a run (the System Monitor and the report show them)
+TREE_LINES = 400
 #: the actions that begin a measurement: the control table is read before the first of them
 _POLL_BEFORE = frozenset({"note_resequence", "calibrate_probe", "measure"})
 
@@ -241,6 +243,8 @@ class TopLevel:
                     self._next.clear()          # the Sequence Planner's answers are of the world before
                     agenda.replan_rest(facts)
         end_t = max(s.clock.now, s.executive.settled())     # the last trailing Vision reply too
+        self.archive.record_event(self.run_id, Event("task_tree", "top", end_t, {
+            "job": self.job, "lines": list(tree_lines(agenda, TREE_LINES)), "planner": dict(self._planner_figures())}))
         status, alarm, current = self._status, self._alarm, self._current
         done, total = len(self.results.done), len(self.todo)
         self.archive.set_status(self.run_id, status, event=run_end_event(

@@ -227,6 +227,7 @@
         wrap.insertAdjacentHTML("beforeend", `<p class="note">${esc(sec.note)}</p>` + eventsTable(sec.events));
         break;
       case "kv": {
+        if (sec.note) wrap.insertAdjacentHTML("beforeend", `<p class="note">${esc(sec.note)}</p>`);
         const t = table(sec.header || ["", ""], sec.rows, []);
         wrap.insertAdjacentHTML("beforeend", sec.collapsed ? `<details><summary>${sec.rows.length} rows</summary>${t}</details>` : t);
         break;
