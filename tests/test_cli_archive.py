@@ -100,6 +100,34 @@ def test_results_csv_has_every_column(runs_dir: Path) -> None:
     assert both.exit_code == 2
 
 
+def test_results_csv_keeps_every_digit_and_rounded_reads_in_a_spreadsheet(runs_dir: Path) -> None:
+    import csv
+    import io
+    import re
+    from datetime import datetime
+
+    first, _ = ids(runs_dir)
+    full = {r["spec_id"]: r for r in csv.DictReader(io.StringIO(run("results", first, "--runs-dir", str(runs_dir),
+                                                                     "--csv").stdout))}
+    data = {r["spec_id"]: r for r in json.loads(run("results", first, "--runs-dir", str(runs_dir),
+                                                     "--json").stdout)["results"]}
+    for spec_id, row in full.items():       # every digit: the CSV's text reads back the archive's float
+        for column in ("value", "deviation", "U", "wall_time"):
+            if data[spec_id][column] is not None:
+                assert float(row[column]) == data[spec_id][column]
+    rounded = run("results", first, "--runs-dir", str(runs_dir), "--csv", "--rounded")
+    assert rounded.exit_code == 0, rounded.output
+    rows = list(csv.DictReader(io.StringIO(rounded.stdout)))
+    assert len(rows) == len(full)
+    for row in rows:
+        for column in ("nominal", "value", "deviation", "U", "x", "y", "z"):
+            assert row[column] == "" or re.fullmatch(r"-?\d+\.\d{4}", row[column]), (column, row[column])
+        if row["wall_time"]:
+            assert datetime.fromisoformat(row["wall_time"]).utcoffset().total_seconds() == 0
+    alone = run("results", first, "--runs-dir", str(runs_dir), "--rounded")
+    assert alone.exit_code == 2 and "--rounded goes with --csv" in alone.output
+
+
 def test_part_option_selects_the_runs_of_a_part(runs_dir: Path, tmp_path: Path) -> None:
     other = tmp_path / "otherpart"
     other.mkdir()

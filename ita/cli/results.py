@@ -6,6 +6,7 @@ from __future__ import annotations
 import csv
 import json
 import sys
+from datetime import datetime, timezone
 from pathlib import Path
 
 import click
@@ -29,12 +30,27 @@ def _signed(x: float | None, digits: int = 4) -> str:
     return "-" if x is None else f"{x:+.{digits}f}"
 
 
+def _csv_cell(column: str, value: object, rounded: bool) -> object:
+    """A CSV cell: empty for None; with `rounded`, a float to four decimals and the
+    wall-clock time (Unix seconds) as ISO 8601 in UTC; else the value as it is (every
+    digit: Python writes the shortest text that reads back the same float)."""
+    if value is None:
+        return ""
+    if rounded and isinstance(value, float):
+        if column == "wall_time":
+            return datetime.fromtimestamp(value, tz=timezone.utc).isoformat(timespec="seconds")
+        return f"{value:.4f}"
+    return value
+
+
 @click.command("results")
 @click.argument("run")
 @runs_dir_option
 @part_option
 @click.option("--json", "as_json", is_flag=True, help="Print JSON (every column) instead of a table.")
 @click.option("--csv", "as_csv", is_flag=True, help="Print CSV (every column, a header line first) instead of a table.")
+@click.option("--rounded", is_flag=True, help="With --csv: numbers to four decimals and the wall-clock time as "
+              "ISO 8601 (UTC), for a spreadsheet; without it --csv keeps every digit and the time in Unix seconds.")
 @click.option("--failed", is_flag=True, help="Only results not proven to conform: does not conform, "
               "uncertain, not done, cannot be done.")
 @click.option("--qif", "qif_file", type=click.Path(path_type=Path),
@@ -42,7 +58,7 @@ def _signed(x: float | None, digits: int = 4) -> str:
                    "of printing them.")
 @reports_errors
 def results(run: str, runs_dir: Path | None, part_dir: Path | None, as_json: bool, as_csv: bool,
-            failed: bool, qif_file: Path | None) -> None:
+            rounded: bool, failed: bool, qif_file: Path | None) -> None:
     """List the results of RUN (an id, a unique prefix of one, or "last").
 
     Per result: kind, tool, nominal, measured value, deviation, tolerance, expanded
@@ -64,6 +80,8 @@ def results(run: str, runs_dir: Path | None, part_dir: Path | None, as_json: boo
 
     if as_json and as_csv:
         raise click.UsageError("--json and --csv exclude each other")
+    if rounded and not as_csv:
+        raise click.UsageError("--rounded goes with --csv")
     if qif_file is not None:
         if as_json or as_csv or failed:
             raise click.UsageError("--qif writes every result to its file: it excludes --json, --csv and --failed")
@@ -80,7 +98,7 @@ def results(run: str, runs_dir: Path | None, part_dir: Path | None, as_json: boo
         out = csv.DictWriter(sys.stdout, fieldnames=list(COLUMNS), lineterminator="\n")
         out.writeheader()
         for row in rows:
-            out.writerow({k: ("" if v is None else v) for k, v in row.items()})
+            out.writerow({k: _csv_cell(k, v, rounded) for k, v in row.items()})
         return
     click.echo(f"run {run_id}: {info.part}, {info.state_label}, {info.done} of "
                f"{info.total if info.total is not None else '?'} done"
