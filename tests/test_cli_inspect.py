@@ -158,3 +158,18 @@ def test_reinspect_measures_again_exactly_what_a_run_left_unproven(tmp_path, bui
     assert sorted(r.spec_id for r in results) == sorted(left) and summary["total"] == len(left)
     refused = CliRunner().invoke(main, ["inspect", "--task", "reinspect", "--runs-dir", str(runs)])
     assert refused.exit_code == 2 and "--from RUN" in refused.output
+
+
+def test_serial_and_operator_are_kept_with_the_run_and_listed_with_its_verdict(tmp_path, builtin_part) -> None:
+    runs = tmp_path / "runs"
+    made = CliRunner().invoke(main, ["inspect", "--limit", "2", "--serial", "SN-0042", "--operator", "A. Tester",
+                                     "--runs-dir", str(runs), "--json"])
+    assert made.exit_code == 0, made.output
+    listed = json.loads(CliRunner().invoke(main, ["runs", "--runs-dir", str(runs), "--json"]).stdout)
+    assert [(r["serial"], r["operator"]) for r in listed] == [("SN-0042", "A. Tester")]
+    assert listed[0]["verdict"] in ("accept", "reject", "incomplete")
+    table = CliRunner().invoke(main, ["runs", "--runs-dir", str(runs)]).stdout
+    assert "VERDICT" in table and "SN-0042" in table and "A. Tester" in table
+    for bad in ("", "x" * 65, "SN\n1", "SN\x1b[2J"):
+        refused = CliRunner().invoke(main, ["inspect", "--limit", "1", "--serial", bad, "--runs-dir", str(runs)])
+        assert refused.exit_code == 2 and "printable" in refused.output, repr(bad)

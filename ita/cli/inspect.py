@@ -95,6 +95,16 @@ def progress_line(p: Any, columns: int) -> str:
     return next((f for f in forms if len(f) <= room), forms[-1][:room])
 
 
+def _label(ctx: click.Context, param: click.Parameter, value: str | None) -> str | None:
+    """A serial number or a name: 1 to 64 printable characters, no line breaks or controls."""
+    if value is None:
+        return None
+    text = value.strip()
+    if not 1 <= len(text) <= 64 or not text.isprintable():
+        raise click.BadParameter("1 to 64 printable characters, no line breaks or control characters")
+    return text
+
+
 def _summary_text(summary: Any) -> str:
     d = summary.to_dict()
     lines = [f"run {summary.run_id}: {summary.status}, {summary.done}/{summary.total} results"
@@ -194,13 +204,18 @@ def _closing(session: Any) -> Iterator[Any]:
                    "face (pending until the face's last position frame), instead of each on its own frame.")
 @click.option("--task", "job", default="inspect_part", show_default=True, metavar="NAME",
               help="The job to run: a job of kb/tasks.pl, planned by the HTN planner (`ita tasks` lists them).")
+@click.option("--serial", default=None, metavar="SN", callback=_label,
+              help="The serial number of the part inspected (kept with the run; `ita runs` shows it).")
+@click.option("--operator", default=None, metavar="NAME", callback=_label,
+              help="Who runs the inspection (kept with the run; `ita runs` shows it).")
 @click.option("--from", "from_run", default=None, metavar="RUN",
               help="With --task reinspect: the run whose unproven results (uncertain, does not conform, not "
                    "done) to measure again; the new run holds those alone.")
 @reports_errors
 def inspect(part_dir: Path | None, limit: int | None, seed: int, runs_dir: Path | None, as_json: bool,
             fault_rate: float, fault_kinds: str | None, scripts: tuple[str, ...], run_id: str | None,
-            alarm_after: int | None, network: bool, job: str, from_run: str | None) -> None:
+            alarm_after: int | None, network: bool, job: str, serial: str | None, operator: str | None,
+            from_run: str | None) -> None:
     """Inspect the part (in the simulated workcell): every measurement of the sequence
     plan, planned, executed, measured and recorded in the runs archive as it is made.
 
@@ -257,6 +272,7 @@ def inspect(part_dir: Path | None, limit: int | None, seed: int, runs_dir: Path 
             settings: dict[str, Any] = {"network": network, "task": job}
             if source is not None:
                 settings["from"] = source
+            settings.update({k: v for k, v in (("serial", serial), ("operator", operator)) if v is not None})
             if alarm_after is not None:
                 settings["alarm_after"] = alarm_after
             if injection.active:

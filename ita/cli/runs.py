@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
+from typing import Any
 
 import click
 
@@ -63,11 +64,20 @@ def format_duration(seconds: float | None) -> str:
 @click.option("--json", "as_json", is_flag=True, help="Print JSON instead of a table.")
 @reports_errors
 def runs(runs_dir: Path | None, as_json: bool) -> None:
-    """List the runs: id, part, status, results done of total, simulated cycle time, start.
+    """List the runs: id, part, status, results done of total, simulated cycle time, start,
+    the verdict over the run's measurements (accept: every one conforms; reject: one does
+    not; incomplete: otherwise, or not ended), and the serial and operator it was given.
 
     A run whose process died (killed, crashed) shows as "dead" and can be continued.
     """
     from ita.archive import NoArchive
+    from ita.report.data import verdict_of
+
+    def verdict(r: Any) -> str:
+        counts = r.totals.get("counts") if isinstance(r.totals, dict) else None
+        if not isinstance(counts, dict) or r.total is None:
+            return "-"
+        return verdict_of({str(k): int(v) for k, v in counts.items()}, int(r.total))[0].value
 
     try:
         archive = open_archive(runs_dir)
@@ -84,14 +94,16 @@ def runs(runs_dir: Path | None, as_json: bool) -> None:
             "id": r.id, "part": r.part, "part_dir": r.part_dir, "seed": r.seed, "status": r.status.value,
             "state": r.state_label, "done": r.done, "total": r.total, "sim_time": r.sim_time,
             "created": r.created, "ended": r.ended, "settings": r.settings, "totals": r.totals,
+            "verdict": verdict(r), "serial": r.settings.get("serial"), "operator": r.settings.get("operator"),
         } for r in infos], indent=2))
         return
     if not infos:
         click.echo("no runs", err=True)
         return
     rows = [(r.id, r.part, r.state_label, f"{r.done}/{r.total if r.total is not None else '?'}",
-             format_duration(r.sim_time), r.created.replace("T", " ").replace("+00:00", "Z")) for r in infos]
-    header = ("RUN", "PART", "STATUS", "DONE", "SIM TIME", "STARTED (UTC)")
+             format_duration(r.sim_time), r.created.replace("T", " ").replace("+00:00", "Z"), verdict(r),
+             r.settings.get("serial") or "-", r.settings.get("operator") or "-") for r in infos]
+    header = ("RUN", "PART", "STATUS", "DONE", "SIM TIME", "STARTED (UTC)", "VERDICT", "SERIAL", "OPERATOR")
     widths = [max(len(str(x)) for x in col) for col in zip(header, *rows)]
     for row in (header, *rows):
         click.echo("  ".join(str(c).ljust(w) for c, w in zip(row, widths)).rstrip())
