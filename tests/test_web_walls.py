@@ -259,6 +259,11 @@ START_BODIES = [
     (b'{"part": "' + b"x" * 5000 + b'"}', "part"),
     (b'{"limit": 1, "part": "NOSPECS"}', "part"),
     (b'{"colour": "red"}', "unknown field 'colour'"),
+    (b'{"serial": 42}', "serial"),
+    (b'{"serial": "SN\\n1"}', "serial"),
+    (b'{"serial": "' + b"x" * 65 + b'"}', "serial"),
+    (b'{"operator": ["A"]}', "operator"),
+    (b'{"operator": "A\\u001b[2J"}', "operator"),
 ]
 
 

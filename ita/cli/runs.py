@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import Any
 
 import click
 
@@ -71,13 +70,7 @@ def runs(runs_dir: Path | None, as_json: bool) -> None:
     A run whose process died (killed, crashed) shows as "dead" and can be continued.
     """
     from ita.archive import NoArchive
-    from ita.report.data import verdict_of
-
-    def verdict(r: Any) -> str:
-        counts = r.totals.get("counts") if isinstance(r.totals, dict) else None
-        if not isinstance(counts, dict) or r.total is None:
-            return "-"
-        return verdict_of({str(k): int(v) for k, v in counts.items()}, int(r.total))[0].value
+    from ita.report.data import run_verdict as verdict
 
     try:
         archive = open_archive(runs_dir)

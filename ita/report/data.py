@@ -191,6 +191,15 @@ def result_row(r: StoredResult) -> dict[str, Any]:
 
 
 # ------------------------------------------------------------------------------ summary
+def run_verdict(info: RunInfo) -> str:
+    """The verdict over a run's own measurements (accept, reject, incomplete), from the
+    counts it recorded at its end; "-" while it has none."""
+    counts = info.totals.get("counts") if isinstance(info.totals, dict) else None
+    if not isinstance(counts, dict) or info.total is None:
+        return "-"
+    return verdict_of({str(k): int(v) for k, v in counts.items()}, int(info.total))[0].value
+
+
 def verdict_of(counts: dict[str, int], part_total: int) -> tuple[Verdict, str, int]:
     """(verdict, why, specs without a conforming result)."""
     done = sum(counts.values())

@@ -60,7 +60,14 @@ from ita.archive import (
 )
 from ita.errors import InputError, ItaError
 from ita.report.assets import asset_path
-from ita.report.data import COLUMNS, STATUS_COLOURS, collect, jsonable, result_row
+from ita.report.data import (
+    COLUMNS,
+    STATUS_COLOURS,
+    collect,
+    jsonable,
+    result_row,
+    run_verdict,
+)
 from ita.report.live import live_state
 from ita.report.result import result_payload
 from ita.report.scene import PartScene
@@ -224,7 +231,8 @@ def _runs(state: State) -> list[dict[str, Any]]:
         return [{"id": r.id, "part": r.part, "part_dir": r.part_dir, "seed": r.seed, "state": r.state_label,
                  "done": r.done, "total": r.total, "sim_time": r.sim_time, "created": r.created, "ended": r.ended,
                  "running": r.status.value == "running" and r.alive is not False,
-                 "continuable": r.state_label in ("interrupted", "stopped", "dead", "failed")}
+                 "continuable": r.state_label in ("interrupted", "stopped", "dead", "failed"),
+                 "verdict": run_verdict(r), "serial": r.settings.get("serial"), "operator": r.settings.get("operator")}
                 for r in reversed(archive.runs())]
 
 
@@ -237,7 +245,8 @@ async def api_runs(request: Request) -> JSONResponse:
         body = await _body(request)
         start = await run_in_threadpool(start_request, body, spec_count)
         run_id = await run_in_threadpool(state.procs.start_inspect, limit=start.limit, seed=start.seed,
-                                         part=start.part, faults=start.faults)
+                                         part=start.part, faults=start.faults, serial=start.serial,
+                                         operator=start.operator)
         return _json({"run": run_id, "started": True}, 201)
     return _json(await run_in_threadpool(_runs, state))
 

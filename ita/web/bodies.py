@@ -25,7 +25,7 @@ from ita.part.store import SPECS_FILE, ensure_builtin
 from ita.seeds import SEED_MAX
 from ita.specs.io import read_spec_table
 
-START_FIELDS = ("part", "limit", "seed", "faults")
+START_FIELDS = ("part", "limit", "seed", "faults", "serial", "operator")
 CONTROL_FIELDS = ("command",)
 COMMANDS = ("STOP", "INTERRUPT", "CONTINUE")
 _WHOLE = re.compile(r"[0-9]{1,30}", re.ASCII)
@@ -47,6 +47,8 @@ class StartRequest:
     limit: int | None
     seed: int
     faults: float
+    serial: str | None = None
+    operator: str | None = None
 
 
 def _reject_constant(name: str) -> Any:
@@ -178,7 +180,21 @@ def start_request(body: dict[str, Any], spec_count: Callable[[str | None], int])
             raise BadRequest(f"part: its specs cannot be read ({first[:200]})") from None
         limit = _whole(body, "limit", 1, count,
                        f"a whole number from 1 to {count} (the part's specs), or empty for every measurement")
-    return StartRequest(part, limit, 0 if seed is None else seed, 0.0 if faults is None else faults)
+    return StartRequest(part, limit, 0 if seed is None else seed, 0.0 if faults is None else faults,
+                        _label(body, "serial"), _label(body, "operator"))
+
+
+def _label(body: dict[str, Any], name: str) -> str | None:
+    """A serial number or a name: 1 to 64 printable characters (empty or absent: None)."""
+    value = body.get(name)
+    if value is None or value == "":
+        return None
+    if not isinstance(value, str):
+        raise BadRequest(f"{name}: a text of 1 to 64 printable characters (got a {_kind(value)})")
+    text = value.strip()
+    if not 1 <= len(text) <= 64 or not text.isprintable():
+        raise BadRequest(f"{name}: a text of 1 to 64 printable characters, no line breaks or control characters")
+    return text
 
 
 def control_command(body: dict[str, Any]) -> str:

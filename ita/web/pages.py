@@ -33,6 +33,8 @@ def runs_page() -> str:
             "<label>part directory <input name=\"part\" placeholder=\"built-in bulkhead\" size=\"30\"></label>"
             "<label>limit <input name=\"limit\" type=\"number\" min=\"1\" placeholder=\"every measurement\"></label>"
             "<label>seed <input name=\"seed\" type=\"number\" value=\"0\"></label>"
+            "<label>serial <input name=\"serial\" size=\"12\" maxlength=\"64\"></label>"
+            "<label>operator <input name=\"operator\" size=\"14\" maxlength=\"64\"></label>"
             "<button type=\"submit\" id=\"start-run\">start inspection</button> <span id=\"start-msg\" class=\"note\"></span>"
             "</form><p class=\"note\">A run started here is `ita inspect` in a process of its own, on this server's "
             "runs directory; loading the system takes about a minute before the first measurement. Faults to inject "

@@ -68,7 +68,7 @@ class Processes:
             self._watch(child)
 
     def start_inspect(self, *, limit: int | None = None, seed: int = 0, part: str | None = None,
-                      faults: float = 0.0) -> str:
+                      faults: float = 0.0, serial: str | None = None, operator: str | None = None) -> str:
         """Start `ita inspect` for a new run; returns its id (the run appears in the
         archive once the child has loaded the system, about a minute)."""
         run_id = new_run_id()
@@ -79,6 +79,10 @@ class Processes:
             args += ["--faults", repr(float(faults))]
         if part:
             args += ["--part", part]
+        if serial:
+            args += ["--serial", serial]
+        if operator:
+            args += ["--operator", operator]
         self._spawn(run_id, args)
         return run_id
 

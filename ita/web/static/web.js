@@ -24,10 +24,11 @@
     async function draw() {
       const runs = await getJSON("/api/runs");
       if (!runs.length) { root.innerHTML = "<p>No runs yet.</p>"; return; }
-      root.innerHTML = '<table class="results" id="runs-table"><tr><th>run</th><th>part</th><th>status</th><th>done</th><th>simulated</th><th>started (UTC)</th></tr>' +
+      root.innerHTML = '<table class="results" id="runs-table"><tr><th>run</th><th>part</th><th>status</th><th>done</th><th>simulated</th><th>started (UTC)</th><th>verdict</th><th>serial</th><th>operator</th></tr>' +
         runs.map((r) => `<tr><td><a href="/runs/${enc(r.id)}">${ITA.esc(r.id)}</a></td><td>${ITA.esc(r.part)}</td>` +
           `<td>${ITA.esc(r.state)}</td><td class="num">${r.done}/${r.total ?? "?"}</td><td class="num">${r.sim_time === null ? "-" : ITA.num(r.sim_time, 0) + " s"}</td>` +
-          `<td>${ITA.esc((r.created || "").replace("T", " ").replace("+00:00", ""))}</td></tr>`).join("") + "</table>";
+          `<td>${ITA.esc((r.created || "").replace("T", " ").replace("+00:00", ""))}</td>` +
+          `<td>${ITA.esc(r.verdict)}</td><td>${ITA.esc(r.serial || "-")}</td><td>${ITA.esc(r.operator || "-")}</td></tr>`).join("") + "</table>";
     }
     await draw();
     setInterval(draw, 5000);
@@ -36,7 +37,8 @@
       const f = new FormData(e.target);
       const msg = document.getElementById("start-msg");
       try {
-        const out = await post("/api/runs", { part: f.get("part"), limit: f.get("limit"), seed: f.get("seed") });
+        const out = await post("/api/runs", { part: f.get("part"), limit: f.get("limit"), seed: f.get("seed"),
+                                                serial: f.get("serial"), operator: f.get("operator") });
         window.location.href = `/runs/${enc(out.run)}`;
       } catch (err) { msg.textContent = err.message; msg.className = "err"; }
     });
