@@ -104,6 +104,8 @@ __all__ = ["JOB", "MAX_FAILURES_IN_A_ROW", "Progress", "RunSummary", "TASKS", "T
 #: the knowledge base module of the Top Level's jobs (kb/tasks.pl) and the default job
 TASKS = "tasks"
 JOB = "inspect_part"
+#: plans made again in a row with the same action first, not applicable, before the run fails
+MAX_REPLANS_IN_A_ROW = 20
 #: lines of the plan's decomposition tree kept with a run (the System Monitor and the report show them)
 TREE_LINES = 400
 #: the actions that begin a measurement: the control table is read before the first of them
@@ -217,6 +219,7 @@ class TopLevel:
         with s.kb.attached(self._procedures()):
             agenda.plan(job_tasks(s.kb, self.job), facts)
             polled = False
+            stuck, blocked = 0, None
             while (action := agenda.next()) is not None:
                 try:
                     if not polled and action.name in _POLL_BEFORE:
@@ -227,9 +230,15 @@ class TopLevel:
                             agenda.replan_rest(facts)
                             continue
                     if not agenda.applicable(action, facts):
+                        stuck = stuck + 1 if action.term == blocked else 1
+                        blocked = action.term
+                        if stuck > MAX_REPLANS_IN_A_ROW:     # the domain plans what it cannot carry out
+                            raise PrologError(f"{TASKS}:method/4", f"planned {stuck} times in a row with the "
+                                              f"same action first, not applicable: {action.term}")
                         if not agenda.replan_parent(facts):
                             agenda.replan_rest(facts)
                         continue
+                    stuck = 0
                     observed, rest_wrong = self._carry_out(action)
                 except StopNow:
                     facts = with_facts(facts, ["stopped"])
