@@ -63,3 +63,14 @@ def seed_option(default: int | None = 0, help: str = "Seed of the simulated work
     """A --seed option: an integer from 0 to 2**63 - 1 (exit 2 with the range otherwise)."""
     return click.option("--seed", type=SEED_TYPE, default=default, required=required,
                         show_default=default is not None and not required, help=help)
+
+
+def check_job(job: str) -> None:
+    """Refuse (usage error, exit 2) a job that kb/tasks.pl does not have, naming those it has."""
+    from ita.logic.bridge import KnowledgeBase
+    from ita.toplevel import jobs
+
+    known = [name for name, _ in jobs(KnowledgeBase())]
+    if job not in known:
+        raise click.BadParameter(f"no job {job!r} in kb/tasks.pl (the jobs: {', '.join(known)})",
+                                 param_hint="--task")

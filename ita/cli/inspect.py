@@ -25,7 +25,13 @@ from typing import Any
 
 import click
 
-from ita.cli.common import FiniteFloatRange, part_option, reports_errors, seed_option
+from ita.cli.common import (
+    FiniteFloatRange,
+    check_job,
+    part_option,
+    reports_errors,
+    seed_option,
+)
 from ita.cli.runs import format_duration, runs_dir_option
 
 NOT_FINISHED = 3
@@ -97,12 +103,14 @@ def progress_line(p: Any, columns: int) -> str:
 
 def _label(ctx: click.Context, param: click.Parameter, value: str | None) -> str | None:
     """A serial number or a name: 1 to 64 printable characters, no line breaks or controls."""
+    from ita.labels import label_problem
+
     if value is None:
         return None
-    text = value.strip()
-    if not 1 <= len(text) <= 64 or not text.isprintable():
-        raise click.BadParameter("1 to 64 printable characters, no line breaks or control characters")
-    return text
+    problem = label_problem(value)
+    if problem:
+        raise click.BadParameter(problem)
+    return value.strip()
 
 
 def _summary_text(summary: Any) -> str:
@@ -234,17 +242,13 @@ def inspect(part_dir: Path | None, limit: int | None, seed: int, runs_dir: Path 
       2  bad input (part, specs, options)
     """
     from ita.archive import Archive, archive_path
-    from ita.logic.bridge import KnowledgeBase
     from ita.sim.inject import InjectionPlan
     from ita.task import open_session
-    from ita.toplevel import jobs, start_run, tooling_specs, unproven
+    from ita.toplevel import start_run, tooling_specs, unproven
 
     injection = InjectionPlan.parse(fault_rate, fault_kinds, scripts, seed)   # bad options fail before any work
     view = LiveView()
-    known = [name for name, _ in jobs(KnowledgeBase())]
-    if job not in known:
-        raise click.BadParameter(f"no job {job!r} in kb/tasks.pl (the jobs: {', '.join(known)})",
-                                 param_hint="--task")
+    check_job(job)
     if job == "cell_check" and limit is not None:
         raise click.UsageError("--limit does not go with --task cell_check: it measures the tooling holes")
     if (job == "reinspect") != (from_run is not None):

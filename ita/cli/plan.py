@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING
 
 import click
 
-from ita.cli.common import part_option, reports_errors
+from ita.cli.common import check_job, part_option, reports_errors
 from ita.errors import InputError, Location
 
 if TYPE_CHECKING:
@@ -147,15 +147,11 @@ def _top(part_dir: Path | None, job: str, lines: int) -> None:
     import time
 
     from ita.archive import Archive
-    from ita.logic.bridge import KnowledgeBase
     from ita.task import open_session
-    from ita.toplevel import TopLevel, jobs, start_run
+    from ita.toplevel import TopLevel, start_run
     from ita.toplevel.agenda import tree_lines
 
-    known = [name for name, _ in jobs(KnowledgeBase())]
-    if job not in known:
-        raise click.BadParameter(f"no job {job!r} in kb/tasks.pl (the jobs: {', '.join(known)})",
-                                 param_hint="--task")
+    check_job(job)
     if job == "reinspect":
         raise click.UsageError("reinspect plans from a run: `ita inspect --task reinspect --from RUN` shows it")
     session = open_session(part_dir)

@@ -21,6 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from ita.errors import ItaError
+from ita.labels import LABEL_RULE, label_problem
 from ita.part.store import SPECS_FILE, ensure_builtin
 from ita.seeds import SEED_MAX
 from ita.specs.io import read_spec_table
@@ -190,11 +191,10 @@ def _label(body: dict[str, Any], name: str) -> str | None:
     if value is None or value == "":
         return None
     if not isinstance(value, str):
-        raise BadRequest(f"{name}: a text of 1 to 64 printable characters (got a {_kind(value)})")
-    text = value.strip()
-    if not 1 <= len(text) <= 64 or not text.isprintable():
-        raise BadRequest(f"{name}: a text of 1 to 64 printable characters, no line breaks or control characters")
-    return text
+        raise BadRequest(f"{name}: a text of {LABEL_RULE} (got a {_kind(value)})")
+    if label_problem(value):
+        raise BadRequest(f"{name}: a text of {LABEL_RULE}")
+    return value.strip()
 
 
 def control_command(body: dict[str, Any]) -> str:
