@@ -1,7 +1,11 @@
 :- module(tasks,
           [ job/3,                      % ?Name, ?Tasks, ?Description
             operator/4,                 % ?Head, ?Pre, ?Del, ?Add
-            method/4                    % ?Name, ?Task, ?Pre, ?Subtasks
+            method/4,                   % ?Name, ?Task, ?Pre, ?Subtasks
+            better_way/3,               % +Earlier, +Alternatives, -Way
+            more_accurate/3,            % ?BetterToolType, ?ToolType, ?Kind
+            falls_with_frames/1,        % ?TermPrefix
+            method_choice/3             % +Task, +Facts, -Choice
           ]).
 
 /** <module> The Top Level's jobs, as a task network for the HTN planner
@@ -23,6 +27,10 @@ each with one piece of Python behind it (ita/toplevel/actions.py):
   - `note_resequence(Cursor)`: the sequence plan was remade at that point (an event);
   - `calibrate_probe(Probe)`: the probe reads the calibration block;
   - `measure(Spec, Tool, Group)`: one measurement's round trip (plan, execute);
+  - `measure_again(Spec, Way, Group)`: the same, the way better_way/3 chose to measure
+    again what an earlier run left unproven: `same_way`, `more_frames(N)` (the SLRA
+    takes N frames, each after its own approach, and Vision averages them) or
+    `other_sensor(Tool)`;
   - `handle_exception(Spec)`: the Exception Handler diagnoses the failure, puts the
     cell right and measures again;
   - `record(Spec)`: the result to the archive (or held pending its network or webs),
@@ -37,8 +45,13 @@ each with one piece of Python behind it (ita/toplevel/actions.py):
 tools through the bridge (py_bridge:attached/3): the Sequence Planner's next step
 from a position of the sequence plan (`next_measurement/3`, `nothing_left/2`), whether
 a measurement is still to do (`to_measure/1`: the frame of another may have measured
-it since) and whether a probe must read the block before it (`calibration_due/2`).
+it since), whether a probe must read the block before it (`calibration_due/2`), and in
+a reinspection the earlier run's result of a measurement (`earlier/2`) and the other
+tools placed for it (`alternatives/2`).
 The Top Level checks an action's preconditions again just before carrying it out.
+
+*Given facts*: `reinspecting` (the run measures again what an earlier run left
+unproven; `earlier/2` answers for its measurements).
 
 *Observed facts* the Top Level adds to the state when it sees them: `failed(Spec)`
 (the round trip ended in an exception), `interrupted`, `stopped`, `alarm` (so many
@@ -50,6 +63,8 @@ runs it and `ita tasks` lists them.
 */
 
 :- use_module(library(lists)).
+:- use_module(library(apply)).
+:- use_module(library(error)).
 
 %!  job(?Name:atom, ?Tasks:list, ?Description:atom) is nondet.
 %
@@ -70,6 +85,7 @@ operator(record_unplaceable,        [], [], []).
 operator(note_resequence(_Cursor),  [], [], []).
 operator(calibrate_probe(P),        [], [], [calibrated(P)]).
 operator(measure(Spec, _Tool, _G),  [call(to_measure(Spec))], [], []).
+operator(measure_again(Spec, _Way, _G), [call(to_measure(Spec))], [], []).
 operator(handle_exception(S),       [failed(S)], [failed(S)], []).
 operator(record(S),                 [not(failed(S))], [], []).
 operator(settle_pending,            [], [], []).
@@ -116,8 +132,17 @@ method(done_already, measure_spec(Spec, _Tool, _Group), [not(call(to_measure(Spe
 method(calibrate_first, measure_spec(Spec, Tool, Group),
        [not(calibrated(Tool)), call(calibration_due(Spec, Tool))],
        [calibrate_probe(Tool), measure_spec(Spec, Tool, Group)]).
+method(more_accurate, measure_spec(Spec, _Tool, Group),
+       [ reinspecting, call(earlier(Spec, Earlier)), call(alternatives(Spec, Alternatives)),
+         call(better_way(Earlier, Alternatives, Way)), Way \= same_way ],
+       [probe_ready(Spec, Way), measure_again(Spec, Way, Group), conclude(Spec)]).
 method(round_trip, measure_spec(Spec, Tool, Group), [],
        [measure(Spec, Tool, Group), conclude(Spec)]).
+
+% -- the other sensor of a reinspection may be a probe that has not read the block yet ------
+method(calibrate_first, probe_ready(Spec, other_sensor(Tool)),
+       [not(calibrated(Tool)), call(calibration_due(Spec, Tool))], [calibrate_probe(Tool)]).
+method(ready, probe_ready(_Spec, _Way), [], []).
 
 method(halted, conclude(_Spec), [stopped], []).
 method(recovered, conclude(Spec), [failed(Spec)],
@@ -131,6 +156,139 @@ method(alarmed, close_run, [not(stopped), alarm], [end_run(stopped)]).
 method(interrupted, close_run, [not(stopped), not(alarm), interrupted], [end_run(interrupted)]).
 method(completed, close_run, [not(stopped), not(alarm), not(interrupted)],
        [decide_pending, record_leftovers, end_run(completed)]).
+
+
+                 /*******************************
+                 *   MEASURING AGAIN, BETTER    *
+                 *******************************/
+
+%!  better_way(+Earlier, +Alternatives:list, -Way) is det.
+%
+%   The way to measure again a result an earlier run left unproven, so that its
+%   uncertainty is smaller where a smaller one can be had.  Earlier is
+%   `earlier(Decision, ToolType, Kind, Largest, Frames)`: the earlier decision
+%   (`uncertain`, `does_not_conform`, `not_done`), the type of the tool that took it,
+%   the kind of measurement, the name of its uncertainty budget's largest term (`none`
+%   when it has no value) and the frames it averaged.  Alternatives: `alt(ToolType,
+%   Tool)` for each other tool the measurement knowledge base placed for it and the
+%   world model has usable.  In this order:
+%
+%     1. `other_sensor(Tool)`: a tool of a type more_accurate/3 says measures this kind
+%        better;
+%     2. `more_frames(N)`: an SLRA result whose largest term is one that is a new draw
+%        at every approach (falls_with_frames/1): four times the frames it had, at least
+%        16 and at most 64, which halves that term or better.  A term that is the same in
+%        every frame (the SLRA's calibration, the edge model, the neighbours' own
+%        positions) does not average away: more frames would not help;
+%     3. `same_way`: measure it as before (a result not done is tried again).
+%
+%   A second stand-off is not offered: the SLRA's calibration on reference workpieces
+%   holds at its nominal stand-off only, so a size from another would lose it.
+
+better_way(earlier(_, ToolType, Kind, _, _), Alternatives, other_sensor(Tool)) :-
+    member(alt(Better, Tool), Alternatives),
+    more_accurate(Better, ToolType, Kind),
+    !.
+better_way(earlier(_, slra_tool, _, Largest, Frames), _, more_frames(N)) :-
+    atom(Largest),
+    falls_with_frames(Prefix),
+    sub_atom(Largest, 0, _, _, Prefix),
+    !,
+    N is min(64, max(16, 4 * Frames)).
+better_way(_, _, same_way).
+
+%!  more_accurate(?BetterToolType, ?ToolType, ?Kind) is nondet.
+%
+%   For measurements of Kind, a tool of BetterToolType gives a smaller uncertainty
+%   than one of ToolType.  A rib's width: the probe's thickness reading on its side
+%   wall (U about 0.004 mm, the gauge's resolution and its calibration on the block)
+%   against the SLRA's two edges from above (U 0.02 mm or more, the edge model and the
+%   calibration's scatter).
+
+more_accurate(us_tool, slra_tool, stiffener_width).
+
+%!  falls_with_frames(?TermPrefix) is nondet.
+%
+%   An uncertainty budget term whose name begins with TermPrefix is a new draw at every
+%   approach of the arm (its repeatability) or every frame (a fit's noise): the mean of
+%   N frames from N approaches divides it by the square root of N.
+
+falls_with_frames('network (frame poses').
+falls_with_frames('arm pose').
+falls_with_frames('rim fit').
+falls_with_frames('edge line fit').
+falls_with_frames('the frame\'s own fits').
+
+
+                 /*******************************
+                 *    WHY A METHOD WAS CHOSEN   *
+                 *******************************/
+
+%!  method_choice(+Task, +Facts:list, -Choice) is det.
+%
+%   The method the planner takes for Task in a state holding Facts, and why not the
+%   ones written before it: Choice is `chosen(Method, Subtasks, Rejected)` or
+%   `none(Rejected)`, Rejected listing `rejected(Method, Literal)` for each method tried
+%   before, with the first literal of its preconditions that does not hold.  The
+%   literals are those of prolog/htn.pl (facts, `not/1`, `or/1`, `forall/2`, `=`,
+%   `\=`, `call/1`).  An attached procedure is answered by a fact `answer(Goal)` among
+%   Facts (in a run the Top Level's tools answer it); one that is not so answered is a
+%   literal that does not hold.  `ita kb why 'method_choice(close_run, [alarm], C)'`
+%   shows the proof.
+
+method_choice(Task, Facts, Choice) :-
+    must_be(list, Facts),
+    findall(method(Name, Pre, Subtasks), method(Name, Task, Pre, Subtasks), Methods),
+    choose(Methods, Facts, [], Choice).
+
+choose([], _, Rejected0, none(Rejected)) :-
+    reverse(Rejected0, Rejected).
+choose([method(Name, Pre, Subtasks)|Methods], Facts, Rejected0, Choice) :-
+    check_lits(Pre, Facts, Verdict),
+    (   Verdict = fails(Literal)
+    ->  choose(Methods, Facts, [rejected(Name, Literal)|Rejected0], Choice)
+    ;   reverse(Rejected0, Rejected),
+        Choice = chosen(Name, Subtasks, Rejected)
+    ).
+
+%   check_lits(+Lits, +Facts, -Verdict): `holds` with the bindings of the first answer of
+%   each literal in turn, or fails(Literal) for the first that does not hold then.
+check_lits([], _, holds).
+check_lits([L|Ls], Facts, Verdict) :-
+    (   once(lit_holds(L, Facts))
+    ->  check_lits(Ls, Facts, Verdict)
+    ;   Verdict = fails(L)
+    ).
+
+lit_holds(not(L), Facts) :- !,
+    \+ lits_hold(L, Facts).
+lit_holds(or(Alternatives), Facts) :- !,
+    member(A, Alternatives),
+    lits_hold(A, Facts).
+lit_holds(forall(G, T), Facts) :- !,
+    forall(lits_hold(G, Facts), lits_hold(T, Facts)).
+lit_holds(X = Y, _) :- !,
+    X = Y.
+lit_holds(X \= Y, _) :- !,
+    X \= Y.
+lit_holds(call(G), Facts) :- !,
+    (   member(answer(G), Facts)
+    ;   answered_here(G)
+    ).
+lit_holds(A, Facts) :-
+    member(A, Facts).
+
+lits_hold([], _) :- !.
+lits_hold([L|Ls], Facts) :- !,
+    lit_holds(L, Facts),
+    lits_hold(Ls, Facts).
+lits_hold(L, Facts) :-
+    lit_holds(L, Facts).
+
+%   answered_here(+Goal): an attached procedure this module answers without the Top
+%   Level (better_way/3); the others need an answer(Goal) fact.
+answered_here(better_way(E, A, W)) :-
+    better_way(E, A, W).
 
 
                  /*******************************
@@ -162,3 +320,13 @@ probes(Probes) :-
 %   reads the calibration block before measuring Spec (if not yet calibrated).
 calibration_due(Spec, Tool) :-
     py_bridge:attached(calibration_due, [Spec, Tool], true).
+
+%   earlier(+Spec, -Earlier): in a reinspection, the earlier run's result of Spec as
+%   better_way/3 takes it.
+earlier(Spec, Earlier) :-
+    py_bridge:attached(earlier, [Spec], Earlier).
+
+%   alternatives(+Spec, -Alternatives): alt(ToolType, Tool) for each usable tool of
+%   another type than the one planned that the MKB placed for Spec.
+alternatives(Spec, Alternatives) :-
+    py_bridge:attached(alternatives, [Spec], Alternatives).

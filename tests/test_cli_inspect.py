@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import pytest
@@ -29,15 +30,17 @@ def test_inspect_prints_a_summary_and_progress(finished_run) -> None:
 
 
 def test_a_run_keeps_its_htn_plan_and_the_report_shows_it(finished_run, tmp_path) -> None:
-    """The Top Level's plan (the job's HTN decomposition, its figures) is kept with the run;
-    the report (and so the System Monitor's run page) has a section of it."""
+    """The Top Level's plan (the job's HTN decomposition, its figures) is kept with the run,
+    as planned when it starts (the System Monitor shows it while the run goes on) and as
+    carried out at its end; the report (and so the run page) has a section of it."""
     from ita.archive import Archive, archive_path
 
     runs, summary, stderr = finished_run
     with Archive.open(archive_path(runs)) as archive:
         trees = archive.events(summary["run_id"], kinds=["task_tree"])
-    assert len(trees) == 1 and trees[0].payload["job"] == "inspect_part"
-    assert trees[0].payload["lines"][0] == "inspect_part  <- in_sequence"
+    assert [t.payload["stage"] for t in trees] == ["planned", "carried out"]
+    assert all(t.payload["job"] == "inspect_part" for t in trees)
+    assert trees[-1].payload["lines"][0] == "inspect_part  <- in_sequence"
     assert summary["planner"]["actions"] >= 3 * 3 and summary["planner"]["plan_s"] > 0
     page = tmp_path / "r.html"
     report = CliRunner().invoke(main, ["report", summary["run_id"], "--runs-dir", str(runs), "-o", str(page)])
@@ -105,6 +108,44 @@ def test_reinspect_measures_again_exactly_the_unproven_results_of_a_run(tmp_path
     assert all(r.outcome is Outcome.MEASURED for r in results)
     refused = CliRunner().invoke(main, ["inspect", "--task", "reinspect", "--runs-dir", str(runs)])
     assert refused.exit_code == 2 and "--from RUN" in refused.output
+
+
+def test_reinspect_chooses_more_frames_where_they_lower_the_uncertainty(tmp_path, builtin_part) -> None:
+    """Positions left uncertain by their network's frame poses (a term that is new at each
+    approach) are measured again from 16 approaches each (kb/tasks.pl better_way/3); a
+    diameter whose largest term is the SLRA's calibration (the same in every frame) is
+    measured again the same way.  The decomposition kept with the run says so."""
+    from ita.archive import Archive, Event, Result, archive_path
+    from ita.specs.io import read_specs
+
+    runs = tmp_path / "runs"
+    specs = read_specs(builtin_part.specs_path)
+    positions = [s for s in specs if s.id.startswith("HP-OF-")][:1]
+    diameter = next(s for s in specs if s.id.startswith("HD-OF-"))
+    network = "; largest term: network (frame poses and rim fits) (u 0.0787 mm)"
+    with Archive.open(archive_path(runs)) as archive:
+        source = archive.create_run(builtin_part.name, builtin_part.directory, seed=0, total=2)
+        for p in positions:
+            archive.record_result(source, Result.measured(p, p.upper - 0.01, 0.08, tool="slra_1",
+                                                          reason="U/tolerance 0.31" + network))
+        archive.record_result(source, Result.measured(
+            diameter, diameter.nominal + diameter.upper, 0.0084, tool="slra_1",
+            reason="U/tolerance 0.34; largest term: SLRA calibration (reference workpieces) (u 0.0084 mm)"))
+        archive.record_event(source, Event("run_end", "top", 1.0, {"status": "completed"}))
+    again = CliRunner().invoke(main, ["inspect", "--task", "reinspect", "--from", source, "--runs-dir", str(runs),
+                                      "--json"])
+    assert again.exit_code == 0, again.output
+    summary = json.loads(again.stdout)
+    with Archive.open(archive_path(runs)) as archive:
+        run = summary["run_id"]
+        tree = "\n".join(archive.events(run, kinds=["task_tree"])[-1].payload["lines"])
+        results = {r.spec_id: r for r in archive.results(run)}
+    for p in positions:
+        assert f"measure_again({p.id}, more_frames(16)" in tree, tree
+        seen = re.search(r"seen in (\d+)", results[p.id].reason or "")
+        assert seen is not None and int(seen.group(1)) >= 16, results[p.id].reason
+    assert f"measure({diameter.id}, slra_1" in tree and f"measure_again({diameter.id}" not in tree
+    assert summary["devices"]["slra_frames"] >= 16 + 1
 
 
 def test_cell_check_reads_the_block_with_each_probe_and_measures_the_tooling_holes(tmp_path, builtin_part) -> None:

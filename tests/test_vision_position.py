@@ -199,3 +199,33 @@ def test_diameter_of_a_rim_with_a_rib_beneath_part_of_it(rib_row_scene):
         # the fit, where only its robust start stood between them and the radius (those
         # where the rib's edge lies nearer the rim than the check still do)
         assert reply.diagnostics["edge_points"] >= 0.65 * len(reply.diagnostics["rim_xy"])
+
+
+def test_a_diameter_from_several_frames_averages_its_own_fits_only(row_scene):
+    """A reinspection's more frames of a size: the mean of the values; the frames' own fits
+    fall by the square root of their number, the other terms stay as they were."""
+    spec = MeasurementSpec("HD-H0", K.HOLE_DIAMETER, "H0", (0.0, 0.0, 3.0), (0.0, 0.0, 1.0), 6.35, -0.076, 0.076)
+    ctx = VisionContext({h.id: h for h in ROW}, PLACEMENT)
+    rng = np.random.default_rng(5)
+    frames = _frames(row_scene, spec, ctx, rng, 8)
+    single = measure_frames(frames[:1], spec, ctx)
+    averaged = measure_frames(frames, spec, ctx)
+    assert single.ok and averaged.ok
+    assert averaged.diagnostics["frames"] == 8
+    assert abs(averaged.value - 6.35) <= averaged.expanded
+    own = [t for t in averaged.diagnostics["budget"] if t.startswith("the frames' own fits")]
+    assert own and averaged.diagnostics["budget"][own[0]] < single.uncertainty
+    fixed = {t: u for t, u in single.diagnostics["budget"].items() if t not in ("rim fit", "the frame's own fits")}
+    assert fixed and all(averaged.diagnostics["budget"][t] >= u for t, u in fixed.items())
+    assert averaged.uncertainty <= single.uncertainty
+
+
+def test_a_fastener_position_from_several_frames_keeps_each_frames_sightings(row_scene):
+    """For the network: every frame's rims, each under its own frame number."""
+    ctx = VisionContext({h.id: h for h in ROW}, PLACEMENT, position_zones={h.id: 0.5 for h in ROW})
+    frames = _frames(row_scene, HP_ROW, ctx, np.random.default_rng(8), 4)
+    reply = measure_frames(frames, HP_ROW, ctx)
+    assert reply.ok
+    sightings = reply.diagnostics["sightings"]
+    assert sorted({s["frame"] for s in sightings}) == [0, 1, 2, 3]
+    assert all(sum(1 for s in sightings if s["frame"] == k and s["hole"] == "H0") == 1 for k in range(4))

@@ -244,7 +244,7 @@ def inspect(part_dir: Path | None, limit: int | None, seed: int, runs_dir: Path 
     from ita.archive import Archive, archive_path
     from ita.sim.inject import InjectionPlan
     from ita.task import open_session
-    from ita.toplevel import start_run, tooling_specs, unproven
+    from ita.toplevel import earlier_results, start_run, tooling_specs, unproven
 
     injection = InjectionPlan.parse(fault_rate, fault_kinds, scripts, seed)   # bad options fail before any work
     view = LiveView()
@@ -276,6 +276,7 @@ def inspect(part_dir: Path | None, limit: int | None, seed: int, runs_dir: Path 
             settings: dict[str, Any] = {"network": network, "task": job}
             if source is not None:
                 settings["from"] = source
+                settings["earlier"] = earlier_results(archive, source, session)
             settings.update({k: v for k, v in (("serial", serial), ("operator", operator)) if v is not None})
             if alarm_after is not None:
                 settings["alarm_after"] = alarm_after

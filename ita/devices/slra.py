@@ -12,7 +12,9 @@
   and takes its real time).  Only as many as the decision needs: after 1, 2, 4, 8 ...
   frames Vision measures those members on the frames so far, and once each is decided
   (ISO 14253-1, conforms or does not conform with its U) no more are taken
-  (:meth:`SlraDevice._decided`; Vision's time for it counts).
+  (:meth:`SlraDevice._decided`; Vision's time for it counts).  A reinspection may ask for
+  more frames of a spec (``SlraDevice.frames_asked``, kb/tasks.pl ``more_frames(N)``): those
+  are all taken, at the group's pixels, and Vision averages them.
 - MEASURE(min_value(meas(Id)), ...): Vision on the group's last frames, for every
   member of the group; replies ``VALUE(V, S)`` for Id (or ``VISION(reason)``) with one
   :class:`~ita.devices.data.MeasuredValue` per member as data.
@@ -131,6 +133,9 @@ class SlraDevice:
         self.wanted = wanted or (lambda _id: True)
         self.controller = controller if controller is not None else RobotController(world)
         self._frames: dict[str, tuple[RangeFrame, ...]] = {}  # group id -> the frames of its last SCAN
+        #: spec id -> frames asked for it beyond its own need (a reinspection's more_frames(N)):
+        #: each after its own approach, at the group's pixels, averaged by Vision
+        self.frames_asked: dict[str, int] = {}
         self.injector: FaultInjector | None = None     # when faults are injected
         self.stats: dict[str, float] = {"frames": 0, "scan_s": 0.0, "vision_s": 0.0, "reapproaches": 0,
                                          "reapproach_s": 0.0}
@@ -172,7 +177,9 @@ class SlraDevice:
         plan = self._frame_plan(group)
         t = max(now, world.clock.now)
         frames: list[RangeFrame] = []
-        checks = {2 ** i for i in range(plan.count.bit_length())} - {plan.count}
+        # frames asked for (a reinspection's) are all taken; a spec's own need stops once decided
+        asked = any(self.frames_asked.get(m, 1) > 1 for m in self._members(group, group.anchor))
+        checks = set() if asked else {2 ** i for i in range(plan.count.bit_length())} - {plan.count}
         for k in range(plan.count):
             if k:
                 moved = self._reapproach(np.asarray(anchor.q, dtype=float), anchor.pose)
@@ -276,7 +283,7 @@ class SlraDevice:
         took = 0.0
         for m in self._members(group, group.anchor):
             spec = self.specs.get(m)
-            if spec is None or frames_for(spec, self.vctx).count <= 1:
+            if spec is None or self._wanted_frames(m) <= 1:
                 continue
             reply = _guarded_measure(measure_frames, list(frames), spec, self.vctx)
             took += VISION_SECONDS * len(frames)
@@ -288,11 +295,21 @@ class SlraDevice:
                 return False, took
         return True, took
 
-    def _frame_plan(self, group: ViewGroup) -> FramePlan:
-        """The frames the group's wanted members need (the most any of them needs)."""
+    def _wanted_frames(self, spec_id: str) -> int:
+        """The frames Vision averages for `spec_id`: its own need, or more when asked."""
+        return max(frames_for(self.specs[spec_id], self.vctx).count, self.frames_asked.get(spec_id, 1))
 
-        plans = [frames_for(self.specs[m], self.vctx) for m in self._members(group, group.anchor) if m in self.specs]
-        return max(plans, key=lambda p: p.count) if plans else frames_for(self.specs[group.anchor], self.vctx)
+    def _frame_plan(self, group: ViewGroup) -> FramePlan:
+        """The frames the group's wanted members need (the most any of them needs or was
+        asked for; frames asked beyond a member's own need are at the group's pixels)."""
+
+        members = [m for m in self._members(group, group.anchor) if m in self.specs]
+        plans = [frames_for(self.specs[m], self.vctx) for m in members]
+        plan = max(plans, key=lambda p: p.count) if plans else frames_for(self.specs[group.anchor], self.vctx)
+        asked = max((self.frames_asked.get(m, 1) for m in members), default=1)
+        if asked <= plan.count:
+            return plan
+        return FramePlan(asked, plan.shape if plan.count > 1 else (int(group.pixels[0]), int(group.pixels[1])))
 
     def _reapproach(self, q_view: np.ndarray, view_pose: ArrayLike) -> MotionReply:
         """Back off REAPPROACH_M along the line of sight and return to q_view (6,): the
@@ -322,7 +339,7 @@ class SlraDevice:
         replies: dict[str, VisionReply] = {}
         took = 0.0
         for m in self._members(group, spec_id):
-            used = frames[:frames_for(self.specs[m], self.vctx).count]
+            used = frames[:self._wanted_frames(m)]
             replies[m] = _guarded_measure(measure_frames, used, self.specs[m], self.vctx)
             took += VISION_SECONDS * len(used)
         self.stats["vision_s"] += took

@@ -123,16 +123,20 @@ def _events(data: ReportData, ctx: Context) -> dict[str, Any]:
 
 def _task_tree(data: ReportData, ctx: Context) -> dict[str, Any] | None:
     """The Top Level's plan: the HTN decomposition of the run's job (its first lines, as
-    the run kept them; the last session's when the run was continued)."""
+    the run kept them: as planned while the run goes on, as carried out once it ended;
+    the last session's when the run was continued)."""
     trees = [e for e in data.events if e.kind == "task_tree"]
     if not trees:
         return None
     payload = trees[-1].payload
     lines = [str(line) for line in payload.get("lines", [])]
     figures_ = payload.get("planner", {})
-    note = (f"Job {payload.get('job')}: the tasks, the method that decomposed each and what the Sequence Planner "
-            f"was asked. {figures_.get('actions', 0):.0f} actions; planned in {figures_.get('plan_s', 0):.2f} s, "
-            f"planned again {figures_.get('replans', 0):.0f} times.")
+    stage = str(payload.get("stage", "carried out"))
+    note = (f"Job {payload.get('job')}, {stage}: the tasks, the method that decomposed each and what the Sequence "
+            f"Planner was asked. Planned in {figures_.get('plan_s', 0):.2f} s"
+            + (f"; {figures_.get('actions', 0):.0f} actions carried out, planned again "
+               f"{figures_.get('replans', 0):.0f} times." if stage != "planned" else
+               " (the run goes on: the plan as made)."))
     rows = [("\u00a0" * (len(line) - len(line.lstrip(" "))) + line.lstrip(" "),) for line in lines]
     return {"kind": "kv", "title": "The Top Level's plan (HTN)", "id": "task_tree", "header": ["task  <- method"],
             "rows": rows, "note": note, "collapsed": True}

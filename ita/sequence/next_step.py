@@ -98,13 +98,14 @@ def resequence(ctx: PlanningContext, plan: SequencePlan, reason: str) -> Sequenc
     return build_plan(ctx, done=plan.finished(), previous=plan, note=f"resequenced: {reason}")
 
 
-def next_step(ctx: PlanningContext, plan: SequencePlan) -> NextResult:
+def next_step(ctx: PlanningContext, plan: SequencePlan, arm: str | None = None) -> NextResult:
     """Pop the next measurement off `plan` after checking its resources (see module doc).
+    arm: the world model's arm, when the caller knows it.
 
     The returned plan has the step handed out (and is the new plan when resequenced):
     store it.
     """
-    arm = the_arm(ctx.kb)
+    arm = arm or the_arm(ctx.kb)
     reason = resequence_reason(ctx, plan, arm)
     if reason is not None:
         plan = resequence(ctx, plan, reason)
@@ -113,16 +114,16 @@ def next_step(ctx: PlanningContext, plan: SequencePlan) -> NextResult:
         return NextResult(None, plan, reason is not None, reason)
     k, spec_id = pending[0]
     group = plan.groups[k]
-    if not resources_available(ctx.kb, arm, group.tool_class, group.tool):
+    # resequence_reason checked this tool when the plan was not remade
+    if reason is not None and not resources_available(ctx.kb, arm, group.tool_class, group.tool):
         # the rules chose this tool just now: only a world change in between gets here
         raise RuntimeError(f"tool {group.tool} chosen by the rules is not usable")
     step = Step(spec_id=spec_id, kind=ctx.spec(spec_id).kind.value, tool=group.tool,
                 tool_class=group.tool_class, arm=arm, group=k, position=group.order.index(spec_id) + 1,
                 remaining=len(pending) - 1)
-    return NextResult(step, replace(plan, handed_out=plan.handed_out + (spec_id,)),
-                      reason is not None, reason)
+    return NextResult(step, plan.handing_out(spec_id), reason is not None, reason)
 
 
 def peek(plan: SequencePlan, count: int = 1) -> list[tuple[int, str]]:
     """The next `count` (group index, spec id) of `plan` as stored, without checks."""
-    return plan.pending()[:count]
+    return list(plan.pending()[:count])

@@ -129,10 +129,24 @@ class SequencePlan:
         """Every measurement of the plan: planned, done and cannot-be-done."""
         return sum(len(g.order) for g in self.groups) + len(self.done) + len(self.cannot)
 
-    def pending(self) -> list[tuple[int, str]]:
-        """(group index, spec id) of every planned measurement not handed out, in order."""
-        out = set(self.handed_out)
-        return [(k, i) for k, g in enumerate(self.groups) for i in g.order if i not in out]
+    def pending(self) -> tuple[tuple[int, str], ...]:
+        """(group index, spec id) of every planned measurement not handed out, in order
+        (worked out once per plan; :meth:`handing_out` passes it on)."""
+        found = self.__dict__.get("_pending")
+        if found is None:
+            out = set(self.handed_out)
+            found = self.__dict__["_pending"] = tuple((k, i) for k, g in enumerate(self.groups) for i in g.order
+                                                      if i not in out)
+        return found
+
+    def handing_out(self, spec_id: str) -> SequencePlan:
+        """This plan with `spec_id` handed out (its pending measurements known at once when
+        it is the first of them, as the Sequence Planner hands them out)."""
+        pending = self.pending()
+        plan = replace(self, handed_out=self.handed_out + (spec_id,))
+        if pending and pending[0][1] == spec_id:
+            plan.__dict__["_pending"] = pending[1:]
+        return plan
 
     def finished(self) -> tuple[str, ...]:
         """Ids done before the plan was made or handed out since, without repeats."""

@@ -27,7 +27,7 @@ from ita.toplevel.events import archive_events
 from ita.toplevel.loop import TopLevel, job_tasks, jobs
 from ita.toplevel.progress import Progress, RunSummary
 from ita.toplevel.signals import RunSignals, StopNow
-from ita.toplevel.start import start_run, tooling_specs, unproven
+from ita.toplevel.start import earlier_results, start_run, tooling_specs, unproven
 
 __all__ = [
     "Progress",
@@ -36,6 +36,7 @@ __all__ = [
     "StopNow",
     "TopLevel",
     "archive_events",
+    "earlier_results",
     "job_tasks",
     "jobs",
     "start_run",

@@ -109,7 +109,7 @@ MAX_REPLANS_IN_A_ROW = 20
 #: lines of the plan's decomposition tree kept with a run (the System Monitor and the report show them)
 TREE_LINES = 400
 #: the actions that begin a measurement: the control table is read before the first of them
-_POLL_BEFORE = frozenset({"note_resequence", "calibrate_probe", "measure"})
+_POLL_BEFORE = frozenset({"note_resequence", "calibrate_probe", "measure", "measure_again"})
 
 
 def jobs(kb: KnowledgeBase) -> list[tuple[str, str]]:
@@ -176,6 +176,9 @@ class TopLevel:
         self._started = Started(time.perf_counter(), session.clock.now, len(self.results.done))
         self.agenda = Agenda(session.kb, TASKS)
         self.cell: JsonObject | None = None          # the job cell_check's report
+        earlier = info.settings.get("earlier")
+        #: a reinspection's earlier results (ita.toplevel.start.earlier_results), by spec id
+        self.earlier: dict[str, JsonValue] = dict(earlier) if isinstance(earlier, dict) else {}
 
     def _planner_figures(self) -> dict[str, float]:
         """The HTN plan's figures: the first plan's wall time, how often it was planned
@@ -189,13 +192,17 @@ class TopLevel:
         """The attached procedures of kb/tasks.pl, answered by this run."""
         return {"next_measurement": self._next_measurement, "nothing_left": self._nothing_left,
                 "to_measure": self._to_measure, "calibration_due": self._calibration_due,
-                "probes": self._probes}
+                "probes": self._probes, "earlier": self._earlier, "alternatives": self._alternatives}
+
+    def _given(self) -> Facts:
+        """The facts the job's plan starts from: ``reinspecting`` in a reinspection."""
+        return with_facts({}, ["reinspecting"] if self.earlier else [])
 
     def plan_job(self) -> Agenda:
         """The plan of the run's job from where the run stands, nothing carried out
         (`ita plan --top`): its actions and its decomposition tree."""
         with self.session.kb.attached(self._procedures()):
-            self.agenda.plan(job_tasks(self.session.kb, self.job), {})
+            self.agenda.plan(job_tasks(self.session.kb, self.job), self._given())
         return self.agenda
 
     def _skipped(self, spec_id: str) -> bool:
@@ -214,10 +221,15 @@ class TopLevel:
         started = Started(time.perf_counter(), s.clock.now, len(self.results.done))
         self._on_progress = on_progress
         self._started = started
-        facts: Facts = {}
+        facts = self._given()
         agenda = self.agenda = Agenda(s.kb, TASKS)
         with s.kb.attached(self._procedures()):
             agenda.plan(job_tasks(s.kb, self.job), facts)
+            # the plan as made, for the System Monitor while the run goes on (the end adds the
+            # plan as carried out)
+            self.archive.record_event(self.run_id, Event("task_tree", "top", s.clock.now, {
+                "job": self.job, "stage": "planned", "lines": list(tree_lines(agenda, TREE_LINES)),
+                "planner": dict(self._planner_figures())}))
             polled = False
             stuck, blocked = 0, None
             while (action := agenda.next()) is not None:
@@ -253,7 +265,8 @@ class TopLevel:
                     agenda.replan_rest(facts)
         end_t = max(s.clock.now, s.executive.settled())     # the last trailing Vision reply too
         self.archive.record_event(self.run_id, Event("task_tree", "top", end_t, {
-            "job": self.job, "lines": list(tree_lines(agenda, TREE_LINES)), "planner": dict(self._planner_figures())}))
+            "job": self.job, "stage": "carried out", "lines": list(tree_lines(agenda, TREE_LINES)),
+            "planner": dict(self._planner_figures())}))
         status, alarm, current = self._status, self._alarm, self._current
         done, total = len(self.results.done), len(self.todo)
         self.archive.set_status(self.run_id, status, event=run_end_event(
@@ -298,7 +311,7 @@ class TopLevel:
             remade: list[TermValue] = []
             answer: TermValue | None = None
             while True:
-                result = next_step(self.session.ctx, plan)
+                result = next_step(self.session.ctx, plan, self._state.arm)
                 plan = result.plan
                 self._cursors.append(plan)
                 here = len(self._cursors) - 1
@@ -328,6 +341,31 @@ class TopLevel:
 
     def _calibration_due(self, spec_id: TermValue, tool: TermValue) -> TermValue | None:
         return "true" if self.calibration.due(str(spec_id), str(tool)) else None
+
+    def _earlier(self, spec_id: TermValue) -> TermValue | None:
+        """earlier(Decision, ToolType, Kind, Largest, Frames): the earlier run's result of
+        `spec_id` in a reinspection (kb/tasks.pl better_way/3); None when there is none."""
+        e = self.earlier.get(str(spec_id))
+        if not isinstance(e, dict):
+            return None
+        return Term("earlier", (str(e["decision"]), str(e["tool_type"]), str(e["kind"]), str(e["largest"]),
+                                int(str(e["frames"]))))
+
+    def _alternatives(self, spec_id: TermValue) -> TermValue:
+        """alt(ToolType, Tool) for each tool of another type than the planned one that the
+        MKB placed for `spec_id` and the arm can use now."""
+        sid = str(spec_id)
+        s = self.session
+        entry = s.mkb.entries.get(sid)
+        world = WorldModel(s.kb)
+        out: list[TermValue] = []
+        for alt in s.mkb.alternatives.get(sid, ()):
+            if not alt.ok or (entry is not None and alt.tool_class == entry.tool_class):
+                continue
+            usable = world.usable(self._state.arm, alt.tool_class)
+            if usable:
+                out.append(Term("alt", (alt.tool_class, usable[0])))
+        return out
 
     def _probes(self) -> TermValue:
         """The cell's ultrasonic probes that are available now."""
@@ -381,6 +419,8 @@ class TopLevel:
             self._state = self.calibration.calibrate(args[0], self._state)
         elif name == "measure":
             return self._measure(self._steps[args[0]]), False
+        elif name == "measure_again":
+            return self._measure(self._way(self._steps[args[0]], action.args[1])), False
         elif name == "handle_exception":
             before = self._world()
             self._handle(args[0])
@@ -429,6 +469,16 @@ class TopLevel:
             self.exceptions += 1
             return [Term("failed", (step.spec_id,))]
         return []
+
+    def _way(self, step: Step, way: TermValue) -> Step:
+        """The step to measure, the way a reinspection chose (kb/tasks.pl better_way/3):
+        another tool, or more frames asked of the SLRA for it."""
+        if isinstance(way, Term) and way.name == "other_sensor":
+            tool = str(way.args[0])
+            return replace(step, tool=tool, tool_class=WorldModel(self.session.kb).tool_type(tool))
+        if isinstance(way, Term) and way.name == "more_frames":
+            self.session.slra.frames_asked[step.spec_id] = int(str(way.args[0]))
+        return step
 
     def _handle(self, spec_id: str) -> None:
         """The Exception Handler on the failed measurement of `spec_id`."""

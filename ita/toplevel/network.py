@@ -72,8 +72,9 @@ class Pending:
         raw = diag.get("sightings")
         if not raw or value.value is None or value.u is None:
             return None
-        sightings = tuple(Sighting(spec_id, str(s["hole"]), (float(s["xy"][0]), float(s["xy"][1])),
-                                   float(s["sigma"]), float(s.get("systematic", 0.0)), str(s.get("group", "")))
+        sightings = tuple(Sighting(_frame_id(spec_id, s.get("frame")), str(s["hole"]),
+                                   (float(s["xy"][0]), float(s["xy"][1])), float(s["sigma"]),
+                                   float(s.get("systematic", 0.0)), str(s.get("group", "")))
                           for s in raw)
         return cls(spec_id, tool, t0, t1, sightings, float(value.value), float(value.u))
 
@@ -82,16 +83,21 @@ class Pending:
             "spec": self.spec_id, "tool": self.tool, "t0": self.t0, "t1": self.t1,
             "frame_value": self.frame_value, "frame_u": self.frame_u,
             "sightings": [{"hole": s.hole, "xy": list(s.xy), "sigma": s.sigma, "systematic": s.systematic,
-                           "group": s.group} for s in self.sightings]}, spec_id=self.spec_id)
+                           "group": s.group, "frame": s.frame} for s in self.sightings]}, spec_id=self.spec_id)
 
     @classmethod
     def from_event(cls, event: Event) -> Pending:
         p = event.payload
-        sightings = tuple(Sighting(str(p["spec"]), str(s["hole"]), (float(s["xy"][0]), float(s["xy"][1])),
+        sightings = tuple(Sighting(str(s.get("frame", p["spec"])), str(s["hole"]), (float(s["xy"][0]), float(s["xy"][1])),
                                    float(s["sigma"]), float(s["systematic"]), str(s.get("group", "")))
                           for s in p["sightings"])
         return cls(str(p["spec"]), p.get("tool"), p.get("t0"), p.get("t1"), sightings, float(p["frame_value"]),
                    float(p["frame_u"]))
+
+
+def _frame_id(spec_id: str, k: object) -> str:
+    """The network's name of frame `k` of a measurement of `spec_id` (its first: the spec's id)."""
+    return spec_id if not k else f"{spec_id}#{k}"
 
 
 def decide(pendings: Sequence[Pending], specs: Mapping[str, MeasurementSpec], features: Mapping[str, Feature],

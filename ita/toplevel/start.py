@@ -5,19 +5,25 @@
 
 from __future__ import annotations
 
+import re
 from collections.abc import Collection, Mapping
 from typing import TYPE_CHECKING
 
 from ita.archive import Outcome
 from ita.archive.decision import Decision
 from ita.logic.json_value import JsonValue
+from ita.logic.world import WorldModel
 from ita.part.model import Hole, HoleRole
+from ita.vision.scan import frames_for
 
 if TYPE_CHECKING:
     from ita.archive import Archive
     from ita.task.session import Session
 
-__all__ = ["start_run"]
+__all__ = ["earlier_results", "start_run", "tooling_specs", "unproven"]
+
+#: the largest term of an uncertain result's budget, as its reason names it
+_LARGEST = re.compile(r"largest term: (.+?) \(u [0-9.]+ mm\)")
 
 
 def unproven(archive: Archive, run_id: str) -> list[str]:
@@ -26,6 +32,34 @@ def unproven(archive: Archive, run_id: str) -> list[str]:
     return [r.spec_id for r in archive.results(run_id)
             if r.outcome is Outcome.NOT_DONE
             or (r.outcome is Outcome.MEASURED and r.decision in (Decision.UNCERTAIN, Decision.DOES_NOT_CONFORM))]
+
+
+def earlier_results(archive: Archive, run_id: str, session: Session) -> dict[str, JsonValue]:
+    """What a reinspection's plan needs of run `run_id`'s unproven results (kb/tasks.pl
+    better_way/3), per spec id: its decision (or outcome), the type of the tool that
+    took it, its kind, the largest term of its uncertainty budget (``none`` where it
+    has none: not done, does not conform) and the frames the SLRA could average for it."""
+    world = WorldModel(session.kb)
+    wanted = set(unproven(archive, run_id))
+    out: dict[str, JsonValue] = {}
+    for r in archive.results(run_id):
+        spec = session.specs.get(r.spec_id)
+        if r.spec_id not in wanted or spec is None:
+            continue
+        largest = "none"
+        found = _LARGEST.search(r.reason or "") if r.decision is Decision.UNCERTAIN else None
+        if found is not None:
+            largest = found.group(1)
+        elif r.decision is Decision.UNCERTAIN:     # a position whose datum is the pose: its frames' numbers
+            numbers = archive.details(run_id, r.spec_id).get("vision", {}).get("numbers", {})
+            if isinstance(numbers, dict) and "u_random" in numbers:
+                largest = ("arm pose and rim fit" if float(numbers["u_random"]) >= float(numbers["u_systematic"])
+                           else "edge model")
+        tool_type = world.tool_type(r.tool) if r.tool and r.tool in world.tools() else "none"
+        frames = frames_for(spec, session.slra.vctx).count if tool_type == "slra_tool" else 1
+        out[r.spec_id] = {"decision": (r.decision.value if r.decision is not None else r.outcome.value),
+                          "tool_type": tool_type, "kind": spec.kind.value, "largest": largest, "frames": frames}
+    return out
 
 
 def tooling_specs(session: Session) -> list[str]:

@@ -140,14 +140,17 @@ def along_axis(ctx: VisionContext, spec: MeasurementSpec, hole: Hole) -> tuple[V
 
 def measure_frames(frames: Sequence[RangeFrame], spec: MeasurementSpec, ctx: VisionContext) -> VisionReply:
     """Measure `spec` in frames taken after separate approaches of the arm (see
-    :func:`frames_for`).  A position: the mean of the frames' deviations, its random part
-    (rim fit, pose error) divided by the square root of their number, taken no smaller
-    than the scatter the frames themselves show; its systematic part (edge model,
-    neighbours' own errors) as it is.  Other kinds: the first frame.  More than half of
+    :func:`frames_for`, and a reinspection's more frames).  A position: the mean of the
+    frames' deviations, its random part (rim fit, pose error) divided by the square root
+    of their number, taken no smaller than the scatter the frames themselves show; its
+    systematic part (edge model, neighbours' own errors) as it is; the sightings of every
+    frame, each under its own frame (a network adjusts each frame's pose).  Other kinds:
+    the mean of the values, the budget's terms that are new in every frame
+    (:data:`FRAME_TERMS`) divided the same way, the others as they are.  More than half of
     the frames failing is the first failure's reply."""
     if not frames:
         return VisionException(spec.id, VisionFailure.NOT_MEASURABLE, "no frame")
-    if len(frames) == 1 or spec.kind is not K.HOLE_POSITION:
+    if len(frames) == 1:
         return measure(frames[0], spec, ctx)
     replies = [measure(f, spec, ctx) for f in frames]
     ok = [r for r in replies if isinstance(r, VisionResult)]
@@ -156,7 +159,26 @@ def measure_frames(frames: Sequence[RangeFrame], spec: MeasurementSpec, ctx: Vis
         first = failed[0]
         return VisionException(spec.id, first.reason, f"{len(failed)} of {len(frames)} frames failed; "
                                f"first: {first.detail}")
-    return _mean_position(spec, ok)
+    return _mean_position(spec, ok) if spec.kind is K.HOLE_POSITION else _mean_size(spec, ok)
+
+
+#: budget terms of a size that are new in every frame (the fits' noise): they average away
+FRAME_TERMS = ("the frame's own fits", "rim fit", "edge line fit", "edge line fits")
+
+
+def _mean_size(spec: MeasurementSpec, replies: Sequence[VisionResult]) -> VisionResult:
+    """A size (diameter, width, height, distance) from several frames' replies (n >= 2)."""
+    values = np.array([float(r.value) for r in replies])
+    n = len(values)
+    budgets = [dict(r.diagnostics.get("budget") or {"the frame's own fits": float(r.uncertainty)}) for r in replies]
+    u_model = math.sqrt(float(np.mean([sum(float(b[t]) ** 2 for t in FRAME_TERMS if t in b) for b in budgets])))
+    scatter = float(np.std(values, ddof=1))
+    u_random = max(u_model, scatter) / math.sqrt(n)
+    fixed = {t: max(float(b.get(t, 0.0)) for b in budgets) for t in budgets[0] if t not in FRAME_TERMS}
+    budget = {f"the frames' own fits (mean of {n} frames)": u_random, **fixed}
+    diag = {**replies[0].diagnostics, "frames": n, "values": values.tolist(), "scatter": scatter,
+            "budget": budget}
+    return VisionResult(spec.id, spec.kind, float(values.mean()), math.hypot(*budget.values()), diag)
 
 
 def _mean_position(spec: MeasurementSpec, replies: Sequence[VisionResult]) -> VisionResult:
@@ -171,5 +193,7 @@ def _mean_position(spec: MeasurementSpec, replies: Sequence[VisionResult]) -> Vi
     diag = {"frames": n, "deviation": tuple(mean), "deviations": d, "scatter": scatter, "u_random": u_random,
             "u_systematic": u_system, "datum": replies[0].diagnostics["datum"],
             "center": replies[0].diagnostics["center"], "rim_xy": replies[0].diagnostics.get("rim_xy"),
+            "sightings": [{**sight, "frame": k} for k, r in enumerate(replies)
+                          for sight in r.diagnostics.get("sightings", ())],
             "budget": {f"arm pose and rim fit (mean of {n} frames)": u_random, "edge model": u_system}}
     return VisionResult(spec.id, spec.kind, 2 * float(np.hypot(*mean)), 2 * math.hypot(u_random, u_system), diag)
