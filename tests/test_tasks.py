@@ -82,6 +82,31 @@ def test_a_whole_part_is_measured_in_the_sequence_plans_order_each_probe_calibra
         "decide_pending", "record_leftovers", "end_run(completed)"]
 
 
+def test_a_reinspection_measures_each_result_again_the_more_accurate_way(knowledge_base):
+    """The earlier results decide the way (kb/tasks.pl better_way/3): a position whose
+    largest term is its network's frame poses gets 16 approaches; a rib width the SLRA
+    left uncertain goes to the probe, which reads the block first; a diameter limited by
+    the SLRA's calibration and a thickness not done are measured as before."""
+    order = [("HP-1", "slra_1", 1), ("SW-1", "slra_1", 1), ("HD-1", "slra_1", 1), ("WT-1", "us_probe_1", 0)]
+    earlier = {"HP-1": ("uncertain", "slra_tool", "hole_position", "network (frame poses and rim fits)", 1),
+               "SW-1": ("uncertain", "slra_tool", "stiffener_width", "SLRA calibration (reference workpieces)", 1),
+               "HD-1": ("uncertain", "slra_tool", "hole_diameter", "SLRA calibration (reference workpieces)", 1),
+               "WT-1": ("not_done", "us_tool", "web_thickness", "none", 1)}
+    fake = FakeRun(order)
+    procedures = {**fake.procedures(),
+                  "earlier": lambda spec: Term("earlier", earlier[str(spec)]),
+                  "alternatives": lambda spec: [Term("alt", ("us_tool", "us_probe_1"))] if str(spec) == "SW-1" else []}
+    with knowledge_base.attached(procedures):
+        agenda = Agenda(knowledge_base, "tasks")
+        agenda.plan(["reinspect"], with_facts({}, ["reinspecting"]))
+    steps = texts(agenda)
+    assert steps[:3] == ["measure_again(HP-1, more_frames(16), 1)", "record(HP-1)", "settle_pending"]
+    assert steps[3:6] == ["calibrate_probe(us_probe_1)", "measure_again(SW-1, other_sensor(us_probe_1), 1)",
+                          "record(SW-1)"]
+    assert "measure(HD-1, slra_1, 1)" in steps and "measure(WT-1, us_probe_1, 0)" in steps
+    assert "calibrate_probe(us_probe_1)" not in steps[6:]       # read the block once
+
+
 def test_a_remade_sequence_plan_is_noted_where_it_was_remade(knowledge_base):
     fake = FakeRun(remade_at=2)
     with knowledge_base.attached(fake.procedures()):
