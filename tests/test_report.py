@@ -152,6 +152,13 @@ def test_pdf_has_the_verdict_on_page_one(run) -> None:
     assert "PART REJECT" in first and "do not conform" in first and "manual method" in first
     assert len(reader.pages) > 4
     assert any("Scoring against the as-built part" in p.extract_text() for p in reader.pages[-3:])
+    # AS9102 Form 3 as pages of the PDF: the header fields and one row per result
+    texts = [p.extract_text() for p in reader.pages]
+    start = next(i for i, t in enumerate(texts) if "AS9102 Rev C, Form 3" in t)
+    form = "\n".join(t for t in texts[start:] if "Scoring against the as-built part" not in t)
+    assert "AS9102 Rev C, Form 3" in form and "4. FAIR Number" in form and rid in form
+    missing = [r.spec_id for r in a.results(rid) if r.spec_id not in form]
+    assert not missing, (missing, form[:3000])
 
 
 def test_report_formats_by_extension() -> None:

@@ -11,7 +11,8 @@ conform (``NC-<run id>-<n>``, n counting the nonconformances) or a note for an u
 one, and the decision.  Above the table, Form 1's fields: part number and name (the
 run's part), serial number (the run's ``serial`` setting, else blank), FAIR number (the
 run id), organization, date, and the part's verdict.  Cells are written as text or
-numbers, never formulas (a spec id starting with ``=`` stays text).
+numbers, never formulas (a spec id starting with ``=`` stays text).  The PDF report
+has the same form as pages of its own (:func:`form3_header`, :func:`form3_rows`).
 """
 
 from __future__ import annotations
@@ -21,9 +22,10 @@ from typing import Any
 
 from ita.archive.model import StoredResult
 from ita.archive.store import Archive
-from ita.report.data import collect, result_row, summarize
+from ita.report.data import ReportData, collect, result_row, summarize
 
-__all__ = ["EXTENSION", "FORM3_COLUMNS", "ORGANIZATION", "designator", "form3_rows", "form3_xlsx",
+__all__ = ["EXTENSION", "FORM3_COLUMNS", "ORGANIZATION", "TITLE", "designator", "form3_header", "form3_rows",
+           "form3_xlsx",
            "requirement", "result_text", "tooling"]
 
 EXTENSION = ".xlsx"
@@ -94,16 +96,21 @@ def form3_rows(results: list[StoredResult] | tuple[StoredResult, ...], run_id: s
     return rows
 
 
-def _header(archive: Archive, run_id: str) -> tuple[list[tuple[str, Any]], list[tuple[Any, ...]]]:
-    data = collect(archive, run_id)
+def form3_header(data: ReportData) -> list[tuple[str, Any]]:
+    """Form 1's fields above the table: part number and name, serial, FAIR number,
+    organization, date and the part's verdict."""
     summary = summarize(data)
     info = data.run
     serial = info.settings.get("serial")
-    fields = [("1. Part Number", info.part), ("2. Part Name", info.part),
-              ("3. Serial Number", "" if serial is None else str(serial)), ("4. FAIR Number", info.id),
-              ("Organization Name", ORGANIZATION), ("Date", (info.ended or info.created or "")[:10]),
-              ("Part verdict", f"{summary.verdict.value}: {summary.verdict_reason}")]
-    return fields, form3_rows(data.results, info.id)
+    return [("1. Part Number", info.part), ("2. Part Name", info.part),
+            ("3. Serial Number", "" if serial is None else str(serial)), ("4. FAIR Number", info.id),
+            ("Organization Name", ORGANIZATION), ("Date", (info.ended or info.created or "")[:10]),
+            ("Part verdict", f"{summary.verdict.value}: {summary.verdict_reason}")]
+
+
+def _header(archive: Archive, run_id: str) -> tuple[list[tuple[str, Any]], list[tuple[Any, ...]]]:
+    data = collect(archive, run_id)
+    return form3_header(data), form3_rows(data.results, data.run.id)
 
 
 def _text(value: Any) -> Any:

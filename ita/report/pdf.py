@@ -16,7 +16,7 @@ import io
 from collections.abc import Mapping, Sequence
 from typing import Any
 
-from ita.report import charts
+from ita.report import as9102, charts
 from ita.report.data import STATUS_COLOURS, ReportData
 
 VERDICT_COLOURS = {"accept": "#2ca02c", "reject": "#d62728", "incomplete": "#e68a00"}
@@ -171,6 +171,16 @@ def pdf_report(data: ReportData, payload: Mapping[str, Any], *, mesh: Any = None
         fixed = [14 * mm, 20 * mm, 24 * mm, 36 * mm, 62 * mm, 28 * mm, 28 * mm, 32 * mm][:len(header) - 1]
         story.append(grid(cells, widths=fixed + [width - sum(fixed)], font=7))
     story += [PageBreak(), Paragraph(f"Every result ({len(rows)})", styles["Heading2"]), result_table(rows)]
+
+    # ---- AS9102 Rev C Form 3, the same form as the workbook (ita report RUN -o fai.xlsx)
+    story += [PageBreak(), Paragraph(esc(as9102.TITLE), styles["Heading2"]),
+              grid([[k, Paragraph(esc(v), small)] for k, v in as9102.form3_header(data)], header=False,
+                   widths=[45 * mm, width - 45 * mm], font=8), Spacer(1, 3 * mm)]
+    form_widths = [12 * mm, 34 * mm, 44 * mm, 30 * mm, 52 * mm, 36 * mm, 30 * mm]
+    form_widths.append(width - sum(form_widths))
+    form = [[Paragraph(esc(c), small) for c in as9102.FORM3_COLUMNS]] + \
+        [[Paragraph(esc(c), small) for c in row] for row in as9102.form3_rows(data.results, data.run.id)]
+    story.append(grid(form, widths=form_widths, font=7))
 
     scoring = sections.get("scoring")
     if scoring:
