@@ -75,7 +75,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--all", action="store_true", help="pool every run of the runs directory")
     args = parser.parse_args(argv)
     from ita.part.store import load_part
-    from ita.scoring.truth import true_values
+    from ita.scoring.truth import run_part_truth, true_values
 
     archive, run_id = _open(args.run)
     rows, results = [], []
@@ -84,7 +84,7 @@ def main(argv: list[str] | None = None) -> int:
             info = archive.run(rid)
             mine = archive.results(rid)
             part_dir = args.part or (Path(info.part_dir) if info.part_dir else load_part(None).directory)
-            truth = true_values(part_dir)
+            truth = true_values(run_part_truth(part_dir, dict(info.settings)) or part_dir)
             rows += [(r, truth[r.spec_id]) for r in mine if r.spec_id in truth]
             results += mine
     if args.all:

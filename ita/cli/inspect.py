@@ -213,7 +213,12 @@ def _closing(session: Any) -> Iterator[Any]:
 @click.option("--task", "job", default="inspect_part", show_default=True, metavar="NAME",
               help="The job to run: a job of kb/tasks.pl, planned by the HTN planner (`ita tasks` lists them).")
 @click.option("--serial", default=None, metavar="SN", callback=_label,
-              help="The serial number of the part inspected (kept with the run; `ita runs` shows it).")
+              help="The serial number of the part inspected (kept with the run; `ita runs` shows it).  In "
+                   "simulation a generated design's serial is its own as-built part, drawn from the serial "
+                   "with the process's spread and no gross errors (ita spc charts the serials).")
+@click.option("--shift", "shift_texts", multiple=True, metavar="SPEC=DELTA",
+              help="With --serial: a special cause in that serial's as-built part, the feature dimension "
+                   "SPEC measures moved by DELTA mm (repeatable); for checking SPC.")
 @click.option("--operator", default=None, metavar="NAME", callback=_label,
               help="Who runs the inspection (kept with the run; `ita runs` shows it).")
 @click.option("--from", "from_run", default=None, metavar="RUN",
@@ -223,7 +228,7 @@ def _closing(session: Any) -> Iterator[Any]:
 def inspect(part_dir: Path | None, limit: int | None, seed: int, runs_dir: Path | None, as_json: bool,
             fault_rate: float, fault_kinds: str | None, scripts: tuple[str, ...], run_id: str | None,
             alarm_after: int | None, network: bool, job: str, serial: str | None, operator: str | None,
-            from_run: str | None) -> None:
+            shift_texts: tuple[str, ...], from_run: str | None) -> None:
     """Inspect the part (in the simulated workcell): every measurement of the sequence
     plan, planned, executed, measured and recorded in the runs archive as it is made.
 
@@ -249,6 +254,11 @@ def inspect(part_dir: Path | None, limit: int | None, seed: int, runs_dir: Path 
     injection = InjectionPlan.parse(fault_rate, fault_kinds, scripts, seed)   # bad options fail before any work
     view = LiveView()
     check_job(job)
+    from ita.part.serials import parse_shift
+
+    shifts = dict(parse_shift(t) for t in shift_texts)
+    if shifts and serial is None:
+        raise click.UsageError("--shift goes with --serial: it shifts that serial's as-built part")
     if job == "cell_check" and limit is not None:
         raise click.UsageError("--limit does not go with --task cell_check: it measures the tooling holes")
     if (job == "reinspect") != (from_run is not None):
@@ -263,7 +273,8 @@ def inspect(part_dir: Path | None, limit: int | None, seed: int, runs_dir: Path 
         if not specs:
             click.echo(f"run {source}: every result is proven to conform; nothing to measure again")
             return
-    session = open_session(part_dir, seed=seed, progress=lambda m: view.note(f"{m} ..."))
+    session = open_session(part_dir, seed=seed, progress=lambda m: view.note(f"{m} ..."), serial=serial,
+                           shifts=shifts)
     with _closing(session):
         if job == "cell_check":
             specs = tooling_specs(session)
@@ -278,6 +289,10 @@ def inspect(part_dir: Path | None, limit: int | None, seed: int, runs_dir: Path 
                 settings["from"] = source
                 settings["earlier"] = earlier_results(archive, source, session)
             settings.update({k: v for k, v in (("serial", serial), ("operator", operator)) if v is not None})
+            if session.asbuilt_dir is not None:
+                settings["asbuilt"] = session.asbuilt_dir
+            if shifts:
+                settings["shifts"] = dict(shifts)
             if alarm_after is not None:
                 settings["alarm_after"] = alarm_after
             if injection.active:
@@ -308,8 +323,12 @@ def continue_(run: str, runs_dir: Path | None, as_json: bool) -> None:
         info = archive.run(run_id)
         part_arg = info.settings.get("part_arg")
         archive.resume_run(run_id)
+        serial, shifts = info.settings.get("serial"), info.settings.get("shifts")
         session = open_session(Path(part_arg) if part_arg else None, seed=info.seed or 0,
-                               progress=lambda m: view.note(f"{m} ..."))
+                               progress=lambda m: view.note(f"{m} ..."),
+                               serial=None if info.settings.get("asbuilt") is None else str(serial),
+                               shifts={str(k): float(str(v)) for k, v in shifts.items()}
+                               if isinstance(shifts, dict) else None)
         with _closing(session):
             view.note(f"continuing run {run_id}: {info.done}/{info.total} done")
             _run(session, archive, run_id, as_json, view)

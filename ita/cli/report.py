@@ -82,7 +82,8 @@ def report(run: str, output: Path, no_score: bool, make_dirs: bool, part_dir: Pa
         if not no_score and info.settings.get("simulated", True):
             from ita.scoring import truth as scoring
 
-            source = str(part_dir) if part_dir is not None else info.part_dir
+            source = scoring.run_part_truth(str(part_dir) if part_dir is not None else info.part_dir,
+                                            dict(info.settings))
             injected = scoring.injected_faults(archive.path.parent, run_id)
             if scoring.has_true_values(source):
                 values = scoring.true_values(source)

@@ -16,7 +16,19 @@ from ita.part.store import load_part
 from ita.sim.inject import injected_log
 from ita.specs.io import read_specs
 
-__all__ = ["has_true_values", "injected_faults", "true_values", "truth_source"]
+__all__ = ["has_true_values", "injected_faults", "run_part_truth", "true_values", "truth_source"]
+
+
+def run_part_truth(part_dir: Path | str | None, settings: object) -> Path | str | None:
+    """Where the true values of a run of the part in `part_dir` are: the part itself, or
+    the serial's own as-built part the run held (its settings' ``asbuilt``, a directory
+    under the part's ``serials/``; ita.part.serials)."""
+    asbuilt = settings.get("asbuilt") if isinstance(settings, dict) else None
+    if part_dir is None or not isinstance(asbuilt, str):
+        return part_dir
+    root = (Path(part_dir) / "serials").resolve()
+    target = (Path(part_dir) / asbuilt).resolve()
+    return target if target.parent == root else None
 
 
 def has_true_values(part_dir: Path | str | None) -> TypeGuard[Path | str]:

@@ -23,7 +23,7 @@ live in the archive; a failed one comes back through a new plan).
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from ita.logic.terms import Var

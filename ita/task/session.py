@@ -9,7 +9,7 @@ MKB, simulator and devices.
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -24,6 +24,7 @@ from ita.kinematics import ArmModel
 from ita.kinematics.fk import FloatArray
 from ita.logic.bridge import KnowledgeBase
 from ita.offline.prepare import prepare_inspection
+from ita.part.serials import design_params, serial_asbuilt
 from ita.part.specfile import check_measurable
 from ita.part.store import load_part
 from ita.path import planners_for
@@ -77,6 +78,8 @@ class Session:
     seed: int
     setup_seconds: float = 0.0
     simulated: str = "generated"
+    #: a serial's own as-built part (ita.part.serials), its directory relative to the part's
+    asbuilt_dir: str | None = None
     _specs: dict[str, MeasurementSpec] = field(default_factory=dict, repr=False)
     _specs_of: PlanningContext | None = field(default=None, repr=False)   # the context _specs are of
 
@@ -122,9 +125,12 @@ class Session:
 
 
 def open_session(part_dir: Path | None = None, *, seed: int = 0,
-                 progress: Callable[[str], None] = lambda _m: None) -> Session:
+                 progress: Callable[[str], None] = lambda _m: None, serial: str | None = None,
+                 shifts: Mapping[str, float] | None = None) -> Session:
     """Load everything a run needs; prepare the part first (sequence plan, MKB, MACROPs)
-    when what is stored is missing or stale."""
+    when what is stored is missing or stale.  serial: the simulator holds that serial's own
+    as-built part of a generated design (shifts: special causes asked, spec id -> mm;
+    ita.part.serials); another part keeps its one as-built part."""
 
     t0 = time.perf_counter()
     progress("loading the knowledge bases and the part")
@@ -132,7 +138,13 @@ def open_session(part_dir: Path | None = None, *, seed: int = 0,
     apply_tool_marks(kb, load_tool_marks())
     part = load_part(part_dir)
     check_measurable(part)                # no specs, or features the mesh does not show: say so first
-    simulated = simulated_part(part.directory, part.mesh)  # a bad as-built mesh is named before preparing
+    asbuilt_dir: str | None = None
+    if serial is not None and (shifts or design_params(part) is not None):
+        made = serial_asbuilt(part, serial, shifts)
+        simulated = simulated_part(made.directory, part.mesh)
+        asbuilt_dir = str(made.directory.relative_to(part.directory))
+    else:
+        simulated = simulated_part(part.directory, part.mesh)  # a bad as-built mesh is named before preparing
     ctx = planning_context(part_dir, kb=kb, part=part)
     plan, mkb, _ = prepare_inspection(ctx, part, progress=progress, warm=False)
     ctx = with_mkb(ctx, mkb)              # a resequencing keeps what the MKB could not place
@@ -159,4 +171,5 @@ def open_session(part_dir: Path | None = None, *, seed: int = 0,
         world.close()
         raise
     return Session(kb, part, None if part_dir is None else str(Path(part_dir).resolve()), ctx, plan, mkb,
-                   reasoner, world, arm, slra, person, executive, op, seed, time.perf_counter() - t0, simulated.source)
+                   reasoner, world, arm, slra, person, executive, op, seed, time.perf_counter() - t0, simulated.source,
+                   asbuilt_dir)

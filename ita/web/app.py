@@ -307,8 +307,9 @@ def _report(state: State, run_id: str) -> Any:
 
 def _truth_dir(info: RunInfo) -> Path | str | None:
     """The part directory of a simulated run whose part has true values to score against, else None."""
-    if bool(info.settings.get("simulated", True)) and scoring_truth.has_true_values(info.part_dir):
-        return info.part_dir
+    source = scoring_truth.run_part_truth(info.part_dir, dict(info.settings))
+    if bool(info.settings.get("simulated", True)) and scoring_truth.has_true_values(source):
+        return source
     return None
 
 
