@@ -40,6 +40,7 @@ COMMANDS: dict[str, str] = {
     "diagnosis": "ita.cli.diagnosis:diagnosis",
     "serve": "ita.cli.serve:serve",
     "campaign": "ita.cli.campaign:campaign",
+    "spc": "ita.cli.spc:spc",
 }
 
 #: BLAS threads for a command's process unless the user's environment says otherwise.  ITA's

@@ -73,6 +73,9 @@ from ita.report.result import result_payload
 from ita.report.scene import PartScene
 from ita.report.sections import report_payload
 from ita.scoring import truth as scoring_truth
+from ita.spc import chart_all, design_series
+from ita.spc.page import spc_sections
+from ita.specs.model import MeasurementKind
 from ita.web import pages
 from ita.web.bodies import (
     BadRequest,
@@ -207,6 +210,44 @@ async def page_run(request: Request) -> HTMLResponse:
 
 async def page_result(request: Request) -> HTMLResponse:
     return HTMLResponse(pages.result_page(_run_id(request), request.path_params["spec"]))
+
+
+async def page_spc(request: Request) -> HTMLResponse:
+    return HTMLResponse(pages.spc_page())
+
+
+#: the Benjamini-Hochberg level of the SPC page (as `ita spc`'s default)
+SPC_Q = 0.05
+
+
+async def api_spc(request: Request) -> JSONResponse:
+    """SPC across serials of one design: ?part=NAME (default: the first design with serials),
+    ?kind=KIND, ?id=SPEC (a characteristic to chart).  Unknown values are a 400 naming them."""
+    params = request.query_params
+    kind, part, chosen = params.get("kind") or None, params.get("part") or None, params.get("id") or None
+    if kind is not None and kind not in {k.value for k in MeasurementKind}:
+        return _error(f"kind: not a measurement kind: {printable(kind)}", 400)
+
+    def make(archive: Archive) -> Any:
+        designs = sorted({r.part for r in archive.runs() if isinstance(r.settings.get("serial"), str)})
+        name = part if part is not None else (designs[0] if designs else None)
+        if name is None:
+            return {"parts": [], "part": None, "sections": [], "note": "No runs with a serial number yet "
+                                                                        "(ita inspect --serial SN)."}
+        if name not in designs:
+            return {"error": f"part: no runs with a serial of {printable(name)}"}
+        serials, series = design_series(archive, name, kind)
+        charts = chart_all(series, q=SPC_Q)
+        if chosen is not None and chosen not in {c.series.id for c in charts}:
+            return {"error": f"id: no characteristic {printable(chosen)} charted for {name}"}
+        return {"parts": designs, "part": name, "sections": spc_sections(name, serials, charts, SPC_Q, chosen)}
+
+    out = await run_in_threadpool(_with_archive, _state(request), make)
+    if out is None:
+        return _error("no archive yet", 404)
+    if "error" in out:
+        return _error(out["error"], 400)
+    return _json(out)
 
 
 async def page_scoring(request: Request) -> HTMLResponse:
@@ -455,6 +496,8 @@ def create_app(runs_dir: Path | str, host: str | None = None) -> Starlette:
         Route("/runs/{run}", page_run),
         Route("/runs/{run}/results/{spec}", page_result),
         Route("/runs/{run}/scoring", page_scoring),
+        Route("/spc", page_spc),
+        Route("/api/spc", api_spc),
         Route("/runs/{run}/{what:str}", export),
         Route("/assets/{name}", asset),
         Route("/api/runs", api_runs, methods=["GET", "POST"]),

@@ -19,7 +19,8 @@ def _page(title: str, body: str, boot: str, *, plotly: bool = True) -> str:
     return ("<!DOCTYPE html><html lang=\"en\"><head><meta charset=\"utf-8\">"
             "<meta name=\"viewport\" content=\"width=device-width, initial-scale=1\">"
             f"<title>{html.escape(title)}</title><link rel=\"stylesheet\" href=\"/assets/ita.css\"></head><body>"
-            "<header class=\"bar\"><a class=\"brand\" href=\"/\">ITA System Monitor</a><a href=\"/\">runs</a></header>"
+            "<header class=\"bar\"><a class=\"brand\" href=\"/\">ITA System Monitor</a><a href=\"/\">runs</a>"
+            "<a href=\"/spc\">SPC</a></header>"
             f"<main>{body}</main>{scripts}<script>{boot}</script></body></html>")
 
 
@@ -65,3 +66,13 @@ def scoring_page(run_id: str) -> str:
             "results with the simulated part's true dimensions, which the inspection never sees.</p>"
             "<div id=\"report\">loading ...</div>")
     return _page(f"ITA scoring {run_id}", body, f"ITAWeb.scoringPage({_arg(run_id)});")
+
+
+def spc_page() -> str:
+    body = ("<h1>SPC across serials</h1><form id=\"spc-form\" class=\"filters\">"
+            "<label>design <select name=\"part\" id=\"spc-part\"></select></label>"
+            "<label>kind <input name=\"kind\" size=\"16\" placeholder=\"every kind\"></label>"
+            "<label>characteristic <input name=\"id\" size=\"14\" placeholder=\"spec id\"></label>"
+            "<button type=\"submit\">chart</button> <span id=\"spc-msg\" class=\"note\"></span></form>"
+            "<div id=\"report\">loading ...</div>")
+    return _page("ITA SPC", body, "ITAWeb.spcPage();")

@@ -121,5 +121,30 @@
     document.body.dataset.ready = "1";
   };
 
+  W.spcPage = async function () {
+    const root = document.getElementById("report");
+    const msg = document.getElementById("spc-msg");
+    const form = document.getElementById("spc-form");
+    const here = new URLSearchParams(window.location.search);
+    for (const k of ["kind", "id"]) if (here.get(k)) form.elements[k].value = here.get(k);
+    const ask = new URLSearchParams();
+    for (const k of ["part", "kind", "id"]) if (here.get(k)) ask.set(k, here.get(k));
+    try {
+      const d = await getJSON(`/api/spc?${ask.toString()}`);
+      const select = document.getElementById("spc-part");
+      select.innerHTML = d.parts.map((p) => `<option${p === d.part ? " selected" : ""}>${ITA.esc(p)}</option>`).join("");
+      root.innerHTML = d.note ? `<p>${ITA.esc(d.note)}</p>` : "";
+      ITA.renderSections(root, d.sections, {});
+    } catch (err) { root.innerHTML = ""; msg.textContent = err.message; msg.className = "err"; }
+    form.addEventListener("submit", (ev) => {
+      ev.preventDefault();
+      const f = new FormData(form);
+      const q = new URLSearchParams();
+      for (const [k, v] of f.entries()) if (String(v).trim()) q.set(k, String(v).trim());
+      window.location.href = `/spc?${q.toString()}`;
+    });
+    document.body.dataset.ready = "1";
+  };
+
   window.ITAWeb = W;
 })();
