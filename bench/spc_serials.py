@@ -116,20 +116,30 @@ def main(argv: list[str] | None = None) -> int:
     in_control = [s for s, sh in plan if not sh]
     shifted_serials = [s for s, sh in plan if sh]
     flagged_at = {s for c in chars for f in c["flags"] for s in f["serials"]}
-    shifted_ids = {t.split("=")[0] for t in shifts}
-    found = {i: any(c["id"] == i and c["flags"] for c in chars) for i in sorted(shifted_ids)}
+    from ita.part.store import load_part
+    from ita.specs.io import read_specs
+
+    part_specs = read_specs(load_part(None).specs_path)
+    shifted_features = {s.feature for s in part_specs if s.id in {t.split("=")[0] for t in shifts}}
+    # a shift moves the feature's dimension: every spec of that feature measures it
+    shifted_ids = {s.id for s in part_specs if s.feature in shifted_features and s.kind.value in
+                   {p.kind.value for p in part_specs if p.id in {t.split("=")[0] for t in shifts}}}
+    found = {i: any(c["id"] == i and c["flags"] for c in chars) for i in sorted({t.split("=")[0] for t in shifts})}
+    found_with_feature = sorted(c["id"] for c in chars if c["id"] in shifted_ids and c["flags"])
     false_flags = [(c["id"], f["rule"], f["serials"]) for c in chars for f in c["flags"] if c["id"] not in shifted_ids]
     real = {"serials": spc["serials"], "characteristics": len(chars),
             "in_control_serials": len(in_control),
             "in_control_serials_flagged": sorted(set(in_control) & flagged_at),
             "shifts": shifts, "shifted_serials": shifted_serials, "shift_found": found,
+            "same_feature_flagged": found_with_feature,
             "other_characteristics_flagged": false_flags,
             "beyond_3_sigma_characteristics": sum(1 for c in chars if c["chart"]["beyond_3_sigma"]),
             "run_wall_s": walls}
     print(f"real runs: {len(spc['serials'])} serials, {len(chars)} characteristics charted")
     print(f"  in-control serials flagged: {len(real['in_control_serials_flagged'])} of {len(in_control)}"
           f" {real['in_control_serials_flagged']}")
-    print(f"  shifts {shifts} in {shifted_serials}: found {found}")
+    print(f"  shifts {shifts} in {shifted_serials}: found {found}; with the specs of the same features: "
+          f"{found_with_feature}")
     print(f"  other characteristics flagged: {false_flags}")
     print(f"  characteristics with a point beyond 3 sigma (plain Shewhart): {real['beyond_3_sigma_characteristics']}")
     n = len(spc["serials"])

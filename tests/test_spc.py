@@ -120,3 +120,11 @@ def test_the_system_monitor_has_an_spc_page(serial_runs):
     for bad in ({"kind": "nope"}, {"id": "NO-SUCH"}, {"part": "<script>"}):
         r = client.get("/api/spc", params=bad)
         assert r.status_code == 400 and "error" in r.json(), bad
+
+
+def test_a_point_measured_less_well_than_the_others_is_not_a_special_cause_for_that_alone():
+    x = (0.10, 0.11, 0.09, 0.12, 0.10, 0.60, 0.11, 0.10, 0.09, 0.11)
+    sure = chart(Series("P", "hole_position", None, 0.5, SERIALS, x, (0.005,) * 10))
+    loose = chart(Series("P", "hole_position", None, 0.5, SERIALS, x, (0.005,) * 5 + (0.15,) + (0.005,) * 4))
+    assert sure.rule == "point" and sure.rule_serials == ("SN-05",) and sure.p < 1e-6
+    assert loose.p > 100 * sure.p

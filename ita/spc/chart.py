@@ -10,7 +10,9 @@ Per characteristic, its values over the serials in the order they were inspected
 - two rules, each with a p-value, for special causes:
   * *point*: one serial unlike the others (its value against the mean and standard
     deviation of the rest, Student's t with n - 2 degrees of freedom, Bonferroni over the
-    serials); needs 4 serials;
+    serials); the point's own measurement uncertainty widens its denominator, so that a
+    value measured less well than the others (a hole position seen in one frame) is not a
+    special cause of the process for that alone; needs 4 serials;
   * *step*: the later serials shifted from the earlier (the last k against the first n - k,
     pooled two-sample t, k = 2 .. n - 2, Bonferroni over k); needs 5 serials.
   The characteristic's p-value is the smaller of the two, doubled (Bonferroni).
@@ -44,7 +46,8 @@ D4 = 3.267          # the MR chart's upper limit over the mean moving range (n =
 @dataclass(frozen=True)
 class Series:
     """One characteristic's values over the serials, in inspection order: its spec id, kind,
-    limits (low, high; low None for a one-sided tolerance), serials and values (mm)."""
+    limits (low, high; low None for a one-sided tolerance), serials, values (mm) and their
+    standard uncertainties (mm; empty: not known, taken as 0)."""
 
     id: str
     kind: str
@@ -52,6 +55,7 @@ class Series:
     high: float
     serials: tuple[str, ...]
     values: tuple[float, ...]
+    u: tuple[float, ...] = ()
 
 
 @dataclass(frozen=True)
@@ -120,8 +124,9 @@ def _capability(x: np.ndarray, low: float | None, high: float) -> tuple[float | 
     return cp, cpk, (cpk - half, cpk + half)
 
 
-def _point_rule(x: np.ndarray) -> tuple[float, int]:
-    """The point rule's p-value and the serial it points at (p 1.0 below 4 serials)."""
+def _point_rule(x: np.ndarray, u: np.ndarray) -> tuple[float, int]:
+    """The point rule's p-value and the serial it points at (p 1.0 below 4 serials); u: the
+    values' standard measurement uncertainties."""
     n = len(x)
     if n < 4:
         return 1.0, -1
@@ -131,7 +136,7 @@ def _point_rule(x: np.ndarray) -> tuple[float, int]:
         s = float(np.std(rest, ddof=1))
         if not s > 0:
             continue
-        t = (x[i] - float(rest.mean())) / (s * math.sqrt(1 + 1 / (n - 1)))
+        t = (x[i] - float(rest.mean())) / math.sqrt(s * s * (1 + 1 / (n - 1)) + float(u[i]) ** 2)
         p = float(2 * stats.t.sf(abs(t), n - 2))
         if p < best:
             best, where = p, i
@@ -169,7 +174,8 @@ def chart(series: Series) -> Chart:
     sigma = mr_bar / D2 if len(mr) else math.nan
     ucl, lcl = mean + 3 * sigma, mean - 3 * sigma
     beyond = tuple(s for s, v in zip(series.serials, x) if len(mr) and (v > ucl or v < lcl))
-    p_point, where = _point_rule(x)
+    u = np.asarray(series.u, dtype=float) if len(series.u) == n else np.zeros(n)
+    p_point, where = _point_rule(x, u)
     p_step, last = _step_rule(x)
     at: tuple[str, ...]
     if p_point <= p_step:

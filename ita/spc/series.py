@@ -49,15 +49,15 @@ def _serial_runs(archive: Archive, part: str) -> list[SerialRun]:
 def design_series(archive: Archive, part: str, kind: str | None = None) -> tuple[list[SerialRun], list[Series]]:
     """The serials of `part` in the archive and a series per characteristic (of `kind`)."""
     runs = _serial_runs(archive, part)
-    values: dict[str, list[tuple[str, float]]] = {}
+    values: dict[str, list[tuple[str, float, float]]] = {}
     limits: dict[str, tuple[str, float | None, float]] = {}
     for r in runs:
         for res in archive.results(r.run_id):
             if res.outcome is not Outcome.MEASURED or res.value is None or (kind is not None and res.kind != kind):
                 continue
-            values.setdefault(res.spec_id, []).append((r.serial, float(res.value)))
+            values.setdefault(res.spec_id, []).append((r.serial, float(res.value), float(res.u or 0.0)))
             low = None if res.kind in BOUNDED_BELOW else res.nominal + res.lower
             limits[res.spec_id] = (str(res.kind), low, res.nominal + res.upper)
-    series = [Series(spec, limits[spec][0], limits[spec][1], limits[spec][2], tuple(s for s, _ in pts),
-                     tuple(v for _, v in pts)) for spec, pts in values.items()]
+    series = [Series(spec, limits[spec][0], limits[spec][1], limits[spec][2], tuple(s for s, _, _ in pts),
+                     tuple(v for _, v, _ in pts), tuple(u for _, _, u in pts)) for spec, pts in values.items()]
     return runs, series
