@@ -15,9 +15,10 @@ from ita.part.model import Pocket
 from ita.specs.model import MeasurementKind as K
 
 REPO = Path(__file__).resolve().parents[1]
-# modules that may know the truth: its own module, the store that writes it, and the
-# (future) simulator and scoring packages
-ALLOWED = ("ita/part/truth.py", "ita/part/store.py", "ita/sim/", "ita/scoring/")
+# modules that may know the truth: its own module, the store that writes it, the serials'
+# as-built parts (which make a serial's truth as the store makes the part's), the simulator and
+# the scoring
+ALLOWED = ("ita/part/truth.py", "ita/part/store.py", "ita/part/serials.py", "ita/sim/", "ita/scoring/")
 TRUTH_NAMES = {truth_mod.TRUTH_DIR, truth_mod.MESH_FILE, truth_mod.FEATURES_FILE, truth_mod.VALUES_FILE}
 
 
