@@ -32,7 +32,8 @@ each with one piece of Python behind it (ita/toplevel/actions.py):
     takes N frames, each after its own approach, and Vision averages them) or
     `other_sensor(Tool)`;
   - `handle_exception(Spec)`: the Exception Handler diagnoses the failure, puts the
-    cell right and measures again;
+    cell right and measures again (a retry that fails with an exception of its own is
+    observed as `failed(Spec)` again, and diagnosed in turn: at most 3 in all);
   - `record(Spec)`: the result to the archive (or held pending its network or webs),
     with the others of its frame;
   - `settle_pending`, `decide_pending`: pending results decided when they can be, and
@@ -145,8 +146,10 @@ method(calibrate_first, probe_ready(Spec, other_sensor(Tool)),
 method(ready, probe_ready(_Spec, _Way), [], []).
 
 method(halted, conclude(_Spec), [stopped], []).
+% after the handler, conclude again: its retry may have failed with a new exception (the
+% Top Level then observes failed(Spec) once more), which is diagnosed in turn
 method(recovered, conclude(Spec), [failed(Spec)],
-       [handle_exception(Spec), record(Spec), settle_pending]).
+       [handle_exception(Spec), conclude(Spec)]).
 method(recorded, conclude(Spec), [not(failed(Spec))],
        [record(Spec), settle_pending]).
 

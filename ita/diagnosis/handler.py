@@ -140,6 +140,10 @@ class Diagnosis:
                 "t0": self.t0, "t1": self.t1, "since": self.since}
 
 
+#: how a diagnosis's recovery starts when the retry it made failed
+RETRY_FAILED = "the retry failed:"
+
+
 @dataclass(frozen=True, eq=False)
 class Handled:
     """The Exception Handler's answer: the diagnosis, the measurement's outcome after it,
@@ -150,6 +154,12 @@ class Handled:
     outcome: MeasureOutcome
     executed: tuple[tuple[str, OperationPlan, ExecutionReport | None], ...] = field(default_factory=tuple)
     nested: tuple[Diagnosis, ...] = ()          # second faults met while handling, each diagnosed on its own
+
+    @property
+    def retry_failed(self) -> bool:
+        """The recovery's own retry ran and ended in an exception: a new failure, for the
+        Exception Handler again (the outcome carries its report)."""
+        return self.diagnosis.recovery.startswith(RETRY_FAILED)
 
 
 class ExceptionHandler:
@@ -192,6 +202,9 @@ class ExceptionHandler:
             diagnosis = replace(diagnosis, recovery=f"not done: {diagnosis.cause} cannot be put right in the cell")
         elif outcome is None:
             outcome, recovery = self._retry(failed, situation, executed)
+            if outcome is not None and outcome.report is not None and not outcome.report.ok:
+                # the retry met a failure of its own: the recovery did not succeed, say so
+                recovery = f"{RETRY_FAILED} {recovery}: {outcome.reason or 'failed'}"
             diagnosis = replace(diagnosis, recovery=recovery, t1=s.clock.now)
         if outcome is None or outcome.status is not MeasureStatus.MEASURED:
             base = outcome if outcome is not None else failed

@@ -106,6 +106,9 @@ TASKS = "tasks"
 JOB = "inspect_part"
 #: plans made again in a row with the same action first, not applicable, before the run fails
 MAX_REPLANS_IN_A_ROW = 20
+#: the Exception Handler's calls on one measurement: a recovery whose retry fails with a new
+#: exception has that one diagnosed too, up to this many in all
+MAX_HANDLINGS = 3
 #: lines of the plan's decomposition tree kept with a run (the System Monitor and the report show them)
 TREE_LINES = 400
 #: the actions that begin a measurement: the control table is read before the first of them
@@ -169,6 +172,7 @@ class TopLevel:
         self._state = WorldState(arm=the_arm(session.kb))
         self._outcomes: dict[str, tuple[Step, MeasureOutcome, list[Event], int]] = {}
         self._steps: dict[str, Step] = {}
+        self._handlings: dict[str, int] = {}       # spec id -> the Exception Handler's calls on it
         self._status = RunStatus.COMPLETED
         self._alarm = ""
         self._current: Step | None = None
@@ -423,8 +427,8 @@ class TopLevel:
             return self._measure(self._way(self._steps[args[0]], action.args[1])), False
         elif name == "handle_exception":
             before = self._world()
-            self._handle(args[0])
-            return [], self._world() != before
+            again = self._handle(args[0])
+            return ([Term("failed", (args[0],))] if again else []), self._world() != before
         elif name == "record":
             self._conclude(args[0])
         elif name == "settle_pending":
@@ -480,17 +484,25 @@ class TopLevel:
             self.session.slra.frames_asked[step.spec_id] = int(str(way.args[0]))
         return step
 
-    def _handle(self, spec_id: str) -> None:
-        """The Exception Handler on the failed measurement of `spec_id`."""
+    def _handle(self, spec_id: str) -> bool:
+        """The Exception Handler on the failed measurement of `spec_id`; True when its
+        recovery's retry failed with an exception of its own, to be diagnosed in turn (at
+        most MAX_HANDLINGS times per measurement)."""
         step, out, events, plan_no = self._outcomes[spec_id]
         handled = self.handle(out)
+        again = False
         if handled is not None:
             self.diagnoses += 1
             events += diagnosis_events(handled, self.plans)
             if handled.outcome.report is not None:
                 plan_no = self.plans.last
             out = replace(handled.outcome, others=out.others + handled.outcome.others)
+            self._handlings[spec_id] = self._handlings.get(spec_id, 0) + 1
+            again = handled.retry_failed and self._handlings[spec_id] < MAX_HANDLINGS
+            if again:
+                self.exceptions += 1
         self._outcomes[spec_id] = (step, out, events, plan_no)
+        return again
 
     def _conclude(self, spec_id: str) -> None:
         """Record the measurement of `spec_id` as it ended (module docstring)."""
