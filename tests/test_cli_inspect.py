@@ -148,6 +148,29 @@ def test_reinspect_chooses_more_frames_where_they_lower_the_uncertainty(tmp_path
     assert summary["devices"]["slra_frames"] >= 16 + 1
 
 
+def test_a_fault_met_by_the_recoverys_own_retry_is_diagnosed_too(tmp_path) -> None:
+    """us_probe_2 worn, then us_probe_1 broken: the first measurement after 50 s fails on
+    us_probe_1 (FT-OFL04-W1 here; the exact one depends on the path planner's timings), the
+    handler finds it broken and takes the measurement again with us_probe_2, which fails
+    (doubled reading).  That failure is diagnosed in turn (worn, replaced) and the
+    measurement is made; the first diagnosis says its retry failed."""
+    from ita.archive import Archive, archive_path
+
+    runs = tmp_path / "runs"
+    out = CliRunner().invoke(main, ["inspect", "--seed", "62", "--limit", "12", "--inject",
+                                    "worn_probe@us_probe_2:after=10", "--inject", "broken_probe@us_probe_1:after=50",
+                                    "--runs-dir", str(runs), "--json"])
+    assert out.exit_code == 0, out.output
+    summary = json.loads(out.stdout)
+    assert summary["counts"].get("not_done", 0) == 0 and summary["done"] == 12
+    with Archive.open(archive_path(runs)) as archive:
+        diagnoses = [e.payload for e in archive.events(summary["run_id"], kinds=["diagnosis"])]
+    assert [d["cause"] for d in diagnoses] == ["broken_probe(us_probe_1)", "worn_probe(us_probe_2)"], diagnoses
+    assert diagnoses[0]["spec"] == diagnoses[1]["spec"]
+    assert diagnoses[0]["recovery"].startswith("the retry failed:")
+    assert not diagnoses[1]["recovery"].startswith("the retry failed:")
+
+
 def test_cell_check_reads_the_block_with_each_probe_and_measures_the_tooling_holes(tmp_path, builtin_part) -> None:
     """`--task cell_check`: a run of the part's tooling holes alone, each probe reading the
     calibration block first, and a report of the cell's state (its artifacts' readings)."""
