@@ -108,8 +108,10 @@ method(in_sequence, reinspect, [],
        [measure_rest(0), close_run]).
 
 % -- the cell against its reference artifacts (the run holds the tooling holes' specs) -----
+% the report counts every artifact: what is pending is decided and what was never measured
+% recorded first (close_run's own do nothing then)
 method(artifacts, cell_check, [call(probes(Probes))],
-       [read_blocks(Probes), measure_rest(0), report_cell, close_run]).
+       [read_blocks(Probes), measure_rest(0), decide_pending, record_leftovers, report_cell, close_run]).
 
 method(none_left, read_blocks([]), [], []).
 method(each_probe, read_blocks([Probe|Probes]), [], [calibrate_probe(Probe), read_blocks(Probes)]).

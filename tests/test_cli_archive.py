@@ -11,7 +11,7 @@ import pytest
 from archive_synth import fake_specs, record_synthetic_run, true_values
 from click.testing import CliRunner
 
-from ita.archive import Archive, RunStatus
+from ita.archive import Archive, RunStatus, archive_path
 from ita.cli import main
 
 
@@ -40,11 +40,15 @@ def test_runs_lists_every_run(runs_dir: Path) -> None:
     assert res.exit_code == 0, res.output
     first, second = ids(runs_dir)
     lines = res.stdout.splitlines()
-    assert lines[0].split()[:4] == ["RUN", "PART", "STATUS", "DONE"]
-    assert first in lines[1] and "completed" in lines[1] and "60/60" in lines[1]
-    assert second in lines[2] and "interrupted" in lines[2] and "25/60" in lines[2]
+    assert lines[0].split()[:4] == ["RUN", "PART", "STATUS", "MEASURED"]
+    with Archive.open(archive_path(runs_dir)) as a:        # MEASURED: results with a value
+        measured = [sum(1 for r in a.results(rid) if r.value is not None) for rid in (first, second)]
+    assert measured[0] < 60                                # the synthetic run has results without a value
+    assert first in lines[1] and "completed" in lines[1] and f"{measured[0]}/60" in lines[1]
+    assert second in lines[2] and "interrupted" in lines[2] and f"{measured[1]}/60" in lines[2]
     data = json.loads(run("runs", "--runs-dir", str(runs_dir), "--json").stdout)
     assert [r["id"] for r in data] == [first, second] and data[1]["sim_time"] > 0
+    assert [r["measured"] for r in data] == measured and data[0]["done"] == 60
 
 
 def test_runs_dir_from_environment_and_empty(runs_dir: Path, tmp_path: Path) -> None:

@@ -196,6 +196,28 @@ def test_cell_check_reads_the_block_with_each_probe_and_measures_the_tooling_hol
     assert refused.exit_code == 2 and "--limit" in refused.output
 
 
+def test_with_both_slras_broken_the_run_says_what_is_missing(tmp_path, builtin_part) -> None:
+    """Both SLRAs marked broken: the tooling holes of a cell check cannot be done, each
+    with the reason naming what is missing; the cell's report counts them; the summary
+    ends with a note of the results without a value."""
+    from ita.archive import Archive, archive_path
+
+    runs = tmp_path / "runs"
+    for tool in ("slra_1", "slra_2"):
+        assert CliRunner().invoke(main, ["sequence", "tool", "broken", tool]).exit_code == 0
+    try:
+        out = CliRunner().invoke(main, ["inspect", "--task", "cell_check", "--runs-dir", str(runs)])
+    finally:
+        for tool in ("slra_1", "slra_2"):
+            CliRunner().invoke(main, ["sequence", "tool", "ok", tool])
+    assert out.exit_code == 0, out.output
+    assert "the cell: to look at:" in out.output and "cannot be done" in out.output
+    assert "NOTE: 2 cannot be done" in out.output and ", 0 measured" in out.output
+    with Archive.open(archive_path(runs)) as archive:
+        results = archive.results(archive.runs()[-1].id)
+    assert {r.reason for r in results} == {"no working slra_tool: slra_1 broken, slra_2 broken"}
+
+
 @pytest.mark.slow
 def test_reinspect_measures_again_exactly_what_a_run_left_unproven(tmp_path, builtin_part) -> None:
     """A run with faults injected leaves some results not done (or uncertain); `--task

@@ -115,7 +115,9 @@ def _label(ctx: click.Context, param: click.Parameter, value: str | None) -> str
 
 def _summary_text(summary: Any) -> str:
     d = summary.to_dict()
-    lines = [f"run {summary.run_id}: {summary.status}, {summary.done}/{summary.total} results"
+    unmeasured = {k: summary.counts.get(k, 0) for k in ("not_done", "cannot_be_done")}
+    measured = summary.done - sum(unmeasured.values())
+    lines = [f"run {summary.run_id}: {summary.status}, {summary.done}/{summary.total} results, {measured} measured"
              + (f"\n  ALARM, the run stopped itself: {summary.alarm}" if summary.alarm else ""),
              "  " + ", ".join(f"{k} {v}" for k, v in sorted(summary.counts.items())),
              f"  simulated cycle time {format_duration(summary.sim_end_s)} ({summary.sim_end_s:.0f} s)"
@@ -140,6 +142,9 @@ def _summary_text(summary: Any) -> str:
                 f"{hole['value']:.4f} (nominal {hole['nominal']:.4f}, U {hole['U']:.4f})"
             off = "" if hole["centre_off_mm"] is None else f", centre {hole['centre_off_mm']:.3f} mm off nominal"
             lines.append(f"    {hole['spec']}: {value}, {hole['decision']}{off}")
+    if any(unmeasured.values()):
+        said = " and ".join(f"{n} {k.replace('_', ' ')}" for k, n in unmeasured.items() if n)
+        lines.append(f"  NOTE: {said}: `ita results {summary.run_id} --failed` lists them with their reasons")
     if summary.continue_hint:
         lines.append(f"  continue with: {summary.continue_hint}")
     return "\n".join(lines)

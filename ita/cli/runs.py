@@ -63,7 +63,7 @@ def format_duration(seconds: float | None) -> str:
 @click.option("--json", "as_json", is_flag=True, help="Print JSON instead of a table.")
 @reports_errors
 def runs(runs_dir: Path | None, as_json: bool) -> None:
-    """List the runs: id, part, status, results done of total, simulated cycle time, start,
+    """List the runs: id, part, status, results measured (with a value) of total, simulated cycle time, start,
     the verdict over the run's measurements (accept: every one conforms; reject: one does
     not; incomplete: otherwise, or not ended), and the serial and operator it was given.
 
@@ -82,10 +82,14 @@ def runs(runs_dir: Path | None, as_json: bool) -> None:
         return
     with archive:
         infos = archive.runs()
+        # "measured": results with a value (not done and cannot be done are results without one)
+        measured = {r.id: r.done - sum(n for k, n in archive.decision_counts(r.id).items()
+                                       if k in ("not_done", "cannot_be_done")) for r in infos}
     if as_json:
         click.echo(json.dumps([{
             "id": r.id, "part": r.part, "part_dir": r.part_dir, "seed": r.seed, "status": r.status.value,
-            "state": r.state_label, "done": r.done, "total": r.total, "sim_time": r.sim_time,
+            "state": r.state_label, "done": r.done, "measured": measured[r.id], "total": r.total,
+            "sim_time": r.sim_time,
             "created": r.created, "ended": r.ended, "settings": r.settings, "totals": r.totals,
             "verdict": verdict(r), "serial": r.settings.get("serial"), "operator": r.settings.get("operator"),
         } for r in infos], indent=2))
@@ -93,10 +97,10 @@ def runs(runs_dir: Path | None, as_json: bool) -> None:
     if not infos:
         click.echo("no runs", err=True)
         return
-    rows = [(r.id, r.part, r.state_label, f"{r.done}/{r.total if r.total is not None else '?'}",
+    rows = [(r.id, r.part, r.state_label, f"{measured[r.id]}/{r.total if r.total is not None else '?'}",
              format_duration(r.sim_time), r.created.replace("T", " ").replace("+00:00", "Z"), verdict(r),
              r.settings.get("serial") or "-", r.settings.get("operator") or "-") for r in infos]
-    header = ("RUN", "PART", "STATUS", "DONE", "SIM TIME", "STARTED (UTC)", "VERDICT", "SERIAL", "OPERATOR")
+    header = ("RUN", "PART", "STATUS", "MEASURED", "SIM TIME", "STARTED (UTC)", "VERDICT", "SERIAL", "OPERATOR")
     widths = [max(len(str(x)) for x in col) for col in zip(header, *rows)]
     for row in (header, *rows):
         click.echo("  ".join(str(c).ljust(w) for c, w in zip(row, widths)).rstrip())

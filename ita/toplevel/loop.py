@@ -415,7 +415,7 @@ class TopLevel:
         if name == "record_unplaceable":
             for spec_id, reason in s.plan.cannot:
                 if spec_id in self.todo_set and spec_id not in self.results.done:
-                    self.results.unmeasured(spec_id, Outcome.CANNOT_BE_DONE, reason)
+                    self.results.unmeasured(spec_id, Outcome.CANNOT_BE_DONE, self._why_not(reason))
         elif name == "note_resequence":
             k = int(args[0])
             self.archive.record_event(self.run_id, sequence_event(self._remade[k], self._cursors[k], s.clock.now))
@@ -441,11 +441,12 @@ class TopLevel:
         elif name == "decide_pending":
             self.pending.settle(final=True)
         elif name == "record_leftovers":
+            why_not = dict(self._cursors[-1].cannot)     # the latest sequence plan's reasons
             for spec_id in [i for i in self.todo if i not in self.results.done and not self.pending.waiting(i)]:
                 if spec_id in self.failed_in_others:
                     self.results.unmeasured(spec_id, Outcome.NOT_DONE, self.failed_in_others[spec_id])
                 else:
-                    self.results.unmeasured(spec_id, Outcome.CANNOT_BE_DONE, "not handed out by the sequence planner")
+                    self.results.unmeasured(spec_id, Outcome.CANNOT_BE_DONE, self._why_not(why_not.get(spec_id)))
         elif name == "report_cell":
             self.cell = self._cell_report()
             self.archive.record_event(self.run_id, Event("cell_check", "top", s.clock.now, self.cell))
@@ -473,6 +474,20 @@ class TopLevel:
             self.exceptions += 1
             return [Term("failed", (step.spec_id,))]
         return []
+
+    def _why_not(self, reason: str | None) -> str:
+        """A leftover's reason in words: what is missing (``no_working_tool(slra_tool)``:
+        which tools of that type there are and their state), else that the Sequence
+        Planner never handed it out."""
+        if reason is None:
+            return "not handed out by the sequence planner"
+        if reason.startswith("no_working_tool(") and reason.endswith(")"):
+            tool_type = reason[len("no_working_tool("):-1]
+            world = WorldModel(self.session.kb)
+            tools = [t for t in world.tools() if world.tool_type(t) == tool_type]
+            states = [f"{t} {'missing' if world.missing(t) else world.condition(t)}" for t in tools]
+            return f"no working {tool_type}: " + (", ".join(states) if states else "the cell has none")
+        return reason
 
     def _way(self, step: Step, way: TermValue) -> Step:
         """The step to measure, the way a reinspection chose (kb/tasks.pl better_way/3):

@@ -89,7 +89,9 @@ class RunSummary:
         return self.sim_end_s - self.sim_start_s
 
     def to_dict(self) -> JsonObject:
+        unmeasured = self.counts.get("not_done", 0) + self.counts.get("cannot_be_done", 0)
         return {"run_id": self.run_id, "status": self.status, "done": self.done, "total": self.total,
+                "measured": self.done - unmeasured,
                 "counts": dict(self.counts), "simulated_cycle_s": round(self.sim_end_s, 3),
                 "simulated_this_session_s": round(self.cycle_s, 3), "wall_s": round(self.wall_s, 3),
                 "wall_s_per_measurement": round(self.wall_s / self.measured_now, 4) if self.measured_now else None,
