@@ -63,6 +63,7 @@ from ita.task.measure import (
 
 if TYPE_CHECKING:
     from ita.executive import ExecutionReport
+    from ita.planning.state import WorldState
     from ita.task.session import Session
 
 __all__ = ["Diagnosis", "ExceptionHandler", "Handled"]
@@ -167,11 +168,16 @@ class ExceptionHandler:
 
     neighbours: spec id -> values of its measured neighbours (for compare_neighbours);
     method: the engine's test selection (``auto``, ``optimal``, ``rollout``, ``greedy``,
-    ``cheapest``); learn: whether diagnoses add to the stored counts."""
+    ``cheapest``); learn: whether diagnoses add to the stored counts; prepare_tool:
+    (spec id, tool, state) -> state, called before a retry takes the measurement with
+    another tool than the one that failed (the Top Level has a spare probe read the
+    calibration block before its first reading)."""
 
     def __init__(self, session: Session, *, neighbours: Callable[[str], Sequence[float]] | None = None,
-                 method: str = "auto", learn: bool = True) -> None:
+                 method: str = "auto", learn: bool = True,
+                 prepare_tool: Callable[[str, str, WorldState], WorldState] | None = None) -> None:
         self.session = session
+        self.prepare_tool = prepare_tool
         self.knowledge = FaultKnowledge(session.kb)
         self.method = method
         self.learn = learn
@@ -421,6 +427,8 @@ class ExceptionHandler:
             if chosen.tool is None:
                 return None, f"not done: no tool left ({chosen.reason})"
             tool = chosen.tool
+        if tool != situation.tool and self.prepare_tool is not None:
+            situation = replace(situation, state=self.prepare_tool(situation.spec_id, tool, situation.state))
         repaired = None
         done: tuple[int, ...] = ()
         if tool == situation.tool and failed.plan is not None and failed.report is not None:

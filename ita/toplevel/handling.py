@@ -18,7 +18,10 @@ from typing import TYPE_CHECKING
 from ita.diagnosis import ExceptionHandler
 
 if TYPE_CHECKING:
+    from collections.abc import Callable
+
     from ita.archive import Archive
+    from ita.planning.state import WorldState
     from ita.diagnosis.handler import Handled
     from ita.task.measure import MeasureOutcome
     from ita.task.session import Session
@@ -54,9 +57,12 @@ class Handling:
     handler: ExceptionHandler | None
 
     @classmethod
-    def of(cls, session: Session, archive: Archive, run_id: str) -> Handling:
-        """The Exception Handler of run `run_id`, comparing with the run's measured neighbours."""
-        return cls(session, ExceptionHandler(session, neighbours=MeasuredNeighbours(session, archive, run_id)))
+    def of(cls, session: Session, archive: Archive, run_id: str,
+           prepare_tool: Callable[[str, str, WorldState], WorldState] | None = None) -> Handling:
+        """The Exception Handler of run `run_id`, comparing with the run's measured neighbours;
+        prepare_tool: before a retry with another tool (a spare probe reads the block)."""
+        return cls(session, ExceptionHandler(session, neighbours=MeasuredNeighbours(session, archive, run_id),
+                                             prepare_tool=prepare_tool))
 
     def __call__(self, failed: MeasureOutcome) -> Handled | None:
         if self.handler is None:

@@ -156,7 +156,8 @@ class TopLevel:
         self.pending = PendingDecisions.resume(session, archive, run_id, self.todo, self.results,
                                                network=bool(info.settings.get("network", False)))
         self.calibration = ProbeCalibration(session, archive, run_id, self.plans)
-        self.handle = Handling.of(session, archive, run_id) if handle_exceptions else Handling(session, None)
+        self.handle = Handling.of(session, archive, run_id, prepare_tool=self.calibration.before) \
+            if handle_exceptions else Handling(session, None)
         self.failed_in_others: dict[str, str] = {}   # view-group members another's frame could not measure
         self.exceptions = 0
         self.frames = 0
