@@ -97,10 +97,12 @@ def short_run(tmp_path_factory, builtin_part) -> Path:
 
 @pytest.fixture(scope="module")
 def fault_run(tmp_path_factory, builtin_part) -> Path:
-    """Faults at a rate of 0.3 over ten measurements (seed 1: some end not done)."""
+    """Faults at a rate of 0.3 over twelve measurements and the arm drifting from the start
+    (which the cell does not find yet: some end not done; the Exception Handler puts the
+    others right)."""
     runs = tmp_path_factory.mktemp("runs")
-    res = run("inspect", "--limit", "10", "--faults", "0.3", "--seed", "1", "--alarm-after", "0",
-              "--runs-dir", str(runs))
+    res = run("inspect", "--limit", "12", "--faults", "0.3", "--seed", "1", "--alarm-after", "0",
+              "--inject", "position_drift:after=0", "--runs-dir", str(runs))
     assert res.exit_code in (0, 3), res.output
     return runs
 
@@ -126,7 +128,7 @@ def test_a_run_with_faults_reports_not_done_as_not_analyzed(fault_run: Path, sch
     check_against_archive(doc, fault_run)
     statuses = doc.xpath("//q:CharacteristicMeasurements/*/q:Status/q:CharacteristicStatusEnum/text()",
                          namespaces=NS)
-    assert "NOT_ANALYZED" in statuses, "the fault run had no result not done (seed 1 should give some)"
+    assert "NOT_ANALYZED" in statuses, "the fault run had no result not done (the drift should give some)"
 
 
 # --------------------------------------------------------------------- every kind and status
