@@ -220,14 +220,15 @@ def test_with_both_slras_broken_the_run_says_what_is_missing(tmp_path, builtin_p
 
 @pytest.mark.slow
 def test_reinspect_measures_again_exactly_what_a_run_left_unproven(tmp_path, builtin_part) -> None:
-    """A run with faults injected leaves some results not done (or uncertain); `--task
-    reinspect --from RUN` makes a new run of those alone, and measures each once."""
+    """A run with faults injected (an arm drift the cell does not find yet) leaves some
+    results not done (or uncertain); `--task reinspect --from RUN` makes a new run of those
+    alone, and measures each once."""
     from ita.archive import Archive, archive_path
     from ita.toplevel import unproven
 
     runs = tmp_path / "runs"
-    first = CliRunner().invoke(main, ["inspect", "--limit", "6", "--faults", "0.6", "--seed", "5", "--alarm-after",
-                                      "0", "--runs-dir", str(runs), "--json"])
+    first = CliRunner().invoke(main, ["inspect", "--limit", "12", "--faults", "0.3", "--seed", "1", "--alarm-after",
+                                      "0", "--inject", "position_drift:after=0", "--runs-dir", str(runs), "--json"])
     assert first.exit_code == 0, first.output
     source = json.loads(first.stdout)["run_id"]
     with Archive.open(archive_path(runs)) as archive:
