@@ -281,6 +281,9 @@ def inspect(part_dir: Path | None, limit: int | None, seed: int, runs_dir: Path 
     session = open_session(part_dir, seed=seed, progress=lambda m: view.note(f"{m} ..."), serial=serial,
                            shifts=shifts)
     with _closing(session):
+        tools = session.ctx.workcell.tools
+        injection.check_targets([t.name for t in tools if t.tool_class.ultrasonic],
+                                [t.name for t in tools if t.tool_class.value == "slra_tool"])
         if job == "cell_check":
             specs = tooling_specs(session)
             if not specs:

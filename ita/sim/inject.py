@@ -9,7 +9,10 @@ Random: before each command, with probability `rate`, one fault drawn from the k
 can hit that command's device (the gauge for COUPLANT and MEASURE on the arm's stream,
 the controller for the arm's motions, the SLRA in hand for SCAN), deterministic for a
 given seed.  Scripted: ``fault[@target][:after=SECONDS]`` switches a fault on at the
-first command at or after that simulated time (target: a tool, or the device's default).
+first command at or after that simulated time where it can land (target: a tool, or the
+device's default: a probe's fault waits until a probe is in hand, an obstacle until there
+is room for it); a target the simulator cannot hit with the fault is refused before the
+run starts (:meth:`InjectionPlan.check_targets`, :func:`valid_targets`).
 A fault stays on until the Exception Handler's recovery takes it out (or, a TRANSIENT,
 until the command it hits).  Faults are injected into the run's measuring, not into the
 Exception Handler's own tests and repairs (`paused` while it works).  Every fault injected is written to the log, apart from the
@@ -34,7 +37,7 @@ import numpy as np
 from ita.errors import InputError, Location
 from ita.sim.faults import CONTROLLER, GAUGE, STATION, Fault
 
-__all__ = ["INJECTABLE", "InjectionPlan", "FaultInjector", "Scripted", "injected_log"]
+__all__ = ["INJECTABLE", "InjectionPlan", "FaultInjector", "Scripted", "injected_log", "valid_targets"]
 
 #: the kinds a random injection may draw, by the device a command reaches
 INJECTABLE = {
@@ -105,10 +108,31 @@ class InjectionPlan:
             raise InputError(problems)
         return cls(float(rate), chosen, tuple(scripted), int(seed))
 
+    def check_targets(self, probes: list[str], slras: list[str]) -> None:
+        """InputError (naming --inject and listing what each fault may target in this cell)
+        for a scripted fault whose target the simulator cannot hit with it: a fault of a probe
+        on a tool that is no probe, a dirty window on a tool that is no SLRA, a gauge's or a
+        controller's fault on anything else."""
+        valid = valid_targets(probes, slras)
+        bad = [s for s in self.scripted if s.target and s.target not in (valid.get(s.fault) or (s.target,))]
+        if bad:
+            pairs = "; ".join(f"{f}@{'|'.join(t)}" for f, t in sorted(valid.items()) if t)
+            raise InputError([(Location("--inject", field=f"{s.fault}@{s.target}"),
+                               f"the simulator cannot inject {s.fault} into {s.target}; valid: {pairs}")
+                              for s in bad])
+
     def to_dict(self) -> dict[str, Any]:
         return {"rate": self.rate, "kinds": list(self.kinds), "seed": self.seed,
                 "scripted": [f"{s.fault}{'@' + s.target if s.target else ''}:after={s.after_s:g}"
                              for s in self.scripted]}
+
+
+def valid_targets(probes: list[str], slras: list[str]) -> dict[str, tuple[str, ...] | None]:
+    """What each fault may be scripted on (None: any name, an obstacle's)."""
+    return {"broken_probe": tuple(probes), "worn_probe": tuple(probes), "dry_couplant": tuple(probes),
+            "tilted_probe": tuple(probes), "dirty_window": tuple(slras), "empty_couplant": (STATION,),
+            "sensor_garbage": (GAUGE,), "transient": (GAUGE, CONTROLLER), "controller_silent": (CONTROLLER,),
+            "position_drift": (CONTROLLER,), "obstacle": None}
 
 
 def injected_log(runs_dir: Path, run_id: str) -> Path:
@@ -141,8 +165,10 @@ class FaultInjector:
         now = self.world.clock.now
         for s in list(self._pending):
             if s.after_s <= now:
-                self._pending.remove(s)
-                self._switch_on(s.fault, s.target or self._default_target(s.fault, kind), command)
+                # a scripted fault that cannot land on this command (its probe not in hand, no
+                # room for the obstacle) waits for the next command where it can
+                if self._switch_on(s.fault, s.target or self._default_target(s.fault, kind), command):
+                    self._pending.remove(s)
         if self.plan.rate <= 0.0:
             return
         if self.rng.random() >= self.plan.rate:
@@ -176,11 +202,12 @@ class FaultInjector:
             return f"obstacle_{self.count + 1}"
         return ""
 
-    def _switch_on(self, fault: str, target: str | None, command: Any) -> None:
+    def _switch_on(self, fault: str, target: str | None, command: Any) -> bool:
+        """Switch `fault` on on `target` before `command`; False when it cannot land there."""
         if target is None:
-            return
+            return False
         if fault == "obstacle" and not self._place_obstacle(target, command):
-            return
+            return False
         if fault == "position_drift":
             self.world.drift_m = self.world.drift_m + self.rng.normal(0.0, 1.0, 3) / np.sqrt(3) * 2e-3
         self.world.faults = self.world.faults.with_fault(fault, target)
@@ -188,6 +215,7 @@ class FaultInjector:
         self._on.append((fault, target))
         self._write({"sim_time": round(self.world.clock.now, 3), "fault": fault, "target": target,
                      "cause": CAUSE_OF.get(fault, fault), "command": command.text})
+        return True
 
     def _note_cleared(self) -> None:
         """Log the injected faults no longer on (put right by a recovery, or a transient

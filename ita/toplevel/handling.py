@@ -21,8 +21,8 @@ if TYPE_CHECKING:
     from collections.abc import Callable
 
     from ita.archive import Archive
-    from ita.planning.state import WorldState
     from ita.diagnosis.handler import Handled
+    from ita.planning.state import WorldState
     from ita.task.measure import MeasureOutcome
     from ita.task.session import Session
 
