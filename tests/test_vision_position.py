@@ -229,3 +229,20 @@ def test_a_fastener_position_from_several_frames_keeps_each_frames_sightings(row
     sightings = reply.diagnostics["sightings"]
     assert sorted({s["frame"] for s in sightings}) == [0, 1, 2, 3]
     assert all(sum(1 for s in sightings if s["frame"] == k and s["hole"] == "H0") == 1 for k in range(4))
+
+
+def test_a_frame_that_lost_most_of_its_returns_gives_no_value(row_scene):
+    """A dirty window loses about 97 % of the returns: Vision refuses the frame (too few
+    pixels) instead of measuring the rim in what is left."""
+    from ita.vision.context import VisionFailure
+
+    spec = MeasurementSpec("HD-H0", K.HOLE_DIAMETER, "H0", (0.0, 0.0, 3.0), (0.0, 0.0, 1.0), 6.35, -0.076, 0.076)
+    ctx = VisionContext({h.id: h for h in ROW}, PLACEMENT)
+    rng = np.random.default_rng(4)
+    frame = _frames(row_scene, spec, ctx, rng, 1)[0]
+    assert measure_frames([frame], spec, ctx).ok
+    lost = frame.range_m.copy()
+    lost[rng.random(lost.shape) < 0.97] = np.nan
+    reply = measure_frames([replace(frame, range_m=lost)], spec, ctx)
+    assert isinstance(reply, VisionException) and reply.reason is VisionFailure.TOO_FEW_PIXELS
+    assert "returns at" in reply.detail

@@ -103,6 +103,12 @@ def measure(frame: RangeFrame, spec: MeasurementSpec, ctx: VisionContext) -> Vis
     if entry is None or not isinstance(feature, entry.feature):
         return VisionException(spec.id, VisionFailure.NOT_MEASURABLE,
                                f"the SLRA does not measure {spec.kind.value} of {spec.feature!r}")
+    returns = float(np.isfinite(frame.range_m).mean()) if frame.range_m.size else 0.0
+    if returns < MIN_RETURN_SHARE:
+        return VisionException(spec.id, VisionFailure.TOO_FEW_PIXELS,
+                               f"the frame has returns at {100 * returns:.1f} % of its pixels (a frame of the part "
+                               f"has {100 * MIN_RETURN_SHARE:.0f} % or more): a dirty window or a failing beam, not "
+                               "a frame to measure in")
     calibrated = feature
     if isinstance(feature, Hole) and feature.axis[2] < AXIS_UP_COS:
         ctx, spec, feature = along_axis(ctx, spec, feature)
@@ -114,6 +120,10 @@ def measure(frame: RangeFrame, spec: MeasurementSpec, ctx: VisionContext) -> Vis
 
 
 AXIS_UP_COS = 0.999999   # a hole whose axis is further than this from +Z is measured in its own frame
+#: a frame with returns at fewer of its pixels than this share contradicts its own model (a
+#: view of the part on its fixture returns at most pixels: 62 % and more over every frame of a
+#: whole run of the bulkhead; a dirty window leaves about 3 %): no value is taken from it
+MIN_RETURN_SHARE = 0.20
 
 
 def along_axis(ctx: VisionContext, spec: MeasurementSpec, hole: Hole) -> tuple[VisionContext, MeasurementSpec, Hole]:
