@@ -120,11 +120,11 @@ def main(argv: list[str] | None = None) -> int:
     from ita.specs.io import read_specs
 
     part_specs = read_specs(load_part(None).specs_path)
-    shifted_features = {s.feature for s in part_specs if s.id in {t.split("=")[0] for t in shifts}}
-    # a shift moves the feature's dimension: every spec of that feature measures it
-    shifted_ids = {s.id for s in part_specs if s.feature in shifted_features and s.kind.value in
-                   {p.kind.value for p in part_specs if p.id in {t.split("=")[0] for t in shifts}}}
-    found = {i: any(c["id"] == i and c["flags"] for c in chars) for i in sorted({t.split("=")[0] for t in shifts})}
+    asked = {t.split("=")[0] for t in shifts}
+    # a shift moves the feature's dimension: every spec of that feature and kind measures it
+    moved = {(s.feature, s.kind) for s in part_specs if s.id in asked}
+    shifted_ids = {s.id for s in part_specs if (s.feature, s.kind) in moved}
+    found = {i: any(c["id"] == i and c["flags"] for c in chars) for i in sorted(asked)}
     found_with_feature = sorted(c["id"] for c in chars if c["id"] in shifted_ids and c["flags"])
     false_flags = [(c["id"], f["rule"], f["serials"]) for c in chars for f in c["flags"] if c["id"] not in shifted_ids]
     real = {"serials": spc["serials"], "characteristics": len(chars),

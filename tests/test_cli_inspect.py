@@ -78,6 +78,22 @@ def test_continue_unknown_run(finished_run) -> None:
     assert result.exit_code == 2 and "no run" in result.stderr
 
 
+def _reinspect(runs: Path, source: str) -> tuple[dict, list]:
+    """`ita inspect --task reinspect --from SOURCE`: its JSON summary and the new run's
+    results, the run recorded as a reinspection of SOURCE."""
+    from ita.archive import Archive, archive_path
+
+    again = CliRunner().invoke(main, ["inspect", "--task", "reinspect", "--from", source, "--runs-dir", str(runs),
+                                      "--json"])
+    assert again.exit_code == 0, again.output
+    summary = json.loads(again.stdout)
+    with Archive.open(archive_path(runs)) as archive:
+        info = archive.run(summary["run_id"])
+        results = archive.results(summary["run_id"])
+    assert info.settings["task"] == "reinspect" and info.settings["from"] == source
+    return summary, results
+
+
 def test_reinspect_measures_again_exactly_the_unproven_results_of_a_run(tmp_path, builtin_part) -> None:
     """A run whose results conform, are uncertain, do not conform, were not done or cannot
     be done: `--task reinspect --from RUN` makes a new run of the uncertain, the
@@ -96,14 +112,7 @@ def test_reinspect_measures_again_exactly_the_unproven_results_of_a_run(tmp_path
         archive.record_result(source, Result.measured(d, d.nominal + 3 * d.upper, 0.001))  # does not conform
         archive.record_result(source, Result.unmeasured(e, Outcome.NOT_DONE, "dry couplant"))
         archive.record_result(source, Result.unmeasured(f, Outcome.CANNOT_BE_DONE, "no tool"))
-    again = CliRunner().invoke(main, ["inspect", "--task", "reinspect", "--from", source, "--runs-dir", str(runs),
-                                      "--json"])
-    assert again.exit_code == 0, again.output
-    summary = json.loads(again.stdout)
-    with Archive.open(archive_path(runs)) as archive:
-        info = archive.run(summary["run_id"])
-        results = archive.results(summary["run_id"])
-    assert info.settings["task"] == "reinspect" and info.settings["from"] == source
+    summary, results = _reinspect(runs, source)
     assert sorted(r.spec_id for r in results) == sorted([c.id, d.id, e.id]) and summary["total"] == 3
     assert all(r.outcome is Outcome.MEASURED for r in results)
     refused = CliRunner().invoke(main, ["inspect", "--task", "reinspect", "--runs-dir", str(runs)])
@@ -234,14 +243,7 @@ def test_reinspect_measures_again_exactly_what_a_run_left_unproven(tmp_path, bui
     with Archive.open(archive_path(runs)) as archive:
         left = unproven(archive, source)
     assert left, "the faults left nothing unproven: pick a rate that does"
-    again = CliRunner().invoke(main, ["inspect", "--task", "reinspect", "--from", source, "--runs-dir", str(runs),
-                                      "--json"])
-    assert again.exit_code == 0, again.output
-    summary = json.loads(again.stdout)
-    with Archive.open(archive_path(runs)) as archive:
-        info = archive.run(summary["run_id"])
-        results = archive.results(summary["run_id"])
-    assert info.settings["task"] == "reinspect" and info.settings["from"] == source
+    summary, results = _reinspect(runs, source)
     assert sorted(r.spec_id for r in results) == sorted(left) and summary["total"] == len(left)
     refused = CliRunner().invoke(main, ["inspect", "--task", "reinspect", "--runs-dir", str(runs)])
     assert refused.exit_code == 2 and "--from RUN" in refused.output

@@ -40,6 +40,7 @@ def earlier_results(archive: Archive, run_id: str, session: Session) -> dict[str
     took it, its kind, the largest term of its uncertainty budget (``none`` where it
     has none: not done, does not conform) and the frames the SLRA could average for it."""
     world = WorldModel(session.kb)
+    tool_types = {t: world.tool_type(t) for t in world.tools()}
     wanted = set(unproven(archive, run_id))
     out: dict[str, JsonValue] = {}
     for r in archive.results(run_id):
@@ -55,7 +56,7 @@ def earlier_results(archive: Archive, run_id: str, session: Session) -> dict[str
             if isinstance(numbers, dict) and "u_random" in numbers:
                 largest = ("arm pose and rim fit" if float(numbers["u_random"]) >= float(numbers["u_systematic"])
                            else "edge model")
-        tool_type = world.tool_type(r.tool) if r.tool and r.tool in world.tools() else "none"
+        tool_type = tool_types.get(r.tool or "", "none")
         frames = frames_for(spec, session.slra.vctx).count if tool_type == "slra_tool" else 1
         out[r.spec_id] = {"decision": (r.decision.value if r.decision is not None else r.outcome.value),
                           "tool_type": tool_type, "kind": spec.kind.value, "largest": largest, "frames": frames}
