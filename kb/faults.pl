@@ -105,6 +105,7 @@ cause(part_displaced,               'the part has moved on the fixture').
 cause(obstacle,                     'an obstacle is in the cell').
 cause(obstacle_at_arm,              'an obstacle against the arm where it stands: every move from there bumps').
 cause(dirty_window(slra),           'the window of the SLRA in hand is dirty').
+cause(slra_failed(slra),            'the laser or detector of the SLRA in hand has failed (cleaning does not cure it)').
 cause(occlusion,                    'something hides the feature from this view').
 cause(view_cannot_measure,          'the planned views cannot measure the feature (the part clips or hides it; no fault)').
 cause(out_of_tolerance,             'the part itself is out of tolerance there').
@@ -153,6 +154,7 @@ raises(view_cannot_measure,        fit_residual,            0.3).
 raises(dirty_window(slra),         too_few_pixels,          0.9).
 raises(occlusion,                  too_few_pixels,          0.6).
 raises(dirty_window(slra),         fit_residual,            0.4).
+raises(slra_failed(slra),          too_few_pixels,          0.95).
 raises(occlusion,                  fit_residual,            0.4).
 raises(out_of_tolerance,           fit_residual,            0.2).
 raises(sensor_cable_fault(device), range_image_implausible, 0.9).
@@ -178,6 +180,7 @@ prior(part_displaced,               1).
 prior(obstacle,                     1).
 prior(obstacle_at_arm,              1).
 prior(dirty_window(slra),           3).
+prior(slra_failed(slra),            1).
 prior(occlusion,                    2).
 prior(view_cannot_measure,          2).
 prior(out_of_tolerance,             4).
@@ -201,6 +204,7 @@ test(check_couplant_station,   'read the couplant station''s level',            
 test(retry_reading,            'fresh couplant and the reading once more',                     5.0).
 test(query_controller,         're-home the arm and query the controller',                    12.0).
 test(scan_cal_block,           'scan the calibration block with the SLRA in hand',             2.0).
+test(clean_and_scan_cal_block, 'wipe the SLRA''s window, then scan the calibration block',     6.0).
 test(rescan_second_standoff,   're-scan the feature from a second stand-off',                  4.0).
 test(scan_tool_in_rack,        'look at the tool''s rack slot with the SLRA',                  2.0).
 test(measure_reference_feature,'measure tooling hole B, a reference feature of the part',      4.0).
@@ -219,6 +223,7 @@ test_needs(check_couplant_station,    [at(couplant_station)]).
 test_needs(retry_reading,             [holding(us_tool), failed_reading(gauge)]).
 test_needs(query_controller,          []).
 test_needs(scan_cal_block,            [holding(slra_tool), at(cal_block)]).
+test_needs(clean_and_scan_cal_block,  [holding(slra_tool), at(couplant_station), at(cal_block)]).
 test_needs(rescan_second_standoff,    [holding(slra_tool), failed_reading(slra)]).
 test_needs(scan_tool_in_rack,         [holding(slra_tool), at(rack)]).
 test_needs(measure_reference_feature, [holding(slra_tool), at(reference_feature)]).
@@ -271,8 +276,16 @@ predicts(query_controller, controller_not_answering,  silent).
 predicts(scan_cal_block,  dirty_window(slra),         too_few_pixels).
 predicts(scan_cal_block,  sensor_cable_fault(device), garbage).
 predicts(scan_cal_block,  controller_not_answering,   silent).
+predicts(scan_cal_block,  slra_failed(slra),          too_few_pixels).
+
+% Wiping the window first tells a dirty window (the block then scans well) from a failed
+% laser or detector (it still returns nothing).
+predicts(clean_and_scan_cal_block, slra_failed(slra),          too_few_pixels).
+predicts(clean_and_scan_cal_block, sensor_cable_fault(device), garbage).
+predicts(clean_and_scan_cal_block, controller_not_answering,   silent).
 
 predicts(rescan_second_standoff, dirty_window(slra),         fails_again).
+predicts(rescan_second_standoff, slra_failed(slra),          fails_again).
 predicts(rescan_second_standoff, sensor_cable_fault(device), fails_again).
 predicts(rescan_second_standoff, part_displaced,             fails_again).
 predicts(rescan_second_standoff, out_of_tolerance,           fails_again).
@@ -281,6 +294,7 @@ predicts(rescan_second_standoff, controller_not_answering,   silent).
 
 predicts(scan_tool_in_rack, tool_missing(tool),       empty_slot).
 predicts(scan_tool_in_rack, dirty_window(slra),       unclear).
+predicts(scan_tool_in_rack, slra_failed(slra),        unclear).
 predicts(scan_tool_in_rack, controller_not_answering, silent).
 
 predicts(measure_reference_feature, part_displaced,   displaced).
@@ -293,6 +307,7 @@ predicts(check_couplant_station,    obstacle_at_arm, bump).
 predicts(retry_reading,             obstacle_at_arm, bump).
 predicts(query_controller,          obstacle_at_arm, bump).
 predicts(scan_cal_block,            obstacle_at_arm, bump).
+predicts(clean_and_scan_cal_block,  obstacle_at_arm, bump).
 predicts(scan_tool_in_rack,         obstacle_at_arm, bump).
 predicts(measure_reference_feature, obstacle_at_arm, bump).
 
@@ -347,6 +362,9 @@ recovery(part_displaced,            [achieve(part_clamped(part))]).
 recovery(obstacle,                  [achieve(obstacles_removed(cell))]).
 recovery(obstacle_at_arm,           [achieve(obstacles_removed(cell))]).
 recovery(dirty_window(S),           [achieve(window_clean(S))]).
+recovery(slra_failed(S),            [ world(tool_condition(S, broken)),
+                                      unless(spare_left(S), [ achieve(tool_replaced(S)),
+                                                              world(tool_condition(S, ok)) ]) ]).
 recovery(occlusion,                 [accept(test(rescan_second_standoff))]).
 recovery(view_cannot_measure,       []).
 recovery(out_of_tolerance,          [accept(reading)]).

@@ -116,8 +116,18 @@ test(timeout_is_the_controller, true(Choice == isolated(controller_not_answering
 
 test(dirty_window, true(Choice == isolated(dirty_window(slra_1)))) :-
     C = [slra=slra_1, device=slra_1],
+    step(too_few_pixels, C, [], [scan_cal_block-too_few_pixels, clean_and_scan_cal_block-ok],
+         [scan_cal_block-15.0, clean_and_scan_cal_block-25.0, rescan_second_standoff-4.0], auto, [Choice|_]).
+
+test(a_dirty_window_or_a_failed_laser_is_told_by_wiping_it, true(Choice == test(clean_and_scan_cal_block))) :-
+    C = [slra=slra_1, device=slra_1],
     step(too_few_pixels, C, [], [scan_cal_block-too_few_pixels],
-         [scan_cal_block-15.0, rescan_second_standoff-4.0], auto, [Choice|_]).
+         [scan_cal_block-15.0, clean_and_scan_cal_block-25.0, rescan_second_standoff-4.0], auto, [Choice|_]).
+
+test(failed_laser, true(Choice == isolated(slra_failed(slra_1)))) :-
+    C = [slra=slra_1, device=slra_1],
+    step(too_few_pixels, C, [], [clean_and_scan_cal_block-too_few_pixels],
+         [scan_cal_block-15.0, clean_and_scan_cal_block-25.0, rescan_second_standoff-4.0], auto, [Choice|_]).
 
 test(a_view_that_cannot_see_is_no_displaced_part, true(Choice == isolated(view_cannot_measure))) :-
     C = [slra=slra_1, device=slra_1],

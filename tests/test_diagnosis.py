@@ -60,6 +60,7 @@ CASES = [  # fault, target, tool, exception, isolated cause, measured after reco
     ("controller_silent", "controller", "us_probe_1", "controller_timeout", "controller_not_answering", True),
     ("dirty_window", "slra_1", "slra_1", "too_few_pixels", "dirty_window(slra_1)", True),
     ("tilted_probe", "us_probe_1", "us_probe_1", "misaligned", "tilted_probe(us_probe_1)", True),
+    ("slra_failed", "slra_1", "slra_1", "too_few_pixels", "slra_failed(slra_1)", True),
 ]
 
 
@@ -76,7 +77,7 @@ def test_each_exception_is_diagnosed_to_the_fault_switched_on(session, handler, 
     assert (handled.outcome.status is MeasureStatus.MEASURED) is measured, handled.outcome.reason
     if measured:   # the cell was put right, or the tool set aside
         still = session.world.faults.names()
-        assert f"{fault}@{target}" not in still or fault in ("broken_probe", "worn_probe")
+        assert f"{fault}@{target}" not in still or fault in ("broken_probe", "worn_probe", "slra_failed")
         truth = _truth(session)[spec_id]
         v = handled.outcome.value
         assert abs(v.value - truth) <= max(2.0 * v.u, 0.02)
@@ -272,6 +273,27 @@ def test_a_run_with_a_broken_probe_finishes_its_thicknesses_with_the_spare(sessi
     assert all(r.outcome.value == "measured" and r.tool == "us_probe_2" for r in results), \
         [(r.spec_id, r.outcome.value, r.tool, r.reason) for r in results]
     assert [d.payload["cause"] for d in diagnoses] == ["broken_probe(us_probe_1)"]
+
+
+def test_both_slras_failed_the_first_set_aside_the_second_replaced_by_a_person(session, handler, arm):
+    """A failed laser is no dirty window: wiping the window and scanning the calibration
+    block again still returns nothing.  slra_1 fails: it is marked broken and the
+    measurement retried with the spare, slra_2, which has failed too: that retry's failure
+    is diagnosed in turn, and with no spare left a person replaces slra_2 from the stores;
+    the measurement is made with it."""
+    spec_id = _first(session, "slra_1", "hole_diameter", skip=20)
+    faults = FaultSet().with_fault("slra_failed", "slra_1").with_fault("slra_failed", "slra_2")
+    _, first = _fail_and_handle(session, handler, arm, spec_id, "slra_1", faults)
+    assert first.diagnosis.cause == "slra_failed(slra_1)", first.diagnosis.summary
+    assert [t.outcome for t in first.diagnosis.tests][-1:] == ["too_few_pixels"]
+    assert first.retry_failed and first.outcome.tool == "slra_2", first.diagnosis.recovery
+    second = handler.handle(first.outcome)
+    arm["state"] = second.outcome.state
+    assert second.diagnosis.cause == "slra_failed(slra_2)", second.diagnosis.summary
+    assert any("replace_tool(technician, slra_2)" in u for u in second.diagnosis.updates), second.diagnosis.updates
+    assert second.outcome.status is MeasureStatus.MEASURED and second.outcome.tool == "slra_2", second.outcome.reason
+    assert session.world.faults.names() == ["slra_failed@slra_1"]          # set aside, not repaired
+    session.world.faults = FaultSet()
 
 
 def test_a_second_fault_met_while_handling_is_diagnosed_on_its_own_and_both_put_right(session, handler, arm):

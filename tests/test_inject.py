@@ -17,8 +17,9 @@ PROBES, SLRAS = ["us_probe_1", "us_probe_2"], ["slra_1", "slra_2"]
 
 def test_targets_the_simulator_cannot_hit_are_refused_with_the_valid_pairs():
     InjectionPlan.parse(0.0, None, ["broken_probe@us_probe_2", "dirty_window@slra_1", "transient@controller",
-                                    "worn_probe", "obstacle@box_1"]).check_targets(PROBES, SLRAS)
-    for text in ("broken_probe@slra_1", "transient@gauge", "dirty_window@us_probe_1", "broken_probe@no_such_tool"):
+                                    "worn_probe", "obstacle@box_1", "slra_failed@slra_2"]).check_targets(PROBES, SLRAS)
+    for text in ("broken_probe@slra_1", "transient@gauge", "dirty_window@us_probe_1", "broken_probe@no_such_tool",
+                 "slra_failed@us_probe_1"):
         with pytest.raises(InputError) as err:
             InjectionPlan.parse(0.0, None, [text]).check_targets(PROBES, SLRAS)
         message = str(err.value)

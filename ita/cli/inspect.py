@@ -205,7 +205,10 @@ def _closing(session: Any) -> Iterator[Any]:
                    "dry_couplant, empty_couplant, sensor_garbage, transient, controller_silent, obstacle, "
                    "dirty_window).")
 @click.option("--inject", "scripts", multiple=True, metavar="FAULT[@TARGET][:after=S]",
-              help="Script one fault, e.g. broken_probe@us_probe_1:after=120 (simulated seconds); repeatable.")
+              help="Script one fault, e.g. broken_probe@us_probe_1:after=120 (simulated seconds); repeatable.  "
+              "Besides the kinds above: position_drift, tilted_probe, slra_failed@SLRA (a laser or detector "
+              "failure that cleaning does not cure).  A target the simulator cannot hit is refused with the "
+              "valid pairs.")
 @click.option("--run-id", default=None, help="The id to give the new run (the System Monitor names the runs "
               "it starts); default a fresh one.")
 @click.option("--alarm-after", type=click.IntRange(min=0), default=None, metavar="N",

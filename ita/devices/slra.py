@@ -23,12 +23,13 @@ The Exception Handler's tests on this stream:
 
 - CALIBRATE(Tool, cal_block): a small frame of the calibration block's face from above
   (the arm at the block's approach point): ``VALUE(RangeMm, SigmaMm)`` of its plane, or
-  ``VISION(too_few_pixels)`` when most returns are lost (a dirty window).
+  ``VISION(too_few_pixels)`` when most returns are lost (a dirty window, a failed laser).
 - RESCAN(patches(meas(Id))): the feature once more from a second stand-off
   (:data:`RESCAN_BACK_M` further along the line of sight, and back): Vision's reply for Id.
 
 A dirty window (the DIRTY_WINDOW fault of the tool) loses most returns
-(:data:`DIRTY_DROPOUT`) and dims the rest.
+(:data:`DIRTY_DROPOUT`) and dims the rest; a failed laser or detector (SLRA_FAILED) loses
+every return, and cleaning the window does not bring them back.
 
 Times: a SCAN ends after its frames' scan times (and the re-approaches, which advance
 the clock through the controller); Vision takes :data:`VISION_SECONDS` per frame it
@@ -210,7 +211,10 @@ class SlraDevice:
         return Completion(t, Reply.normal(Term("IMAGE", (group.id,)), data=ScanData(group.id, tuple(frames))))
 
     def _physics(self, tool: str) -> SlraParams:
-        """The SLRA's physics now: a dirty window loses most returns and dims the rest."""
+        """The SLRA's physics now: a dirty window loses most returns and dims the rest; a
+        failed laser or detector returns nothing."""
+        if self.world.faults.has(Fault.SLRA_FAILED, tool):
+            return replace(self.params, dropout_rate=1.0)
         if not self.world.faults.has(Fault.DIRTY_WINDOW, tool):
             return self.params
         return replace(self.params, dropout_rate=DIRTY_DROPOUT,

@@ -13,6 +13,7 @@ Executive on the devices; its outcome is read from the replies:
     check_couplant_station    goal couplant_checked(couplant_station): ok | empty | silent
     query_controller          goal controller_checked(Arm): ok | silent
     scan_cal_block            goal calibrated(Slra): ok | too_few_pixels | garbage | silent
+    clean_and_scan_cal_block  window_clean(Slra), then calibrated(Slra): the same outcomes
     rescan_second_standoff    goal rescanned(Slra, meas(Id)): ok | fails_again | silent
     retry_reading             the measurement once more (its round trip): ok | fails_again | silent
     measure_reference_feature a tooling hole's diameter, its centre against nominal: ok | displaced | unclear
@@ -58,6 +59,8 @@ if TYPE_CHECKING:
 
 __all__ = ["Situation", "TestBench", "TestRun"]
 
+#: the tests made with an SLRA at a station
+_SLRA_TESTS = ("scan_cal_block", "clean_and_scan_cal_block")
 #: a calibration-block reading within this share of the block's thickness is good
 CAL_TOLERANCE = 0.02
 #: a tooling hole whose centre is further than this (mm) from nominal is displaced
@@ -187,7 +190,7 @@ class TestBench:
                 and len(self.neighbours(situation.spec_id)) >= 2
         if test == "read_cal_block":
             return self._tool_of("us_tool", situation) is not None
-        if test == "scan_cal_block":
+        if test in ("scan_cal_block", "clean_and_scan_cal_block"):
             return self._tool_of("slra_tool", situation) is not None
         if test == "measure_reference_feature":
             return self._reference is not None and self._tool_of("slra_tool", situation) is not None
@@ -200,9 +203,11 @@ class TestBench:
             return None
         base = self.seconds.get(test, 5.0)
         need_class = {"read_cal_block": "us_tool", "retry_reading": "us_tool", "scan_cal_block": "slra_tool",
-                      "rescan_second_standoff": "slra_tool", "measure_reference_feature": "slra_tool"}.get(test)
-        place = {"read_cal_block": "cal_block", "scan_cal_block": "cal_block",
-                 "check_couplant_station": "couplant_station"}.get(test)
+                      "clean_and_scan_cal_block": "slra_tool", "rescan_second_standoff": "slra_tool",
+                      "measure_reference_feature": "slra_tool"}.get(test)
+        places = {"read_cal_block": ("cal_block",), "scan_cal_block": ("cal_block",),
+                  "clean_and_scan_cal_block": ("couplant_station", "cal_block"),
+                  "check_couplant_station": ("couplant_station",)}.get(test, ())
         held = self.session.held
         setup = 0.0
         tool = held
@@ -210,7 +215,7 @@ class TestBench:
             tool = self._tool_of(need_class, situation)
             if tool != held:
                 setup += rack_seconds(self.session.ctx.workcell, held, tool) + 2 * self._move_to_rack(held or tool)
-        if place is not None:
+        for place in places:
             setup += self._move_s(place, tool)
         return base + setup
 
@@ -238,16 +243,28 @@ class TestBench:
         if test in ("retry_reading", "measure_reference_feature"):
             return self._measure_again(test, situation, estimated_s, t0)
         arm = situation.state.arm
-        goal = {
-            "read_cal_block": lambda: Term("calibrated", (self._tool_of("us_tool", situation),)),
-            "check_couplant_station": lambda: Term("couplant_checked", ("couplant_station",)),
-            "query_controller": lambda: Term("controller_checked", (arm,)),
-            "scan_cal_block": lambda: Term("calibrated", (self._tool_of("slra_tool", situation),)),
-            "rescan_second_standoff": lambda: Term("rescanned", (situation.tool, Term("meas", (situation.spec_id,)))),
+        slra = self._tool_of("slra_tool", situation) if test in _SLRA_TESTS else None
+        goals = {
+            "read_cal_block": lambda: [Term("calibrated", (self._tool_of("us_tool", situation),))],
+            "check_couplant_station": lambda: [Term("couplant_checked", ("couplant_station",))],
+            "query_controller": lambda: [Term("controller_checked", (arm,))],
+            "scan_cal_block": lambda: [Term("calibrated", (slra,))],
+            "clean_and_scan_cal_block": lambda: [Term("window_clean", (slra,)), Term("calibrated", (slra,))],
+            "rescan_second_standoff": lambda: [Term("rescanned", (situation.tool, Term("meas", (situation.spec_id,))))],
         }.get(test)
-        if goal is None:
+        if goals is None:
             return TestRun(test, "not_run", estimated_s, t0, t0, situation.state, note="not a test of this cell")
-        plan, report, state, note = self.execute_goals([goal()], situation.state, name=test)
+        state = situation.state
+        if test == "clean_and_scan_cal_block":      # the window wiped first, then the block scanned
+            *first, last = goals()
+            plan, report, state, note = self.execute_goals(first, state, name=test)
+            if report is None or report.failure is not None:
+                outcome = "not_run" if report is None else self._outcome(test, report)
+                return TestRun(test, outcome, estimated_s, t0, clock.now, state, plan, report,
+                               note or ("" if report is None or report.failure is None else report.failure.reason))
+            plan, report, state, note = self.execute_goals([last], state, name=test)
+        else:
+            plan, report, state, note = self.execute_goals(goals(), state, name=test)
         outcome = "not_run" if report is None else self._outcome(test, report)
         return TestRun(test, outcome, estimated_s, t0, clock.now, state, plan, report,
                        note or ("" if report is None or report.failure is None else report.failure.reason))
@@ -268,7 +285,8 @@ class TestBench:
                 return "bump"
             if test == "read_cal_block" and name == "GAUGE" and failure.command.name == "CALIBRATE":
                 return _gauge_outcome(payload)
-            if test == "scan_cal_block" and name == "VISION" and failure.command.name == "CALIBRATE":
+            if test in ("scan_cal_block", "clean_and_scan_cal_block") and name == "VISION" \
+                    and failure.command.name == "CALIBRATE":
                 assert isinstance(payload, Term)  # VISION(Reason)
                 return "too_few_pixels" if payload.args and payload.args[0] == "too_few_pixels" else "garbage"
             if test == "rescan_second_standoff" and failure.command.name == "RESCAN":

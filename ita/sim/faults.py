@@ -15,6 +15,9 @@ hits; the empty target hits every one.
     EMPTY_COUPLANT     the couplant station's reservoir is empty: no dispenser gives any
                        (target: the station)
     DIRTY_WINDOW       the SLRA's window is dirty: most returns are lost (target: the SLRA)
+    SLRA_FAILED        the SLRA's laser or detector has failed: no returns at all, and
+                       cleaning does not bring them back (target: the SLRA; a new unit
+                       from the stores does)
     OBSTACLE           something stands in the cell that the collision model does not know
                        (target: its name; the world holds its box, `SimWorld.obstacles`)
     TRANSIENT          one command of the target device fails once (a glitch): the device
@@ -50,6 +53,7 @@ class Fault(str, Enum):
     POSITION_DRIFT = "position_drift"
     EMPTY_COUPLANT = "empty_couplant"
     DIRTY_WINDOW = "dirty_window"
+    SLRA_FAILED = "slra_failed"
     OBSTACLE = "obstacle"
     TRANSIENT = "transient"
     TILTED_PROBE = "tilted_probe"

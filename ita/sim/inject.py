@@ -21,7 +21,9 @@ an injected fault is found gone (``{"cleared": fault, ...}``).
 
 Not injected at random: POSITION_DRIFT (a step of the arm's calibration that no device
 reports, so that only a check against a reference would find it), SENSOR_GARBAGE of an
-SLRA and TILTED_PROBE (scripted only: ``tilted_probe:after=60`` tilts the probe in hand).
+SLRA, TILTED_PROBE and SLRA_FAILED (scripted only: ``tilted_probe:after=60`` tilts the
+probe in hand; ``slra_failed@slra_1:after=300`` fails slra_1's laser for good, and with
+``slra_failed@slra_2`` later both SLRAs are broken).
 """
 
 from __future__ import annotations
@@ -51,6 +53,7 @@ CAUSE_OF = {
     "empty_couplant": "empty_couplant_station", "sensor_garbage": "sensor_cable_fault",
     "transient": "transient_glitch", "controller_silent": "controller_not_answering", "obstacle": "obstacle",
     "dirty_window": "dirty_window", "position_drift": "arm_drift", "tilted_probe": "tilted_probe",
+    "slra_failed": "slra_failed",
 }
 _SCRIPT = re.compile(r"^(?P<fault>[a-z_]+)(@(?P<target>[A-Za-z0-9_.-]+))?(:after=(?P<after>[0-9.]+))?$")
 _GAUGE_COMMANDS = ("COUPLANT", "MEASURE")
@@ -130,7 +133,8 @@ class InjectionPlan:
 def valid_targets(probes: list[str], slras: list[str]) -> dict[str, tuple[str, ...] | None]:
     """What each fault may be scripted on (None: any name, an obstacle's)."""
     return {"broken_probe": tuple(probes), "worn_probe": tuple(probes), "dry_couplant": tuple(probes),
-            "tilted_probe": tuple(probes), "dirty_window": tuple(slras), "empty_couplant": (STATION,),
+            "tilted_probe": tuple(probes), "dirty_window": tuple(slras), "slra_failed": tuple(slras),
+            "empty_couplant": (STATION,),
             "sensor_garbage": (GAUGE,), "transient": (GAUGE, CONTROLLER), "controller_silent": (CONTROLLER,),
             "position_drift": (CONTROLLER,), "obstacle": None}
 
@@ -187,7 +191,7 @@ class FaultInjector:
         if fault in ("broken_probe", "worn_probe", "dry_couplant", "tilted_probe"):
             tool = self.world.held_tool
             return held if tool is not None and tool.tool_class.ultrasonic else None
-        if fault == "dirty_window":
+        if fault in ("dirty_window", "slra_failed"):
             tool = self.world.held_tool
             return held if tool is not None and tool.tool_class.value == "slra_tool" else None
         if fault == "empty_couplant":

@@ -53,10 +53,11 @@ class SimPerson:
 
     def replace_tool(self, tool: str) -> str:
         """Put a new `tool` from the stores in the old one's place: a new probe is neither
-        broken, worn nor crooked."""
+        broken, worn nor crooked; a new SLRA has a working laser and a clean window."""
         seconds = self._take("replace_tool")
         faults = self.world.faults
-        for fault in (Fault.BROKEN_PROBE, Fault.WORN_PROBE, Fault.TILTED_PROBE):
+        for fault in (Fault.BROKEN_PROBE, Fault.WORN_PROBE, Fault.TILTED_PROBE, Fault.SLRA_FAILED,
+                      Fault.DIRTY_WINDOW):
             faults = faults.without(fault, tool)
         self.world.faults = faults
         return f"{tool} replaced from the stores in {seconds:.0f} s"
