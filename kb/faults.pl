@@ -155,6 +155,11 @@ raises(dirty_window(slra),         too_few_pixels,          0.9).
 raises(occlusion,                  too_few_pixels,          0.6).
 raises(dirty_window(slra),         fit_residual,            0.4).
 raises(slra_failed(slra),          too_few_pixels,          0.95).
+% a drifted arm (or a moved part) puts the feature off where the window looks for it
+raises(arm_drift,                  too_few_pixels,          0.3).
+raises(arm_drift,                  fit_residual,            0.3).
+raises(part_displaced,             too_few_pixels,          0.2).
+raises(part_displaced,             fit_residual,            0.2).
 raises(occlusion,                  fit_residual,            0.4).
 raises(out_of_tolerance,           fit_residual,            0.2).
 raises(sensor_cable_fault(device), range_image_implausible, 0.9).
@@ -208,6 +213,8 @@ test(clean_and_scan_cal_block, 'wipe the SLRA''s window, then scan the calibrati
 test(rescan_second_standoff,   're-scan the feature from a second stand-off',                  4.0).
 test(scan_tool_in_rack,        'look at the tool''s rack slot with the SLRA',                  2.0).
 test(measure_reference_feature,'measure tooling hole B, a reference feature of the part',      4.0).
+test(recalibrate_and_measure_reference,
+                               'touch the arm off on the calibration block, then measure tooling hole B again', 20.0).
 test(compare_neighbours,       'compare the reading with the neighbouring measurements',       0.1).
 
 %!  test_needs(?Test, ?Preconditions:list) is nondet.
@@ -227,6 +234,7 @@ test_needs(clean_and_scan_cal_block,  [holding(slra_tool), at(couplant_station),
 test_needs(rescan_second_standoff,    [holding(slra_tool), failed_reading(slra)]).
 test_needs(scan_tool_in_rack,         [holding(slra_tool), at(rack)]).
 test_needs(measure_reference_feature, [holding(slra_tool), at(reference_feature)]).
+test_needs(recalibrate_and_measure_reference, [at(cal_block), holding(slra_tool), at(reference_feature)]).
 test_needs(compare_neighbours,        [failed_measurement]).
 
 %!  outcome(+Test, ?Outcome) is nondet.
@@ -286,6 +294,7 @@ predicts(clean_and_scan_cal_block, controller_not_answering,   silent).
 
 predicts(rescan_second_standoff, dirty_window(slra),         fails_again).
 predicts(rescan_second_standoff, slra_failed(slra),          fails_again).
+predicts(rescan_second_standoff, arm_drift,                  fails_again).
 predicts(rescan_second_standoff, sensor_cable_fault(device), fails_again).
 predicts(rescan_second_standoff, part_displaced,             fails_again).
 predicts(rescan_second_standoff, out_of_tolerance,           fails_again).
@@ -301,6 +310,11 @@ predicts(measure_reference_feature, part_displaced,   displaced).
 predicts(measure_reference_feature, arm_drift,        displaced).
 predicts(measure_reference_feature, controller_not_answering, silent).
 
+% The arm touched off on the block first: a drift is gone (the hole is back where it was), a
+% moved part is not.
+predicts(recalibrate_and_measure_reference, part_displaced,           displaced).
+predicts(recalibrate_and_measure_reference, controller_not_answering, silent).
+
 % An obstacle against the stopped arm: a test's own first move bumps too.
 predicts(read_cal_block,            obstacle_at_arm, bump).
 predicts(check_couplant_station,    obstacle_at_arm, bump).
@@ -310,6 +324,7 @@ predicts(scan_cal_block,            obstacle_at_arm, bump).
 predicts(clean_and_scan_cal_block,  obstacle_at_arm, bump).
 predicts(scan_tool_in_rack,         obstacle_at_arm, bump).
 predicts(measure_reference_feature, obstacle_at_arm, bump).
+predicts(recalibrate_and_measure_reference, obstacle_at_arm, bump).
 
 predicts(compare_neighbours, broken_probe(probe),        outlier).
 predicts(compare_neighbours, worn_probe(probe),          outlier).
@@ -342,7 +357,10 @@ predicts(compare_neighbours, thin_section,               outlier).
 %     * `accept(reading)`: the failed reading stands: it is the part, not the instrument;
 %     * `accept(test(Test))`: the value Test measured stands (a second stand-off's view of
 %       a feature the first one saw occluded);
-%     * `retry`: nothing to put right but to try again.
+%     * `retry`: nothing to put right but to try again;
+%     * `remeasure(since_check)`: what was measured since the cell's last good interim
+%       check against its reference artifacts (kb/tasks.pl interim_check/1) is measured
+%       again: the fault may have been there, unseen, since then.
 %
 %   An empty list: the cause cannot be put right in the cell (the measurement is not done).
 
@@ -357,8 +375,8 @@ recovery(empty_couplant_station,    [achieve(couplant_refilled(couplant_station)
 recovery(couplant_missed,           []).
 recovery(controller_not_answering,  [achieve(controller_reset(_Arm))]).
 recovery(sensor_cable_fault(D),     [achieve(cable_reseated(D))]).
-recovery(arm_drift,                 [achieve(arm_calibrated(_Arm))]).
-recovery(part_displaced,            [achieve(part_clamped(part))]).
+recovery(arm_drift,                 [achieve(arm_calibrated(_Arm)), remeasure(since_check)]).
+recovery(part_displaced,            [achieve(part_clamped(part)), remeasure(since_check)]).
 recovery(obstacle,                  [achieve(obstacles_removed(cell))]).
 recovery(obstacle_at_arm,           [achieve(obstacles_removed(cell))]).
 recovery(dirty_window(S),           [achieve(window_clean(S))]).

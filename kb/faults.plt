@@ -52,7 +52,7 @@ test(which_recovery_for_which_cause,
                    controller_not_answering-[achieve(controller_reset(_))],
                    sensor_cable_fault(slra_1)-[achieve(cable_reseated(slra_1))],
                    obstacle_at_arm-[achieve(obstacles_removed(cell))],
-                   part_displaced-[achieve(part_clamped(part))],
+                   part_displaced-[achieve(part_clamped(part)), remeasure(since_check)],
                    occlusion-[accept(test(rescan_second_standoff))],
                    out_of_tolerance-[accept(reading)],
                    tool_missing(slra_2)-[world(location(slra_2, missing))],
@@ -79,7 +79,8 @@ action_in(Actions, Action) :-
 
 test(every_recovery_action_is_of_a_kind_the_handler_knows, true(Bad == [])) :-
     findall(C-A, ( recovery_action(C, A),
-                   \+ memberchk(A, [world(_), achieve(_), unless(_, _), accept(reading), accept(test(_)), retry]) ),
+                   \+ memberchk(A, [world(_), achieve(_), unless(_, _), accept(reading), accept(test(_)), retry,
+                                        remeasure(since_check)]) ),
             Bad).
 
 test(every_goal_to_achieve_is_an_operators_adder, true(Bad == [])) :-

@@ -5,6 +5,8 @@
             better_way/3,               % +Earlier, +Alternatives, -Way
             more_accurate/3,            % ?BetterToolType, ?ToolType, ?Kind
             falls_with_frames/1,        % ?TermPrefix
+            interim_check/1,            % ?Every
+            check_with/3,               % ?ToolType, ?Test, ?Found
             method_choice/3             % +Task, +Facts, -Choice
           ]).
 
@@ -40,6 +42,15 @@ each with one piece of Python behind it (ita/toplevel/actions.py):
     all of them at the end;
   - `record_leftovers`: what was never handed out is recorded so;
   - `report_cell`: the cell's state from its reference artifacts (a cell_check event);
+  - `check_cell`: the interim check of the cell against its reference artifacts with the
+    tool in hand (interim_check/1, check_with/3); when it finds the arm drifted or the
+    part moved, the Exception Handler diagnoses it and puts it right, and the results
+    recorded since the last good check are taken out of the archive (an event keeps
+    them) and measured again (the measurements go on from where they are, those first);
+  - `check_if_due`: `check_cell` when the cadence of interim_check/1 says it is due
+    (asked when the action is carried out: a plan made ahead cannot know when);
+  - `requeued`: the measurements since the last good check are back in the sequence
+    plan (nothing to do: the fact `remeasuring` goes);
   - `end_run(Status)`.
 
 *Attached procedures* (`call(Goal)` in a precondition) are answered by the Top Level's
@@ -56,7 +67,9 @@ unproven; `earlier/2` answers for its measurements).
 
 *Observed facts* the Top Level adds to the state when it sees them: `failed(Spec)`
 (the round trip ended in an exception), `interrupted`, `stopped`, `alarm` (so many
-measurements in a row not done).  Each makes the rest of the plan wrong, so the
+measurements in a row not done), `remeasuring` (an interim check, or a diagnosis, found
+the arm drifted or the part moved: what was measured since the last good check is back
+in the sequence plan).  Each makes the rest of the plan wrong, so the
 Top Level plans again from there.
 
 A new job is a `job/3` fact and the methods of its tasks; `ita inspect --task NAME`
@@ -93,6 +106,9 @@ operator(settle_pending,            [], [], []).
 operator(decide_pending,            [], [], []).
 operator(record_leftovers,          [], [], []).
 operator(report_cell,               [], [], []).
+operator(check_cell,                [], [], []).
+operator(check_if_due,              [], [], []).
+operator(requeued,                  [remeasuring], [remeasuring], []).
 operator(end_run(Status),           [], [], [ended(Status)]).
 
 %!  method(?Name, ?Task, ?Pre:list, ?Subtasks:list) is nondet.
@@ -111,7 +127,7 @@ method(in_sequence, reinspect, [],
 % the report counts every artifact: what is pending is decided and what was never measured
 % recorded first (close_run's own do nothing then)
 method(artifacts, cell_check, [call(probes(Probes))],
-       [read_blocks(Probes), measure_rest(0), decide_pending, record_leftovers, report_cell, close_run]).
+       [read_blocks(Probes), measure_rest(0), decide_pending, check_cell, record_leftovers, report_cell, close_run]).
 
 method(none_left, read_blocks([]), [], []).
 method(each_probe, read_blocks([Probe|Probes]), [], [calibrate_probe(Probe), read_blocks(Probes)]).
@@ -153,14 +169,48 @@ method(halted, conclude(_Spec), [stopped], []).
 method(recovered, conclude(Spec), [failed(Spec)],
        [handle_exception(Spec), conclude(Spec)]).
 method(recorded, conclude(Spec), [not(failed(Spec))],
-       [record(Spec), settle_pending]).
+       [record(Spec), settle_pending, check_if_due]).
 
 % -- the end of a run ---------------------------------------------------------------------
 method(stopped, close_run, [stopped], [end_run(stopped)]).
-method(alarmed, close_run, [not(stopped), alarm], [end_run(stopped)]).
-method(interrupted, close_run, [not(stopped), not(alarm), interrupted], [end_run(interrupted)]).
+% what was measured since the last good interim check is recorded once a last check passes
+% (a STOP leaves it to be measured again by `ita continue`)
+method(alarmed, close_run, [not(stopped), alarm], [check_cell, end_run(stopped)]).
+method(interrupted, close_run, [not(stopped), not(alarm), interrupted], [check_cell, end_run(interrupted)]).
 method(completed, close_run, [not(stopped), not(alarm), not(interrupted)],
-       [decide_pending, record_leftovers, end_run(completed)]).
+       [decide_pending, check_cell, finish_run]).
+method(measure_again, finish_run, [remeasuring], [requeued, measure_rest(0), close_run]).
+method(done, finish_run, [not(remeasuring)], [record_leftovers, end_run(completed)]).
+
+
+                 /*******************************
+                 *     THE CELL CHECKS ITSELF   *
+                 *******************************/
+
+%!  interim_check(?Every) is nondet.
+%
+%   The Top Level checks the cell against its reference artifacts when Every has passed
+%   since its last good check: `seconds(S)` of simulated time, `measurements(N)` results.
+%   It also checks when a tool of a type with no reference reading yet is first in hand
+%   (the SLRA's first view of tooling hole B is the reference for the later ones), and at
+%   the end of a run.  "Reasoning can do little to replace perception when it comes to
+%   determining the state of an environment" (the seed): an arm that drifts or a part
+%   that moves raises no exception of its own, and a result taken meanwhile looks as
+%   good as any; so what was measured since the last good check is measured again when a
+%   check (or a diagnosis) finds the arm or the part off.
+
+interim_check(seconds(300)).
+interim_check(measurements(150)).
+
+%!  check_with(?ToolType, ?Test, ?Found) is nondet.
+%
+%   With a tool of ToolType in hand the check is Test of kb/faults.pl; when it shows
+%   something, Found is the exception the Exception Handler diagnoses:
+%   `position_drift_detected` (tooling hole B is not where the reference reading saw
+%   it), `misaligned` (the probe's reading of the calibration block walks off).
+
+check_with(slra_tool, measure_reference_feature, position_drift_detected).
+check_with(us_tool,   read_cal_block,            misaligned).
 
 
                  /*******************************

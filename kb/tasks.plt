@@ -45,7 +45,11 @@ test(completed) :-
 
 test(alarm) :-
     method_choice(close_run, [alarm], chosen(alarmed, Subtasks, [rejected(stopped, stopped)])),
-    Subtasks == [end_run(stopped)].
+    Subtasks == [check_cell, end_run(stopped)].
+
+test(a_last_check_that_found_the_cell_wrong_measures_again) :-
+    method_choice(finish_run, [remeasuring], chosen(Method, Subtasks, _)),
+    Method == measure_again, Subtasks == [requeued, measure_rest(0), close_run].
 
 test(same_as_the_planner, [forall(member(Facts, [[], [alarm], [stopped], [interrupted], [interrupted, alarm]]))]) :-
     method_choice(close_run, Facts, chosen(Method, _, _)),

@@ -229,20 +229,27 @@ def test_with_both_slras_broken_the_run_says_what_is_missing(tmp_path, builtin_p
 
 @pytest.mark.slow
 def test_reinspect_measures_again_exactly_what_a_run_left_unproven(tmp_path, builtin_part) -> None:
-    """A run with faults injected (an arm drift the cell does not find yet) leaves some
-    results not done (or uncertain); `--task reinspect --from RUN` makes a new run of those
-    alone, and measures each once."""
+    """A run with faults injected (an arm drift, found by the cell's checks) on a serial
+    whose as-built part has one flange wall 0.4 mm thick (`--shift`) leaves that result
+    unproven; `--task reinspect --from RUN` makes a new run of what was left alone, and
+    measures each once."""
     from ita.archive import Archive, archive_path
     from ita.toplevel import unproven
 
+    from ita.part.store import load_part, part_key
+    from ita.sequence.store import load_plan
+
     runs = tmp_path / "runs"
+    assert CliRunner().invoke(main, ["prepare"]).exit_code == 0
+    shifted = load_plan(part_key(load_part(None))).groups[0].order[0]   # the stored plan's first measurement
     first = CliRunner().invoke(main, ["inspect", "--limit", "12", "--faults", "0.3", "--seed", "1", "--alarm-after",
-                                      "0", "--inject", "position_drift:after=0", "--runs-dir", str(runs), "--json"])
+                                      "0", "--inject", "position_drift:after=0", "--serial", "SN-7", "--shift",
+                                      f"{shifted}=0.4", "--runs-dir", str(runs), "--json"])
     assert first.exit_code == 0, first.output
     source = json.loads(first.stdout)["run_id"]
     with Archive.open(archive_path(runs)) as archive:
         left = unproven(archive, source)
-    assert left, "the faults left nothing unproven: pick a rate that does"
+    assert shifted in left, left
     summary, results = _reinspect(runs, source)
     assert sorted(r.spec_id for r in results) == sorted(left) and summary["total"] == len(left)
     refused = CliRunner().invoke(main, ["inspect", "--task", "reinspect", "--runs-dir", str(runs)])

@@ -328,10 +328,12 @@ def test_kb_why_explains_a_recorded_diagnosis(knowledge_base, tmp_path, monkeypa
     recorded = {"exception": "too_few_pixels", "context": {"device": "slra_1", "slra": "slra_1", "tool": "slra_1"},
                 "tests": [{"test": "rescan_second_standoff", "outcome": "fails_again"},
                           {"test": "measure_reference_feature", "outcome": "not_run"},
-                          {"test": "scan_cal_block", "outcome": "too_few_pixels"}], "cause": "dirty_window(slra_1)"}
+                          {"test": "scan_cal_block", "outcome": "too_few_pixels"},
+                          {"test": "clean_and_scan_cal_block", "outcome": "ok"}], "cause": "dirty_window(slra_1)"}
     goal = why_goal(recorded)
     assert goal == ("faults:isolated(too_few_pixels, [device=slra_1, slra=slra_1, tool=slra_1], "
-                    "[rescan_second_standoff-fails_again, scan_cal_block-too_few_pixels], Cause)")
+                    "[rescan_second_standoff-fails_again, scan_cal_block-too_few_pixels, "
+                    "clean_and_scan_cal_block-ok], Cause)")
     result = CliRunner().invoke(main, ["kb", "why", goal])
     assert result.exit_code == 0, result.output
     first = result.output.splitlines()[0]

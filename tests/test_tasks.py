@@ -76,10 +76,25 @@ def test_a_whole_part_is_measured_in_the_sequence_plans_order_each_probe_calibra
     assert texts(agenda) == [
         "record_unplaceable",
         "calibrate_probe(us_probe_1)", "measure(WT-1, us_probe_1, 0)", "record(WT-1)", "settle_pending",
-        "measure(WT-2, us_probe_1, 0)", "record(WT-2)", "settle_pending",
-        "measure(HD-1, slra_1, 1)", "record(HD-1)", "settle_pending",
-        "measure(HD-2, slra_1, 1)", "record(HD-2)", "settle_pending",
-        "decide_pending", "record_leftovers", "end_run(completed)"]
+        "check_if_due",
+        "measure(WT-2, us_probe_1, 0)", "record(WT-2)", "settle_pending", "check_if_due",
+        "measure(HD-1, slra_1, 1)", "record(HD-1)", "settle_pending", "check_if_due",
+        "measure(HD-2, slra_1, 1)", "record(HD-2)", "settle_pending", "check_if_due",
+        "decide_pending", "check_cell", "record_leftovers", "end_run(completed)"]
+
+
+def test_a_last_check_that_finds_the_arm_drifted_measures_the_held_ones_again(run):
+    """The end of a run checks the cell; when that check (its diagnosis) put the held
+    measurements back in the sequence plan, they are measured before the run completes."""
+    agenda, fake = run
+    agenda.plan(["inspect_part"], {})
+    facts = carry_out(agenda, {}, "check_cell")
+    fake.done |= {"WT-1", "WT-2", "HD-1"}                  # recorded; the check found the arm drifted:
+    fake.done.discard("HD-2")                              # HD-2 again
+    facts = with_facts(facts, ["remeasuring"])
+    agenda.replan_rest(facts)
+    assert texts(agenda)[:3] == ["requeued", "measure(HD-2, slra_1, 1)", "record(HD-2)"]
+    assert texts(agenda)[-4:] == ["decide_pending", "check_cell", "record_leftovers", "end_run(completed)"]
 
 
 def test_a_reinspection_measures_each_result_again_the_more_accurate_way(knowledge_base):
@@ -100,11 +115,11 @@ def test_a_reinspection_measures_each_result_again_the_more_accurate_way(knowled
         agenda = Agenda(knowledge_base, "tasks")
         agenda.plan(["reinspect"], with_facts({}, ["reinspecting"]))
     steps = texts(agenda)
-    assert steps[:3] == ["measure_again(HP-1, more_frames(16), 1)", "record(HP-1)", "settle_pending"]
-    assert steps[3:6] == ["calibrate_probe(us_probe_1)", "measure_again(SW-1, other_sensor(us_probe_1), 1)",
+    assert steps[:4] == ["measure_again(HP-1, more_frames(16), 1)", "record(HP-1)", "settle_pending", "check_if_due"]
+    assert steps[4:7] == ["calibrate_probe(us_probe_1)", "measure_again(SW-1, other_sensor(us_probe_1), 1)",
                           "record(SW-1)"]
     assert "measure(HD-1, slra_1, 1)" in steps and "measure(WT-1, us_probe_1, 0)" in steps
-    assert "calibrate_probe(us_probe_1)" not in steps[6:]       # read the block once
+    assert "calibrate_probe(us_probe_1)" not in steps[7:]       # read the block once
 
 
 def test_a_remade_sequence_plan_is_noted_where_it_was_remade(knowledge_base):
@@ -124,7 +139,7 @@ def test_a_failed_reading_is_handled_then_recorded(run):
     assert action is not None and format_term(action.term) == "record(WT-1)"
     assert not agenda.applicable(action, facts)            # a record after a failed reading: plan it again
     assert agenda.replan_parent(facts)
-    assert texts(agenda)[:4] == ["handle_exception(WT-1)", "record(WT-1)", "settle_pending",
+    assert texts(agenda)[:5] == ["handle_exception(WT-1)", "record(WT-1)", "settle_pending", "check_if_due",
                                  "measure(WT-2, us_probe_1, 0)"]
     facts = agenda.done(agenda.steps[0], facts)
     assert "failed(WT-1)" not in facts and agenda.applicable(agenda.steps[0], facts)
@@ -133,25 +148,28 @@ def test_a_failed_reading_is_handled_then_recorded(run):
 def test_a_measurement_another_frame_measured_meanwhile_is_passed_by(run):
     agenda, fake = run
     agenda.plan(["inspect_part"], {})
-    facts = carry_out(agenda, {}, "settle_pending")
-    facts = carry_out(agenda, facts, "settle_pending")
+    facts = carry_out(agenda, {}, "check_if_due")
+    facts = carry_out(agenda, facts, "check_if_due")
     fake.done.add("HD-2")                                  # HD-1's frame measured it
-    facts = carry_out(agenda, facts, "settle_pending")
+    facts = carry_out(agenda, facts, "check_if_due")
     action = agenda.next()
     assert action is not None and format_term(action.term) == "measure(HD-2, slra_1, 1)"
     assert not agenda.applicable(action, facts)
     assert agenda.replan_parent(facts)
-    assert texts(agenda) == ["decide_pending", "record_leftovers", "end_run(completed)"]
+    assert texts(agenda) == ["decide_pending", "check_cell", "record_leftovers", "end_run(completed)"]
 
 
-@pytest.mark.parametrize("fact, end", [("interrupted", "end_run(interrupted)"), ("stopped", "end_run(stopped)"),
-                                       ("alarm", "end_run(stopped)")])
+@pytest.mark.parametrize("fact, end", [("interrupted", ["check_cell", "end_run(interrupted)"]),
+                                       ("stopped", ["end_run(stopped)"]),
+                                       ("alarm", ["check_cell", "end_run(stopped)"])])
 def test_an_interrupt_a_stop_or_the_alarm_ends_the_run_without_measuring_more(run, fact, end):
+    """An interrupt or the alarm checks the cell first (what is held since the last check
+    is recorded when it passes); a STOP ends at once."""
     agenda, _ = run
     agenda.plan(["inspect_part"], {})
-    facts = with_facts(carry_out(agenda, {}, "settle_pending"), [fact])
+    facts = with_facts(carry_out(agenda, {}, "check_if_due"), [fact])
     agenda.replan_rest(facts)
-    assert texts(agenda) == [end]
+    assert texts(agenda) == end
 
 
 def test_a_stop_during_a_measurement_leaves_it(run):
@@ -181,7 +199,7 @@ def test_a_whole_part_is_planned_and_a_failure_replans_only_its_measurement(know
         t0 = time.perf_counter()
         agenda.plan(["inspect_part"], {})
         whole = time.perf_counter() - t0
-        assert len(agenda.steps) == 3 + 1 + 3 * 1100 + 1
+        assert len(agenda.steps) == 4 + 1 + 4 * 1100 + 1
         facts = with_facts(carry_out(agenda, {}, "measure(S500, slra_1, 1)"), [Term("failed", ("S500",))])
         t0 = time.perf_counter()
         assert agenda.replan_parent(facts)

@@ -24,6 +24,9 @@ Exactly once.  A result and the events given with it are written in one transact
 both or neither.  results has UNIQUE(run_id, spec_id); recording a spec that already
 has a result in the run changes nothing (not the result, not its events) and returns
 False: the first result stands.  A continued run asks `done_spec_ids` and skips those.
+One deliberate exception, with its record: `supersede` takes results out when the cell's
+interim check found the arm (or the part) off since they were measured; an event keeps
+what was taken out, and the run measures them again.
 
 Readers (`ita runs`, `ita results`, the System Monitor) may read while a run writes: WAL
 lets readers and one writer proceed together; writers wait up to `busy_timeout` seconds.
@@ -52,6 +55,7 @@ import urllib.parse
 import zlib
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from contextlib import contextmanager, suppress
+from dataclasses import replace
 from datetime import UTC, datetime
 from pathlib import Path
 from typing import Any, Concatenate, ParamSpec, Protocol, Self, TypeVar
@@ -508,6 +512,30 @@ class Archive:
                 c.execute("INSERT OR REPLACE INTO frames(run_id, spec_id, n, meta, range, intensity) "
                           "VALUES (?, ?, ?, ?, ?, ?)", (run_id, f.spec_id, f.n, *encode(f)))
         return True
+
+    @_writes
+    def supersede(self, run_id: str, spec_ids: Sequence[str], event: Event) -> list[str]:
+        """Take the results of `spec_ids` out of the run (with their details and frames), in
+        one transaction with `event`, which gets the results taken out (spec, value, U,
+        decision, outcome) in its payload's ``superseded``: what the cell's interim check
+        found wrong since they were measured (an arm off its calibration) is measured
+        again, and nothing is lost.  The specs whose results were taken out, in order."""
+        with self._write() as c:
+            if not c.execute("SELECT 1 FROM runs WHERE id = ?", (run_id,)).fetchone():
+                raise UnknownRun(f"no run {run_id!r} in {self.path}")
+            gone: list[dict[str, Any]] = []
+            for spec_id in spec_ids:
+                row = c.execute(f"SELECT {_RESULT_COLUMNS} FROM results WHERE run_id = ? AND spec_id = ?",
+                                (run_id, spec_id)).fetchone()
+                if row is None:
+                    continue
+                r = _stored_result(row)
+                gone.append({"spec": spec_id, "value": r.value, "U": r.U, "outcome": r.outcome.value,
+                             "decision": None if r.decision is None else r.decision.value, "reason": r.reason})
+                for table in ("results", "details", "frames"):
+                    c.execute(f"DELETE FROM {table} WHERE run_id = ? AND spec_id = ?", (run_id, spec_id))
+            self._insert_events(c, run_id, [replace(event, payload={**event.payload, "superseded": gone})])
+        return [g["spec"] for g in gone]
 
     @_writes
     def record_pending(self, run_id: str, spec_id: str, events: Iterable[Event] = (), *,

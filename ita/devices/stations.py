@@ -19,7 +19,7 @@ tests and repairs that are not a measurement.
   at all from a silent controller (the executive times it out).
 - RESET(controller): power-cycle the controller (CONTROLLER_SILENT goes).
 - RESEAT(Device): reseat the sensor's cable (SENSOR_GARBAGE goes).
-- RECALIBRATE(cal_block): touch off the arm on the block (its drift is zeroed).
+- RECALIBRATE(cal_block): touch off the arm on the block (its drift is zeroed, and stops).
 
 Each takes its stated time (:data:`SECONDS`) on the simulated clock.
 """
@@ -183,4 +183,5 @@ class StationCommands:
     def recalibrate(self, command: Command) -> Reply | Completion:
         self._wait("RECALIBRATE")
         self.world.drift_m = np.zeros(3)
+        self.world.faults = self.world.faults.without(Fault.POSITION_DRIFT, CONTROLLER)
         return Reply.normal("DONE")

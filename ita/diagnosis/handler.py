@@ -34,6 +34,12 @@ and generating a recovery plan."  So, in order:
    first).  A retry during the tests that measured it ends the matter.  When no tool is
    left, or the cause cannot be put right in the cell, the measurement is not done and
    the diagnosis is its reason.
+
+What the cell's interim check against its reference artifacts finds (tooling hole B not
+where the run's reference reading saw it, a probe's block reading that walks off) is no
+failed measurement but is diagnosed the same way (:meth:`ExceptionHandler.handle_found`:
+steps 1 to 4, nothing to take again); a recovery's ``remeasure(since_check)`` tells the
+Top Level to measure again what it measured since its last good check.
 """
 
 from __future__ import annotations
@@ -221,6 +227,28 @@ class ExceptionHandler:
             outcome = replace(outcome, t0=failed.t0)
         return Handled(diagnosis, outcome, tuple(executed), tuple(nested))
 
+    def handle_found(self, exception: str, found: MeasureOutcome, tool: str, reply: str) -> Handled:
+        """Diagnose and put right what an interim check found: `exception` of kb/faults.pl
+        (``position_drift_detected``, ``misaligned``), seen in the check's reading `found`
+        made with `tool`; `reply` says what was seen.  Nothing is taken again: the
+        outcome is the check's reading."""
+        s = self.session
+        tool_class = s.ctx.workcell.tool(tool).tool_class.value
+        key = "slra" if tool_class == "slra_tool" else "probe"
+        device = "controller" if exception == "controller_timeout" else tool if key == "slra" else "gauge"
+        exc = Classified(exception, ((key, tool), ("device", device), ("tool", tool)), reply)
+        situation = Situation(found.spec_id, tool, tool_class, exception, found.state, None, device)
+        executed: Executed = []
+        nested: list[Diagnosis] = []
+        diagnosis, situation, _ = self._diagnose_and_act(exc, situation, found.t1, executed, nested, 0)
+        put_right = diagnosis.cause is not None and bool(diagnosis.actions) \
+            and not any(u.startswith("not achieved") for u in diagnosis.updates)
+        diagnosis = replace(diagnosis, since=found.t0,
+                            recovery="put right" if put_right else
+                            "not put right" if diagnosis.cause is not None else "no cause isolated")
+        return Handled(diagnosis, replace(found, state=situation.state, t1=s.clock.now), tuple(executed),
+                       tuple(nested))
+
     def _diagnose_and_act(self, exc: Classified, situation: Situation, t0: float, executed: Executed,
                           nested: list[Diagnosis], depth: int) -> tuple[Diagnosis, Situation, MeasureOutcome | None]:
         """Steps 2 to 4 for one exception: its tests, the counts, the world updates and
@@ -302,7 +330,10 @@ class ExceptionHandler:
             run = self.bench.run(name, situation, dict(tests)[name])
             if run.plan is not None:
                 executed.append((f"test {name}", run.plan, run.report))
-            second = self._second_fault(run.report, situation, depth)
+            # a failure the test reads as its outcome (a probe's block reading that walks off) is
+            # what the test observes, not a second fault
+            read = run.outcome not in ("ok", "not_run", "silent", "bump")
+            second = None if read else self._second_fault(run.report, situation, depth)
             if second is not None:          # the test met another fault: put it right, make the test again
                 runs.append(replace(run, outcome="interrupted", note=f"by {second.exception}: {run.note}"))
                 situation = self._handle_second(second, replace(situation, state=run.state), run.t0, executed,
@@ -358,6 +389,8 @@ class ExceptionHandler:
                 updates.append(line)
                 if value is not None:
                     accepted = (value, term_text(action))
+            elif kind == "remeasure":           # the Top Level measures again what is held since its check
+                updates.append("the measurements since the cell's last good check to be measured again")
             # retry: nothing to put right; the measurement is taken again (step 5)
         return _PutRight(tuple(updates), situation, accepted)
 

@@ -73,6 +73,7 @@ from ita.sequence.next_step import Step, next_step, the_arm
 from ita.task.measure import MeasureOutcome, MeasureStatus, measure_one
 from ita.toplevel.agenda import Action, Agenda, Facts, tree_lines, with_facts
 from ita.toplevel.calibration import ProbeCalibration
+from ita.toplevel.checks import CellChecks
 from ita.toplevel.details import MeasurementDetails, measurement_details
 from ita.toplevel.events import (
     PlanNumbers,
@@ -158,6 +159,8 @@ class TopLevel:
         self.calibration = ProbeCalibration(session, archive, run_id, self.plans)
         self.handle = Handling.of(session, archive, run_id, prepare_tool=self.calibration.before) \
             if handle_exceptions else Handling(session, None)
+        #: the interim checks of the cell against its reference artifacts (None: the knowledge sets none)
+        self.checks = CellChecks.of(session, archive, run_id, self.plans, self.handle)
         self.failed_in_others: dict[str, str] = {}   # view-group members another's frame could not measure
         self.exceptions = 0
         self.frames = 0
@@ -428,8 +431,19 @@ class TopLevel:
             return self._measure(self._way(self._steps[args[0]], action.args[1])), False
         elif name == "handle_exception":
             before = self._world()
-            again = self._handle(args[0])
-            return ([Term("failed", (args[0],))] if again else []), self._world() != before
+            again, remeasure = self._handle(args[0])
+            observed: list[TermValue] = [Term("failed", (args[0],))] if again else []
+            if remeasure:
+                observed.append("remeasuring")
+            return observed, self._world() != before or remeasure
+        elif name == "check_cell":
+            return self._check_cell()
+        elif name == "check_if_due":
+            if self.checks is not None and self.checks.due(len(self.results.since_check)) is not None:
+                _, wrong = self._check_cell()    # found wrong: those since the last check back in the plan
+                return [], wrong
+        elif name == "requeued":
+            pass
         elif name == "record":
             self._conclude(args[0])
         elif name == "settle_pending":
@@ -500,14 +514,19 @@ class TopLevel:
             self.session.slra.frames_asked[step.spec_id] = int(str(way.args[0]))
         return step
 
-    def _handle(self, spec_id: str) -> bool:
-        """The Exception Handler on the failed measurement of `spec_id`; True when its
+    def _handle(self, spec_id: str) -> tuple[bool, bool]:
+        """The Exception Handler on the failed measurement of `spec_id`: whether its
         recovery's retry failed with an exception of its own, to be diagnosed in turn (at
-        most MAX_HANDLINGS times per measurement)."""
+        most MAX_HANDLINGS times per measurement), and whether the diagnosis has what was
+        measured since the cell's last good check measured again (an arm drift found)."""
         step, out, events, plan_no = self._outcomes[spec_id]
         handled = self.handle(out)
-        again = False
+        again = remeasure = False
         if handled is not None:
+            found = [handled.diagnosis, *handled.nested]
+            if any(a.startswith("remeasure(") for d in found for a in d.actions) and self.results.since_check:
+                self._requeue(handled.diagnosis.cause)
+                remeasure = True
             self.diagnoses += 1
             events += diagnosis_events(handled, self.plans)
             if handled.outcome.report is not None:
@@ -518,7 +537,40 @@ class TopLevel:
             if again:
                 self.exceptions += 1
         self._outcomes[spec_id] = (step, out, events, plan_no)
-        return again
+        return again, remeasure
+
+    def _check_cell(self) -> tuple[list[TermValue], bool]:
+        """The interim check of the cell (ita.toplevel.checks): what was recorded since the
+        last good one stands when it passes (or cannot be made: its event says why), and is
+        measured again when its diagnosis says so; the facts observed and whether the rest
+        of the plan is wrong."""
+        if self.checks is None or not self.results.since_check:
+            return [], False
+        before = self._world()
+        done = self.checks.check(self._state)
+        self._state = done.state
+        if done.handled is not None:
+            self.diagnoses += 1
+        if done.remeasure and done.handled is not None:
+            self._requeue(done.handled.diagnosis.cause)
+            return ["remeasuring"], True
+        if done.passed is not False:
+            self.results.checked()
+        return [], self._world() != before
+
+    def _requeue(self, cause: str | None) -> None:
+        """Take what was recorded since the cell's last good check out of the archive (an
+        event keeps it) and put those measurements back in the run's sequence plan (at
+        every position): the Sequence Planner hands them out again, first in their groups."""
+        spec_ids = self.results.supersede(Event("remeasure", "top", self.session.clock.now, {
+            "cause": cause, "why": "measured since the cell's last good interim check, with the arm or the part "
+                                   "off: measured again"}))
+        gone = set(spec_ids)
+        self._cursors = [replace(p, handed_out=tuple(i for i in p.handed_out if i not in gone))
+                         for p in self._cursors]
+        self._next.clear()
+        for spec_id in spec_ids:
+            self._handlings.pop(spec_id, None)
 
     def _conclude(self, spec_id: str) -> None:
         """Record the measurement of `spec_id` as it ended (module docstring)."""

@@ -11,6 +11,12 @@ in one transaction (:meth:`ita.archive.Archive.record_result`); one the archive 
 has is not recorded again.  An uncertain result says why in its reason (U over its
 tolerance zone and the largest term of its uncertainty budget: :func:`why_uncertain`).
 Measurements not done in a row (after the Exception Handler) count towards an alarm.
+
+Checked by the cell.  The results recorded since the last good interim check of the
+cell against its reference artifacts (kb/tasks.pl interim_check/1) are `since_check`; a
+check that passes clears the list (:meth:`Recorder.checked`); one that finds the arm
+drifted or the part moved takes them out of the archive (:meth:`Recorder.supersede`, an
+event keeps them) and the Top Level measures them again.
 """
 
 from __future__ import annotations
@@ -112,6 +118,8 @@ class Recorder:
         self.done: set[str] = archive.done_spec_ids(run_id)
         self.counts: Counter[str] = Counter(archive.decision_counts(run_id))
         self.recorded_now = 0
+        #: specs measured (or not done) and recorded since the cell's last good interim check
+        self.since_check: list[str] = []
 
     def record(self, result: Result, events: Sequence[Event] = (), attached: Attached = NOTHING_ATTACHED) -> None:
         """Record `result` with `events` and what is attached, in one transaction (nothing
@@ -127,6 +135,26 @@ class Recorder:
             self.failures.measured()
         elif result.outcome is Outcome.NOT_DONE:
             self.failures.not_done(result.spec_id, result.reason)
+        if result.outcome in (Outcome.MEASURED, Outcome.NOT_DONE):
+            self.since_check.append(result.spec_id)
+
+    def checked(self) -> int:
+        """The cell's interim check passed: what was recorded since the last one stands;
+        how many."""
+        n, self.since_check = len(self.since_check), []
+        return n
+
+    def supersede(self, event: Event) -> list[str]:
+        """Take what was recorded since the last good check out of the archive (the check,
+        or a diagnosis, found the cell wrong since: `event` says so and keeps them); their
+        spec ids, in the order they were measured, to measure again."""
+        ids, self.since_check = self.since_check, []
+        if not ids:
+            return []
+        gone = self.archive.supersede(self.run_id, ids, event)
+        self.done.difference_update(gone)
+        self.counts = Counter(self.archive.decision_counts(self.run_id))
+        return gone
 
     def unmeasured(self, spec_id: str, outcome: Outcome, reason: str, *, tool: str | None = None,
                    t0: float | None = None, t1: float | None = None, events: Sequence[Event] = (),

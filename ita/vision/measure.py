@@ -188,6 +188,9 @@ def _mean_size(spec: MeasurementSpec, replies: Sequence[VisionResult]) -> Vision
     budget = {f"the frames' own fits (mean of {n} frames)": u_random, **fixed}
     diag = {**replies[0].diagnostics, "frames": n, "values": values.tolist(), "scatter": scatter,
             "budget": budget}
+    centres = [r.diagnostics.get("center") for r in replies]
+    if all(c is not None for c in centres):       # a hole's centre: the frames' mean (their pose errors average)
+        diag["center"] = tuple(float(x) for x in np.mean(np.asarray(centres, dtype=float), axis=0))
     return VisionResult(spec.id, spec.kind, float(values.mean()), math.hypot(*budget.values()), diag)
 
 

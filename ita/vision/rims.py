@@ -184,17 +184,13 @@ def _fit_rim(view: View, hole: Hole, name: str, min_coverage: float = math.pi,
     b = BLUR_MM + view.pixel_mm(view.range_mm[np.isfinite(view.range_mm)].mean() if np.isfinite(view.range_mm).any()
                                 else 450.0)
     outer = r + b + max(3.0, 6 * view.pixel_mm(450.0))
-    corners = np.array([[c[0] + sx * outer, c[1] + sy * outer, z] for sx in (-1, 1) for sy in (-1, 1)])
-    h, w = view.shape
-    rc = view.pixel_of(corners)
-    centre_rc = view.pixel_of(np.append(c, z)[None])
-    if not view.geometry.contains(centre_rc).all():
-        raise VisionFail(VisionFailure.OUT_OF_VIEW, f"centre of {hole.id} is outside the frame")
-    rc = np.clip(rc, 0, [h - 1, w - 1])
-    patch = Patch(name, int(rc[:, 0].min()), int(np.ceil(rc[:, 0].max())) + 1, int(rc[:, 1].min()),
-                  int(np.ceil(rc[:, 1].max())) + 1, np.ones((1, 1), bool))
-    q = nominal_points(view, patch, z)[..., :2] - c
-    rho = np.hypot(q[..., 0], q[..., 1])
+    patch, q, rho = _rim_patch(view, hole, name, c, z, outer)
+    found = _located(view, patch, q + c, rho, r, b, outer, z)
+    if found is not None and float(np.hypot(*(found - c))) > RELOCATE_BAND * b:
+        # the hole is not where the pose says (an arm off its calibration, a part off its
+        # place): the rim band is centred where the frame shows the hole
+        c = found
+        patch, q, rho = _rim_patch(view, hole, name, c, z, outer)
     in_view_share = _circle_in_view(view, c, r, z)
     if in_view_share < 0.5:
         raise VisionFail(VisionFailure.OUT_OF_VIEW, f"only {in_view_share:.0%} of {hole.id}'s rim is in the frame")
@@ -237,6 +233,64 @@ def _fit_rim(view: View, hole: Hole, name: str, min_coverage: float = math.pi,
                        "far_other_share": spread, "wall_u": wall_u, "u_model": model,
                        "u_model_centre": model,
                        "patch": (patch.r0, patch.r1, patch.c0, patch.c1), "rim_xy": xy}
+
+
+#: the rim band is moved to where the frame shows the hole when that is further than this
+#: share of the band's half-width from where the pose says it is
+RELOCATE_BAND = 0.5
+
+
+def _rim_patch(view: View, hole: Hole, name: str, c: FloatArray, z: float, outer: float
+               ) -> tuple[Patch, FloatArray, FloatArray]:
+    """The patch round a rim centred at c (part xy, mm) out to `outer`, its pixels' xy on
+    the plane z from c (h, w, 2) and their distance from c."""
+    corners = np.array([[c[0] + sx * outer, c[1] + sy * outer, z] for sx in (-1, 1) for sy in (-1, 1)])
+    h, w = view.shape
+    rc = view.pixel_of(corners)
+    centre_rc = view.pixel_of(np.append(c, z)[None])
+    if not view.geometry.contains(centre_rc).all():
+        raise VisionFail(VisionFailure.OUT_OF_VIEW, f"centre of {hole.id} is outside the frame")
+    rc = np.clip(rc, 0, [h - 1, w - 1])
+    patch = Patch(name, int(rc[:, 0].min()), int(np.ceil(rc[:, 0].max())) + 1, int(rc[:, 1].min()),
+                  int(np.ceil(rc[:, 1].max())) + 1, np.ones((1, 1), bool))
+    q = nominal_points(view, patch, z)[..., :2] - c
+    return patch, q, np.hypot(q[..., 0], q[..., 1])
+
+
+def _located(view: View, patch: Patch, xy: FloatArray, rho: FloatArray, r: float, b: float, outer: float,
+             z: float) -> FloatArray | None:
+    """Where the frame shows the hole (part xy, mm): the centroid of the pixels within
+    `outer` of the nominal centre that lie deeper than the face round it (or return
+    nothing), the connected region nearest that centre; None when it is not one whole hole
+    of about its size inside the patch (then the nominal centre stands)."""
+    z_img = patch.take(view.points)[..., 2]
+    ring = (rho > r + b) & (rho < outer) & np.isfinite(z_img)
+    if ring.sum() < MIN_PLANE_PIXELS:
+        return None
+    face = float(np.median(z_img[ring]))
+    inside = rho < outer
+    deep = inside & (~np.isfinite(z_img) | (z_img < face - LOCATE_DEPTH_MM))
+    labels, n = ndimage.label(deep)
+    if n == 0:
+        return None
+    near = np.argmin(np.where(deep, rho, np.inf))
+    region = labels == int(labels.flat[near])
+    ring_all = (rho > r + b) & (rho < outer)
+    per_pixel = np.pi * (outer ** 2 - (r + b) ** 2) / max(int(ring_all.sum()), 1)     # mm^2 of the plane
+    expected = np.pi * r * r / per_pixel
+    if not 0.6 * expected <= region.sum() <= 1.4 * expected or not _inside_patch(region):
+        return None
+    return np.asarray(xy[region].mean(axis=0), dtype=np.float64)
+
+
+#: a pixel deeper than the face round a hole by more than this (mm) sees through the hole
+LOCATE_DEPTH_MM = 1.0
+
+
+def _inside_patch(region: NDArray[np.bool_]) -> bool:
+    """Whether a region of a patch stays off its border (a hole cut by the frame's edge
+    has no honest centroid)."""
+    return not (region[0].any() or region[-1].any() or region[:, 0].any() or region[:, -1].any())
 
 
 def _radial_pixels(view: View, patch: Patch, q: FloatArray, rho: FloatArray, c: FloatArray, z: float,
