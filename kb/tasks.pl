@@ -199,8 +199,8 @@ method(done, finish_run, [not(remeasuring)], [record_leftovers, end_run(complete
 %   good as any; so what was measured since the last good check is measured again when a
 %   check (or a diagnosis) finds the arm or the part off.
 
-interim_check(seconds(300)).
-interim_check(measurements(150)).
+interim_check(seconds(600)).
+interim_check(measurements(500)).
 
 %!  check_with(?ToolType, ?Test, ?Found) is nondet.
 %
