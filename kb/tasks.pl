@@ -51,6 +51,10 @@ each with one piece of Python behind it (ita/toplevel/actions.py):
     (asked when the action is carried out: a plan made ahead cannot know when);
   - `requeued`: the measurements since the last good check are back in the sequence
     plan (nothing to do: the fact `remeasuring` goes);
+  - `retake_not_done`: at the end, the measurements this run left not done after a fault
+    it then put right (not those whose cause cannot be put right in the cell, nor those
+    Vision cannot measure in their view) are taken
+    out of the archive and measured once more (observed `remeasuring`), once per run;
   - `end_run(Status)`.
 
 *Attached procedures* (`call(Goal)` in a precondition) are answered by the Top Level's
@@ -109,6 +113,7 @@ operator(report_cell,               [], [], []).
 operator(check_cell,                [], [], []).
 operator(check_if_due,              [], [], []).
 operator(requeued,                  [remeasuring], [remeasuring], []).
+operator(retake_not_done,           [], [], []).
 operator(end_run(Status),           [], [], [ended(Status)]).
 
 %!  method(?Name, ?Task, ?Pre:list, ?Subtasks:list) is nondet.
@@ -178,7 +183,7 @@ method(stopped, close_run, [stopped], [end_run(stopped)]).
 method(alarmed, close_run, [not(stopped), alarm], [check_cell, end_run(stopped)]).
 method(interrupted, close_run, [not(stopped), not(alarm), interrupted], [check_cell, end_run(interrupted)]).
 method(completed, close_run, [not(stopped), not(alarm), not(interrupted)],
-       [decide_pending, check_cell, finish_run]).
+       [decide_pending, check_cell, retake_not_done, finish_run]).
 method(measure_again, finish_run, [remeasuring], [requeued, measure_rest(0), close_run]).
 method(done, finish_run, [not(remeasuring)], [record_leftovers, end_run(completed)]).
 

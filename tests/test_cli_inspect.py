@@ -234,10 +234,9 @@ def test_reinspect_measures_again_exactly_what_a_run_left_unproven(tmp_path, bui
     unproven; `--task reinspect --from RUN` makes a new run of what was left alone, and
     measures each once."""
     from ita.archive import Archive, archive_path
-    from ita.toplevel import unproven
-
     from ita.part.store import load_part, part_key
     from ita.sequence.store import load_plan
+    from ita.toplevel import unproven
 
     runs = tmp_path / "runs"
     assert CliRunner().invoke(main, ["prepare"]).exit_code == 0

@@ -65,3 +65,4 @@ def test_an_arm_drift_is_found_named_and_what_was_measured_since_the_last_check_
     assert checks and checks[-1].payload["passed"] is True                        # the last check passed
     far = [(r.spec_id, r.value - truth[r.spec_id], r.U) for r in results if abs(r.value - truth[r.spec_id]) > 2 * r.U]
     assert not far, far
+

@@ -80,12 +80,13 @@ def test_a_whole_part_is_measured_in_the_sequence_plans_order_each_probe_calibra
         "measure(WT-2, us_probe_1, 0)", "record(WT-2)", "settle_pending", "check_if_due",
         "measure(HD-1, slra_1, 1)", "record(HD-1)", "settle_pending", "check_if_due",
         "measure(HD-2, slra_1, 1)", "record(HD-2)", "settle_pending", "check_if_due",
-        "decide_pending", "check_cell", "record_leftovers", "end_run(completed)"]
+        "decide_pending", "check_cell", "retake_not_done", "record_leftovers", "end_run(completed)"]
 
 
-def test_a_last_check_that_finds_the_arm_drifted_measures_the_held_ones_again(run):
-    """The end of a run checks the cell; when that check (its diagnosis) put the held
-    measurements back in the sequence plan, they are measured before the run completes."""
+def test_a_last_check_that_finds_the_arm_drifted_measures_again_before_the_end(run):
+    """The end of a run checks the cell; when that check (its diagnosis) put the
+    measurements since the check before back in the sequence plan, they are measured before
+    the run completes (so is what was left not done after a fault put right)."""
     agenda, fake = run
     agenda.plan(["inspect_part"], {})
     facts = carry_out(agenda, {}, "check_cell")
@@ -93,8 +94,9 @@ def test_a_last_check_that_finds_the_arm_drifted_measures_the_held_ones_again(ru
     fake.done.discard("HD-2")                              # HD-2 again
     facts = with_facts(facts, ["remeasuring"])
     agenda.replan_rest(facts)
-    assert texts(agenda)[:3] == ["requeued", "measure(HD-2, slra_1, 1)", "record(HD-2)"]
-    assert texts(agenda)[-4:] == ["decide_pending", "check_cell", "record_leftovers", "end_run(completed)"]
+    assert texts(agenda)[:4] == ["retake_not_done", "requeued", "measure(HD-2, slra_1, 1)", "record(HD-2)"]
+    assert texts(agenda)[-5:] == ["decide_pending", "check_cell", "retake_not_done", "record_leftovers",
+                                  "end_run(completed)"]
 
 
 def test_a_reinspection_measures_each_result_again_the_more_accurate_way(knowledge_base):
@@ -156,7 +158,7 @@ def test_a_measurement_another_frame_measured_meanwhile_is_passed_by(run):
     assert action is not None and format_term(action.term) == "measure(HD-2, slra_1, 1)"
     assert not agenda.applicable(action, facts)
     assert agenda.replan_parent(facts)
-    assert texts(agenda) == ["decide_pending", "check_cell", "record_leftovers", "end_run(completed)"]
+    assert texts(agenda) == ["decide_pending", "check_cell", "retake_not_done", "record_leftovers", "end_run(completed)"]
 
 
 @pytest.mark.parametrize("fact, end", [("interrupted", ["check_cell", "end_run(interrupted)"]),
@@ -199,7 +201,7 @@ def test_a_whole_part_is_planned_and_a_failure_replans_only_its_measurement(know
         t0 = time.perf_counter()
         agenda.plan(["inspect_part"], {})
         whole = time.perf_counter() - t0
-        assert len(agenda.steps) == 4 + 1 + 4 * 1100 + 1
+        assert len(agenda.steps) == 5 + 1 + 4 * 1100 + 1
         facts = with_facts(carry_out(agenda, {}, "measure(S500, slra_1, 1)"), [Term("failed", ("S500",))])
         t0 = time.perf_counter()
         assert agenda.replan_parent(facts)

@@ -316,3 +316,41 @@ def test_recovery_backs_the_tool_out_when_its_last_free_configuration_is_not(ses
             world.attach(before_held)
         world.set_q(before_q)
         arm.last_free_q = before_last
+
+
+def test_what_a_run_left_not_done_after_a_fault_put_right_is_measured_once_more_before_it_ends(
+        runs, session, monkeypatch) -> None:
+    """A measurement that ended not done (here: its first round trip fails and nothing
+    handles it) is taken out of the archive at the end of the run and measured once more;
+    one whose cause cannot be put right in the cell is left as it is."""
+    from dataclasses import replace
+
+    import ita.toplevel.loop as loop
+    from ita.archive import Archive, archive_path
+    from ita.task.measure import MeasureStatus
+    from ita.toplevel import RunSignals, TopLevel
+
+    real = loop.measure_one
+    failed: list[str] = []
+
+    def first_two_fail(session, spec_id, state, tool=None):
+        out = real(session, spec_id, state, tool)
+        if len(failed) < 2 and spec_id not in failed and out.status is MeasureStatus.MEASURED and not out.others:
+            failed.append(spec_id)
+            why = "no echo (a fault put right later)" if len(failed) == 1 else \
+                "view_cannot_measure cannot be put right in the cell"
+            return replace(out, status=MeasureStatus.NOT_DONE, value=None, reason=why)
+        return out
+
+    monkeypatch.setattr(loop, "measure_one", first_two_fail)
+    ids = [i for g in session.plan.groups if g.tool.startswith("us_") for i in g.order][-6:]
+    with Archive.open(archive_path(runs)) as archive:
+        run_id = archive.create_run("bulkhead", session.part.directory, seed=2, settings={"specs": ids},
+                                    total=len(ids))
+        summary = TopLevel(session, archive, run_id, RunSignals(message=None), handle_exceptions=False).run()
+        results = {r.spec_id: r for r in archive.results(run_id)}
+        again = archive.events(run_id, kinds=["remeasure"])
+    assert summary.status == "completed" and len(failed) == 2
+    assert results[failed[0]].outcome.value == "measured"                 # taken once more, measured
+    assert results[failed[1]].outcome.value == "not_done"                 # its cause cannot be put right
+    assert [g["spec"] for e in again for g in e.payload["superseded"]] == [failed[0]]

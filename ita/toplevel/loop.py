@@ -112,6 +112,9 @@ MAX_REPLANS_IN_A_ROW = 20
 MAX_HANDLINGS = 3
 #: lines of the plan's decomposition tree kept with a run (the System Monitor and the report show them)
 TREE_LINES = 400
+#: a not-done result whose reason says one of these is not taken once more at the end: its
+#: cause cannot be put right in the cell, or Vision cannot measure it in its view at all
+_NOT_RETAKEN = ("cannot be put right in the cell", "not_measurable")
 #: the actions that begin a measurement: the control table is read before the first of them
 _POLL_BEFORE = frozenset({"note_resequence", "calibrate_probe", "measure", "measure_again"})
 
@@ -173,10 +176,11 @@ class TopLevel:
         self._remade: dict[int, str] = {}          # sequence plan position -> why it was remade there
         self._left: dict[int, list[TermValue]] = {}
         self._next: dict[int, TermValue | None] = {}
-        self._state = WorldState(arm=the_arm(session.kb))
+        self._state = WorldState(arm=the_arm(session.kb), holding=session.held)   # what the arm holds now
         self._outcomes: dict[str, tuple[Step, MeasureOutcome, list[Event], int]] = {}
         self._steps: dict[str, Step] = {}
         self._handlings: dict[str, int] = {}       # spec id -> the Exception Handler's calls on it
+        self._retaken = False                       # the not-done results retaken once at the end
         self._status = RunStatus.COMPLETED
         self._alarm = ""
         self._current: Step | None = None
@@ -444,6 +448,8 @@ class TopLevel:
                 return [], wrong
         elif name == "requeued":
             pass
+        elif name == "retake_not_done":
+            return self._retake_not_done()
         elif name == "record":
             self._conclude(args[0])
         elif name == "settle_pending":
@@ -558,13 +564,30 @@ class TopLevel:
             self.results.checked()
         return [], self._world() != before
 
-    def _requeue(self, cause: str | None) -> None:
+    def _retake_not_done(self) -> tuple[list[TermValue], bool]:
+        """Measure once more, before the run ends, what it left not done after a fault it
+        then put right (a retry that met another fault, a tool that was replaced later);
+        not what cannot be put right in the cell or Vision cannot measure in its view
+        (:data:`_NOT_RETAKEN`).  Once per run."""
+        if self._retaken:
+            return [], False
+        self._retaken = True
+        ids = [r.spec_id for r in self.archive.results(self.run_id)
+               if r.outcome is Outcome.NOT_DONE and r.spec_id in self.todo_set
+               and not any(w in (r.reason or "") for w in _NOT_RETAKEN)]
+        if not ids:
+            return [], False
+        self._requeue(None, ids, "left not done after a fault the run put right: measured once more before it ends")
+        return ["remeasuring"], True
+
+    def _requeue(self, cause: str | None, spec_ids: list[str] | None = None,
+                 why: str = "measured since the cell's last good interim check, with the arm or the part off: "
+                            "measured again") -> None:
         """Take what was recorded since the cell's last good check out of the archive (an
         event keeps it) and put those measurements back in the run's sequence plan (at
         every position): the Sequence Planner hands them out again, first in their groups."""
-        spec_ids = self.results.supersede(Event("remeasure", "top", self.session.clock.now, {
-            "cause": cause, "why": "measured since the cell's last good interim check, with the arm or the part "
-                                   "off: measured again"}))
+        event = Event("remeasure", "top", self.session.clock.now, {"cause": cause, "why": why})
+        spec_ids = self.results.supersede(event, spec_ids)
         gone = set(spec_ids)
         self._cursors = [replace(p, handed_out=tuple(i for i in p.handed_out if i not in gone))
                          for p in self._cursors]

@@ -144,11 +144,15 @@ class Recorder:
         n, self.since_check = len(self.since_check), []
         return n
 
-    def supersede(self, event: Event) -> list[str]:
-        """Take what was recorded since the last good check out of the archive (the check,
-        or a diagnosis, found the cell wrong since: `event` says so and keeps them); their
-        spec ids, in the order they were measured, to measure again."""
-        ids, self.since_check = self.since_check, []
+    def supersede(self, event: Event, spec_ids: Sequence[str] | None = None) -> list[str]:
+        """Take what was recorded since the last good check (or `spec_ids`) out of the
+        archive (the check, or a diagnosis, found the cell wrong since: `event` says so and
+        keeps them); their spec ids, in the order they were measured, to measure again."""
+        if spec_ids is None:
+            ids, self.since_check = self.since_check, []
+        else:
+            ids = list(spec_ids)
+            self.since_check = [i for i in self.since_check if i not in set(ids)]
         if not ids:
             return []
         gone = self.archive.supersede(self.run_id, ids, event)
