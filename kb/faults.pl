@@ -358,6 +358,12 @@ predicts(compare_neighbours, thin_section,               outlier).
 %     * `accept(test(Test))`: the value Test measured stands (a second stand-off's view of
 %       a feature the first one saw occluded);
 %     * `retry`: nothing to put right but to try again;
+%     * `register(part)`: the part located on its datums again (the tooling holes by
+%       the SLRA) and measured where it now sits; not achieved when the cell cannot see
+%       them where they are (the part is further off than its views reach);
+%     * `first_of(Alternatives)`: the first list of actions of Alternatives that is
+%       carried out to its end (a knocked part registered where it lies, else clamped
+%       again by a person and registered);
 %     * `remeasure(since_check)`: what was measured since the cell's last good interim
 %       check against its reference artifacts (kb/tasks.pl interim_check/1) is measured
 %       again: the fault may have been there, unseen, since then.
@@ -376,7 +382,9 @@ recovery(couplant_missed,           []).
 recovery(controller_not_answering,  [achieve(controller_reset(_Arm))]).
 recovery(sensor_cable_fault(D),     [achieve(cable_reseated(D))]).
 recovery(arm_drift,                 [achieve(arm_calibrated(_Arm)), remeasure(since_check)]).
-recovery(part_displaced,            [achieve(part_clamped(part)), remeasure(since_check)]).
+recovery(part_displaced,            [ first_of([ [register(part)],
+                                                 [achieve(part_clamped(part)), register(part)] ]),
+                                      remeasure(since_check) ]).
 recovery(obstacle,                  [achieve(obstacles_removed(cell))]).
 recovery(obstacle_at_arm,           [achieve(obstacles_removed(cell))]).
 recovery(dirty_window(S),           [achieve(window_clean(S))]).

@@ -99,6 +99,7 @@ job(cell_check, [cell_check],
 %
 %   The primitive task Head is applicable when Pre holds; it deletes Del and adds Add.
 
+operator(register_part,             [], [], [registered]).
 operator(record_unplaceable,        [], [], []).
 operator(note_resequence(_Cursor),  [], [], []).
 operator(calibrate_probe(P),        [], [], [calibrated(P)]).
@@ -120,19 +121,20 @@ operator(end_run(Status),           [], [], [ended(Status)]).
 %
 %   Task may be done by the ordered Subtasks when Pre holds; tried in the order written.
 
-% -- a whole part -----------------------------------------------------------------------
+% -- a whole part: located on its datums first (no fixture puts it where the model says) ----
 method(in_sequence, inspect_part, [],
-       [record_unplaceable, measure_rest(0), close_run]).
+       [register_part, record_unplaceable, measure_rest(0), close_run]).
 
 % -- what a run left unproven: the run holds those measurements alone ----------------------
 method(in_sequence, reinspect, [],
-       [measure_rest(0), close_run]).
+       [register_part, measure_rest(0), close_run]).
 
 % -- the cell against its reference artifacts (the run holds the tooling holes' specs) -----
 % the report counts every artifact: what is pending is decided and what was never measured
 % recorded first (close_run's own do nothing then)
 method(artifacts, cell_check, [call(probes(Probes))],
-       [read_blocks(Probes), measure_rest(0), decide_pending, check_cell, record_leftovers, report_cell, close_run]).
+       [read_blocks(Probes), register_part, measure_rest(0), decide_pending, check_cell, record_leftovers,
+        report_cell, close_run]).
 
 method(none_left, read_blocks([]), [], []).
 method(each_probe, read_blocks([Probe|Probes]), [], [calibrate_probe(Probe), read_blocks(Probes)]).

@@ -35,7 +35,8 @@ def test_a_superseded_result_leaves_the_archive_with_a_record_and_can_be_measure
 
 def test_an_arm_drift_is_found_named_and_what_was_measured_since_the_last_check_measured_again(
         tmp_path: Path, builtin_part) -> None:
-    """The arm drifts from 60 s on (no device reports it); the probe's readings then miss
+    """The arm drifts from 120 s on, after the part's registration (no device reports it);
+    the probe's readings then miss
     their contact: the diagnosis reads the calibration block, which walks off
     (misaligned), and names arm_drift; the arm is touched off on the block, the results
     since the last good check are taken out and measured again; the run completes with
@@ -44,7 +45,7 @@ def test_an_arm_drift_is_found_named_and_what_was_measured_since_the_last_check_
 
     runs = tmp_path / "runs"
     out = CliRunner().invoke(main, ["inspect", "--seed", "63", "--limit", "40", "--inject",
-                                    "position_drift:after=60", "--runs-dir", str(runs), "--json"])
+                                    "position_drift:after=120", "--runs-dir", str(runs), "--json"])
     assert out.exit_code == 0, out.output
     summary = json.loads(out.stdout)
     assert summary["status"] == "completed" and summary["measured"] == 40, summary

@@ -117,6 +117,13 @@ def test_a_short_run_writes_a_valid_qif_with_every_result(short_run: Path, schem
     assert devices and all(d.startswith(("us_probe", "slra")) for d in devices)
     version = doc.xpath("//q:InspectionProgram/q:File/q:Version/text()", namespaces=NS)[0]
     assert version.startswith("ita ") and "digest" in version     # program revision: version and plan
+    # the part's registration on its datums: an actual transform, and its line for people
+    name = doc.xpath("//q:ActualTransforms/q:Transform/q:Name/text()", namespaces=NS)
+    assert name and "TH-B" in name[0] and "TH-C" in name[0]
+    origin = [float(x) for x in doc.xpath("//q:ActualTransforms/q:Transform/q:Origin/text()", namespaces=NS)[0].split()]
+    assert len(origin) == 3 and max(abs(x) for x in origin) < 2.0     # the fixture's error: tenths of a mm
+    line = doc.xpath("//q:Attributes/q:AttributeStr[@name='ita.alignment']/@value", namespaces=NS)
+    assert line and "residuals" in line[0]
 
 
 def test_a_run_with_faults_exports_every_result_the_handler_recovered(fault_run: Path, schema,

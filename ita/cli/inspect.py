@@ -207,7 +207,7 @@ def _closing(session: Any) -> Iterator[Any]:
 @click.option("--inject", "scripts", multiple=True, metavar="FAULT[@TARGET][:after=S]",
               help="Script one fault, e.g. broken_probe@us_probe_1:after=120 (simulated seconds); repeatable.  "
               "Besides the kinds above: position_drift, tilted_probe, slra_failed@SLRA (a laser or detector "
-              "failure that cleaning does not cure).  A target the simulator cannot hit is refused with the "
+              "failure that cleaning does not cure), part_displaced (the part knocked on its fixture).  A target the simulator cannot hit is refused with the "
               "valid pairs.")
 @click.option("--run-id", default=None, help="The id to give the new run (the System Monitor names the runs "
               "it starts); default a fresh one.")
@@ -232,11 +232,16 @@ def _closing(session: Any) -> Iterator[Any]:
 @click.option("--from", "from_run", default=None, metavar="RUN",
               help="With --task reinspect: the run whose unproven results (uncertain, does not conform, not "
                    "done) to measure again; the new run holds those alone.")
+@click.option("--placement", type=click.Choice(["fixture", "exact"]), default="fixture", show_default=True,
+              help="Where the simulator seats the part: 'fixture', off its nominal placement by a draw of the "
+                   "fixture's error (a few tenths of a millimetre and of a degree, from --seed), as a real "
+                   "cell does; 'exact', at its nominal placement.  Either way the run registers the part on "
+                   "its datums (tooling holes B and C) before it measures.")
 @reports_errors
 def inspect(part_dir: Path | None, limit: int | None, seed: int, runs_dir: Path | None, as_json: bool,
             fault_rate: float, fault_kinds: str | None, scripts: tuple[str, ...], run_id: str | None,
             alarm_after: int | None, network: bool, job: str, serial: str | None, operator: str | None,
-            shift_texts: tuple[str, ...], from_run: str | None) -> None:
+            shift_texts: tuple[str, ...], from_run: str | None, placement: str) -> None:
     """Inspect the part (in the simulated workcell): every measurement of the sequence
     plan, planned, executed, measured and recorded in the runs archive as it is made.
 
@@ -282,7 +287,7 @@ def inspect(part_dir: Path | None, limit: int | None, seed: int, runs_dir: Path 
             click.echo(f"run {source}: every result is proven to conform; nothing to measure again")
             return
     session = open_session(part_dir, seed=seed, progress=lambda m: view.note(f"{m} ..."), serial=serial,
-                           shifts=shifts)
+                           shifts=shifts, placement_error=placement == "fixture")
     with _closing(session):
         tools = session.ctx.workcell.tools
         injection.check_targets([t.name for t in tools if t.tool_class.ultrasonic],
@@ -295,7 +300,7 @@ def inspect(part_dir: Path | None, limit: int | None, seed: int, runs_dir: Path 
             raise click.UsageError(f"run {source} inspected part {source_part}, not {session.part.name} "
                                    "(give its part with --part)")
         with Archive.open(archive_path(runs_dir)) as archive:
-            settings: dict[str, Any] = {"network": network, "task": job}
+            settings: dict[str, Any] = {"network": network, "task": job, "placement": placement}
             if source is not None:
                 settings["from"] = source
                 settings["earlier"] = earlier_results(archive, source, session)
@@ -339,7 +344,8 @@ def continue_(run: str, runs_dir: Path | None, as_json: bool) -> None:
                                progress=lambda m: view.note(f"{m} ..."),
                                serial=None if info.settings.get("asbuilt") is None else str(serial),
                                shifts={str(k): float(str(v)) for k, v in shifts.items()}
-                               if isinstance(shifts, dict) else None)
+                               if isinstance(shifts, dict) else None,
+                               placement_error=info.settings.get("placement") == "fixture")
         with _closing(session):
             view.note(f"continuing run {run_id}: {info.done}/{info.total} done")
             _run(session, archive, run_id, as_json, view)

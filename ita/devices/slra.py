@@ -73,6 +73,7 @@ from ita.vision.context import (
 )
 from ita.vision.measure import measure_frames
 from ita.vision.scan import FramePlan, frames_for
+from ita.workcell.model import PartPlacement
 
 __all__ = ["DIRTY_DROPOUT", "REAPPROACH_M", "RESCAN_BACK_M", "VISION_SECONDS", "SlraDevice"]
 
@@ -125,7 +126,7 @@ class SlraDevice:
                  wanted: Callable[[str], bool] | None = None, controller: RobotController | None = None) -> None:
 
         self.world = world
-        self.scene = scene
+        self._scene = scene
         self.poses = poses
         self.vctx = vision_ctx
         self.specs = specs
@@ -142,6 +143,20 @@ class SlraDevice:
                                          "reapproach_s": 0.0}
         self.handlers: dict[str, Callable[[Command, float], Completion]] = {
             "SCAN": self._scan, "MEASURE": self._measure, "CALIBRATE": self._calibrate, "RESCAN": self._rescan}
+
+    @property
+    def scene(self) -> SlraScene:
+        """What the beam can hit, with the part where the simulator has it now (a knock
+        moves it: the scene is placed again)."""
+        if self._scene.placement != self.world.part_placement:
+            self._scene = self._scene.placed(self.world.part_placement)
+        return self._scene
+
+    def register(self, placement: PartPlacement, u_mm: float = 0.0) -> None:
+        """Measure in the part frame of `placement` from now on (the part registered on its
+        datums, ita.task.align; `u_mm` its standard uncertainty per axis at the part's
+        farthest corner): Vision turns frames into part points through it."""
+        self.vctx = replace(self.vctx, placement=placement, registration_u_mm=u_mm)
 
     # -- the protocol ------------------------------------------------------------------
     def begin(self, items: Sequence[Command | Wait], now: float) -> None:

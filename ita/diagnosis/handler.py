@@ -60,6 +60,7 @@ from ita.logic.world import WorldModel
 from ita.planning import NoPlanError, OperationPlan
 from ita.sensors.ultrasonic import Reading
 from ita.sequence.plan import choose_tool
+from ita.task.align import register_part
 from ita.task.measure import (
     MeasureOutcome,
     MeasureStatus,
@@ -389,10 +390,43 @@ class ExceptionHandler:
                 updates.append(line)
                 if value is not None:
                     accepted = (value, term_text(action))
+            elif kind == "first_of":            # the first list of actions carried out to its end
+                assert args and isinstance(args[0], list)  # first_of(Alternatives): a list of lists
+                tried: list[str] = []
+                for alternative in args[0]:
+                    assert isinstance(alternative, list)
+                    inner = self._put_right(list(alternative), situation, runs, executed, nested, depth)
+                    tried += inner.updates
+                    situation, accepted = inner.situation, inner.accepted or accepted
+                    if inner.complete:
+                        break
+                else:
+                    return _PutRight(tuple(updates + tried), situation, accepted, False)
+                updates += tried
+            elif kind == "register":            # the part located on its datums again
+                line, situation, ok = self._register(situation, executed)
+                updates.append(line)
+                if not ok:
+                    return _PutRight(tuple(updates), situation, accepted, False)
             elif kind == "remeasure":           # the Top Level measures again what is held since its check
                 updates.append("the measurements since the cell's last good check to be measured again")
             # retry: nothing to put right; the measurement is taken again (step 5)
         return _PutRight(tuple(updates), situation, accepted)
+
+    def _register(self, situation: Situation, executed: Executed) -> tuple[str, Situation, bool]:
+        """Register the part on its datums again with a working SLRA (ita.task.align); the
+        line for the record, the situation after, whether it was registered."""
+        tool = self.bench.slra_for(situation)
+        if tool is None:
+            return "not registered: no working slra_tool", situation, False
+        done = register_part(self.session, situation.state, tool)
+        executed += [(f"register the part: {out.spec_id}", out.plan, out.report) for out in done.outcomes
+                     if out.plan is not None]
+        situation = replace(situation, state=done.state)
+        if done.alignment is None:
+            return f"not registered: {done.reason}", situation, False
+        self.session.alignment = done.alignment
+        return f"registered again (moved {done.moved_mm:.3f} mm): {done.alignment.line()}", situation, True
 
     def _achieve(self, goal: TermValue, situation: Situation, executed: Executed, nested: list[Diagnosis],
                  depth: int) -> tuple[str, Situation, bool]:

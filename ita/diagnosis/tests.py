@@ -189,6 +189,10 @@ class TestBench:
         usable = WorldModel(self.session.kb).usable(situation.state.arm, tool_class)
         return usable[0] if usable else None
 
+    def slra_for(self, situation: Situation) -> str | None:
+        """The SLRA a registration of the part takes (the one in hand, else a usable one)."""
+        return self._tool_of("slra_tool", situation)
+
     def applicable(self, test: str, situation: Situation) -> bool:
         """Whether `test` can be made for this situation at all."""
         for need in self.needs.get(test, ()):

@@ -21,7 +21,7 @@ from ita.logic.terms import Term
 from ita.specs.model import MeasurementSpec
 
 if TYPE_CHECKING:
-    from ita.workcell.model import Workcell
+    from ita.workcell.model import PartPlacement, Workcell
 
 FloatArray = NDArray[np.float64]
 
@@ -76,6 +76,44 @@ class GeometricReasoner:
         self.specs = {s.id: s for s in specs}
         self.home = np.asarray(cell.arm.home, dtype=float)
         self._stations: dict[tuple[str, str | None, bool], Target] = {}
+        #: where the part was registered (ita.task.align; None: at its nominal placement) and
+        #: the world motion from the nominal part to it, applied to every pose on the part
+        self.placement: PartPlacement | None = None
+        self._motion: FloatArray | None = None
+        self._moved: dict[tuple[str, str, str | None], Target] = {}
+
+    def register(self, placement: PartPlacement | None) -> None:
+        """Put every pose on the part where the part was registered (`placement`, found on
+        its datums; None: back to its nominal placement).  The MKB's poses were made for the
+        nominal placement: each is moved with the part (the world motion from the nominal
+        placement to the registered one) and its configuration solved again, nearest the
+        MKB's (the arm's own branch)."""
+        self._moved = {}
+        if placement is None or placement == self.cell.part:
+            self.placement, self._motion = None, None
+            return
+        nominal = self.cell.part
+        r0, r1 = nominal.rotation_matrix(), placement.rotation_matrix()
+        rot = r1 @ r0.T
+        motion = np.eye(4)
+        motion[:3, :3] = rot
+        motion[:3, 3] = np.asarray(placement.translation, dtype=float) - rot @ np.asarray(nominal.translation, dtype=float)
+        self.placement, self._motion = placement, motion
+
+    def _on_part(self, spec_id: str, kind: str, tool: str | None, target: Target, tool_name: str) -> Target:
+        """`target` (a pose on the nominal part) moved with the registered part."""
+        if self._motion is None or target.pose is None:
+            return target
+        key = (spec_id, kind, tool)
+        if key not in self._moved:
+            pose = self._motion @ np.asarray(target.pose, dtype=float)
+            model = arm_model(self.cell.arm)
+            tcp = self.cell.tool(tool_name).tcp.matrix()
+            q, found = choose_nearest(model, ik_tool(model, pose[None], tcp), target.q)
+            if not found[0]:
+                raise KeyError(f"{spec_id}: the arm cannot reach its {kind} on the part where it was registered")
+            self._moved[key] = Target(np.asarray(q[0], dtype=float), pose, target.press_m)
+        return self._moved[key]
 
     def entry(self, spec_id: str, tool: str | None = None) -> MkbEntry:
         """The placed entry of `spec_id` for `tool` (None: the sequence plan's tool);
@@ -105,14 +143,17 @@ class GeometricReasoner:
                 return spec.low_limit if kind == "min_value" else spec.high_limit
             if kind == "goal_point":
                 spec = self.specs[spec_id]
-                return self.cell.part.to_world(np.asarray(spec.point, dtype=float)[None])[0]
+                part = self.placement or self.cell.part
+                return part.to_world(np.asarray(spec.point, dtype=float)[None])[0]
             e = self.entry(spec_id, tool)
             if kind == "approach_point":
-                return Target(_configuration(spec_id, e.q_approach), e.pose_approach)
+                return self._on_part(spec_id, kind, tool, Target(_configuration(spec_id, e.q_approach),
+                                                                 e.pose_approach), e.tool)
             if kind == "in_contact_point":
-                return Target(_configuration(spec_id, e.q), e.pose, e.press_m)
+                return self._on_part(spec_id, kind, tool, Target(_configuration(spec_id, e.q), e.pose, e.press_m),
+                                     e.tool)
             if kind == "viewing_pose":
-                return Target(_configuration(spec_id, e.q), e.pose)
+                return self._on_part(spec_id, kind, tool, Target(_configuration(spec_id, e.q), e.pose), e.tool)
             if kind == "patches":
                 group = self.mkb.groups.get(e.group or "")
                 if group is None:

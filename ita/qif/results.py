@@ -41,6 +41,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
 from pathlib import Path
+from typing import Any
 
 from ita import __version__
 from ita.archive.model import RunInfo, StoredResult
@@ -99,6 +100,8 @@ class RunRecord:
     tools: Mapping[str, Tool] = field(default_factory=dict)
     version: str = __version__
     created: str = ""
+    #: the part's last registration on its datums (an ``alignment`` event's payload), if any
+    alignment: Mapping[str, Any] | None = None
 
 
 @dataclass(frozen=True)
@@ -174,6 +177,11 @@ class _Ids:
     def __call__(self) -> int:
         self.last += 1
         return self.last
+
+
+def _num(x: float) -> str:
+    """A number for a QIF list of doubles."""
+    return f"{x:.9g}"
 
 
 def _token(text: str) -> str:
@@ -392,7 +400,9 @@ class _Document:
             _attributes(("AttributeStr", "ita.run", run.id), ("AttributeStr", "ita.version", r.version),
                         *([("AttributeStr", f"ita.{digest_name}", digest)] if digest else []),
                         ("AttributeStr", "ita.verdict", r.verdict.value),
-                        ("AttributeStr", "ita.verdict_reason", r.verdict_reason)))
+                        ("AttributeStr", "ita.verdict_reason", r.verdict_reason),
+                        *([("AttributeStr", "ita.alignment", str(r.alignment.get("line", "")))]
+                          if r.alignment else [])))
         instance = uuid.uuid5(uuid.NAMESPACE_URL, f"ita:run:{run.id}:{len(r.results)}:"
                               f"{max((x.seq for x in r.results), default=0)}")
         results = el(
@@ -402,6 +412,7 @@ class _Document:
                 el("ThisResultsInstanceQPId", str(instance)),
                 el("MeasuredCharacteristics", listing("CharacteristicMeasurements", self.measurements))
                 if self.measurements else None,
+                self._alignment(),
                 el("InspectionStatus", el("InspectionStatusEnum", status)),
                 ids("ActualComponentIds", [component]), id=str(results_id))]),
             listing("ActualComponentSets", [listing("ActualComponentSet", [el(
@@ -415,6 +426,24 @@ class _Document:
                 id=str(component))])]),
             traceability)
         return self._assemble(results, instance)
+
+    def _alignment(self) -> Element | None:
+        """The part's registration as an actual transform: from the part's nominal frame
+        to where it was found (X = R x + Origin, mm), named after the datums it used."""
+        a = self.r.alignment
+        if not a:
+            return None
+        turn = math.radians(float(a.get("turn_deg", 0.0)))
+        c, sn = math.cos(turn), math.sin(turn)
+        shift = [float(x) for x in a.get("shift_mm", (0.0, 0.0, 0.0))]
+        vec = " ".join
+        return listing("ActualTransforms", [el(
+            "Transform",
+            el("Rotation", el("XDirection", vec(_num(x) for x in (c, sn, 0.0))),
+               el("YDirection", vec(_num(x) for x in (-sn, c, 0.0))), el("ZDirection", "0 0 1")),
+            el("Origin", vec(_num(x) for x in shift)),
+            el("Name", _token(f"part registered on datums {', '.join(str(d) for d in a.get('datums', ()))}")),
+            id=str(self.new()))])
 
     def _assemble(self, results: Element, instance: uuid.UUID) -> Element:
         r, run = self.r, self.r.run
@@ -527,8 +556,10 @@ def gather(archive: Archive, run_id: str, part_dir: Path | None = None) -> tuple
     specs, warning = _part_specs(where)
     data = collect(archive, run_id, specs=list(specs.values()) or None)
     summary = summarize(data)
+    aligned = [e.payload for e in archive.events(run_id, kinds=["alignment"]) if e.payload.get("registered")]
     record = RunRecord(run, data.results, specs, summary.verdict, summary.verdict_reason, _tool_classes(where),
-                       created=datetime.now(timezone.utc).isoformat(timespec="seconds"))
+                       created=datetime.now(timezone.utc).isoformat(timespec="seconds"),
+                       alignment=aligned[-1] if aligned else None)
     return record, [warning] if warning else []
 
 

@@ -57,7 +57,10 @@ def _summary(data: ReportData, ctx: Context) -> dict[str, Any]:
     return {"kind": "summary", "title": "Summary", "summary": ctx.summary.to_dict(),
             "run": {"id": run.id, "part": run.part, "part_dir": run.part_dir, "seed": run.seed,
                     "status": run.state_label, "created": run.created, "ended": run.ended},
-            "settings": settings_rows(run), "colours": STATUS_COLOURS, "order": list(STATUS_ORDER)}
+            "settings": settings_rows(run), "colours": STATUS_COLOURS, "order": list(STATUS_ORDER),
+            "alignment": [[f"{e.sim_time or 0.0:.1f} s", str(e.payload.get("why", "")),
+                           str(e.payload.get("line") or e.payload.get("reason") or "")]
+                          for e in data.events if e.kind == "alignment"]}
 
 
 def _results(data: ReportData, ctx: Context) -> dict[str, Any]:

@@ -25,6 +25,9 @@ hits; the empty target hits every one.
     TILTED_PROBE       the probe sits crooked in its holder (knocked): its face meets the
                        part and the calibration block tilted, the echo walks off (target:
                        the probe)
+    PART_DISPLACED     the part knocked on its fixture: it sits millimetres and tenths of
+                       a degree off where it was (ita.sim.fixture.knocked; target: the
+                       part); a person clamping it again takes the fault out
 
 A repair (ita.devices: refill, purge, reset, reseat, recalibrate, clean; a person called
 to the cell, ita.sim.person: obstacles removed, a tool replaced, a probe straightened)
@@ -38,6 +41,8 @@ from enum import Enum
 
 #: the fault targets that are no tool: the robot controller, the gauge box, the couplant station
 CONTROLLER = "controller"
+#: the target of a knock on the part
+PART = "part"
 GAUGE = "us_gauge"
 STATION = "couplant_station"
 
@@ -57,6 +62,7 @@ class Fault(str, Enum):
     OBSTACLE = "obstacle"
     TRANSIENT = "transient"
     TILTED_PROBE = "tilted_probe"
+    PART_DISPLACED = "part_displaced"
 
 
 @dataclass(frozen=True)

@@ -21,7 +21,8 @@ an injected fault is found gone (``{"cleared": fault, ...}``).
 
 Not injected at random: POSITION_DRIFT (a step of the arm's calibration that no device
 reports, so that only a check against a reference would find it), SENSOR_GARBAGE of an
-SLRA, TILTED_PROBE and SLRA_FAILED (scripted only: ``tilted_probe:after=60`` tilts the
+SLRA, TILTED_PROBE, PART_DISPLACED (``part_displaced:after=600`` knocks the part on its
+fixture: millimetres and tenths of a degree) and SLRA_FAILED (scripted only: ``tilted_probe:after=60`` tilts the
 probe in hand; ``slra_failed@slra_1:after=300`` fails slra_1's laser for good, and with
 ``slra_failed@slra_2`` later both SLRAs are broken).
 """
@@ -37,7 +38,8 @@ from typing import Any
 import numpy as np
 
 from ita.errors import InputError, Location
-from ita.sim.faults import CONTROLLER, GAUGE, STATION, Fault
+from ita.sim.faults import CONTROLLER, GAUGE, PART, STATION, Fault
+from ita.sim.fixture import knocked
 
 __all__ = ["INJECTABLE", "InjectionPlan", "FaultInjector", "Scripted", "injected_log", "valid_targets"]
 
@@ -53,7 +55,7 @@ CAUSE_OF = {
     "empty_couplant": "empty_couplant_station", "sensor_garbage": "sensor_cable_fault",
     "transient": "transient_glitch", "controller_silent": "controller_not_answering", "obstacle": "obstacle",
     "dirty_window": "dirty_window", "position_drift": "arm_drift", "tilted_probe": "tilted_probe",
-    "slra_failed": "slra_failed",
+    "slra_failed": "slra_failed", "part_displaced": "part_displaced",
 }
 _SCRIPT = re.compile(r"^(?P<fault>[a-z_]+)(@(?P<target>[A-Za-z0-9_.-]+))?(:after=(?P<after>[0-9.]+))?$")
 _GAUGE_COMMANDS = ("COUPLANT", "MEASURE")
@@ -136,7 +138,7 @@ def valid_targets(probes: list[str], slras: list[str]) -> dict[str, tuple[str, .
             "tilted_probe": tuple(probes), "dirty_window": tuple(slras), "slra_failed": tuple(slras),
             "empty_couplant": (STATION,),
             "sensor_garbage": (GAUGE,), "transient": (GAUGE, CONTROLLER), "controller_silent": (CONTROLLER,),
-            "position_drift": (CONTROLLER,), "obstacle": None}
+            "position_drift": (CONTROLLER,), "part_displaced": (PART,), "obstacle": None}
 
 
 def injected_log(runs_dir: Path, run_id: str) -> Path:
@@ -202,6 +204,8 @@ class FaultInjector:
             return GAUGE if kind == "gauge" else CONTROLLER
         if fault in ("controller_silent", "position_drift"):
             return CONTROLLER
+        if fault == "part_displaced":
+            return PART
         if fault == "obstacle":
             return f"obstacle_{self.count + 1}"
         return ""
@@ -214,6 +218,8 @@ class FaultInjector:
             return False
         if fault == "position_drift":
             self.world.drift_m = self.world.drift_m + self.rng.normal(0.0, 1.0, 3) / np.sqrt(3) * 2e-3
+        if fault == "part_displaced" and not self._knock_part():
+            return False
         self.world.faults = self.world.faults.with_fault(fault, target)
         self.count += 1
         self._on.append((fault, target))
@@ -237,6 +243,22 @@ class FaultInjector:
         self.log.parent.mkdir(parents=True, exist_ok=True)
         with open(self.log, "a", encoding="utf-8") as out:
             out.write(json.dumps(record) + "\n")
+
+    def _knock_part(self) -> bool:
+        """Knock the part off its place on the fixture (ita.sim.fixture.knocked); not while
+        the arm or its tool is within OBSTACLE_CLEARANCE_M of it (the part would be knocked
+        into them: a knock lands when the arm is clear of the part)."""
+        world = self.world
+        if any(c.obstacle == "part" for c in world.contacts(OBSTACLE_CLEARANCE_M)):
+            return False
+        before = world.part_placement
+        nominal = world.cell.part
+        middle = (np.asarray(nominal.envelope_min_mm) + np.asarray(nominal.envelope_max_mm)) / 2.0
+        world.place_part(knocked(before, middle, self.rng))
+        if any(c.obstacle == "part" for c in world.contacts(OBSTACLE_CLEARANCE_M)):
+            world.place_part(before)
+            return False
+        return True
 
     def _place_obstacle(self, name: str, command: Any) -> bool:
         """A box where a MOVE is going (the arm bumps it on the way in); none where the arm

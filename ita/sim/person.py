@@ -14,7 +14,10 @@ not know, the faults switched on), which nothing but the simulator may touch.
 
 from __future__ import annotations
 
+import numpy as np
+
 from ita.sim.faults import Fault
+from ita.sim.fixture import seated
 from ita.sim.world import SimWorld
 
 __all__ = ["SECONDS", "SimPerson"]
@@ -33,6 +36,7 @@ class SimPerson:
 
     def __init__(self, world: SimWorld) -> None:
         self.world = world
+        self._reclamps = 0
 
     def _take(self, job: str) -> float:
         seconds = SECONDS[job]
@@ -47,8 +51,16 @@ class SimPerson:
         return f"{len(removed)} obstacle(s) removed in {seconds:.0f} s"
 
     def reclamp_part(self) -> str:
-        """Re-clamp the part on its fixture (the simulated part never moves on it)."""
+        """Push the part back against its pins and clamp it again: it sits where a new
+        draw of the fixture's seating error puts it (ita.sim.fixture), no longer where a
+        knock left it."""
         seconds = self._take("reclamp_part")
+        world = self.world
+        self._reclamps += 1
+        nominal = world.cell.part
+        middle = (np.asarray(nominal.envelope_min_mm) + np.asarray(nominal.envelope_max_mm)) / 2.0
+        world.place_part(seated(nominal, middle, np.random.default_rng([world.seed, 43, self._reclamps])))
+        world.faults = world.faults.without(Fault.PART_DISPLACED)
         return f"part re-clamped in {seconds:.0f} s"
 
     def replace_tool(self, tool: str) -> str:

@@ -150,6 +150,7 @@ class SlraScene:
         parts = [trimesh.Trimesh(np.asarray(mesh_mm.vertices), np.asarray(mesh_mm.faces), process=False)]
         parts += [_box_mesh_in_part(b, placement) for b in boxes]
         self.placement = placement
+        self._made_of = (mesh_mm, tuple(boxes), tuple(holes))
         self.n_part_faces = len(mesh_mm.faces)
         mesh = trimesh.util.concatenate(parts)
         assert isinstance(mesh, trimesh.Trimesh)   # meshes concatenate to a mesh
@@ -165,10 +166,17 @@ class SlraScene:
         self.core = SecondCore(SPLIT_RAYS, "slra")       # casts and kernels split with a second core
 
     @classmethod
-    def from_simulated(cls, simulated, workcell: Workcell, extra_boxes: Sequence[Box] = ()) -> SlraScene:
-        """The simulated part (ita.sim.world.simulated_part) with every static box of `workcell`."""
-        return cls(simulated.mesh, workcell.part, tuple(workcell.static_boxes()) + tuple(extra_boxes),
-                   simulated.holes)
+    def from_simulated(cls, simulated, workcell: Workcell, extra_boxes: Sequence[Box] = (),
+                       placement: PartPlacement | None = None) -> SlraScene:
+        """The simulated part (ita.sim.world.simulated_part) with every static box of
+        `workcell`, the part where it really sits (`placement`; default: its nominal place)."""
+        return cls(simulated.mesh, placement if placement is not None else workcell.part,
+                   tuple(workcell.static_boxes()) + tuple(extra_boxes), simulated.holes)
+
+    def placed(self, placement: PartPlacement) -> SlraScene:
+        """The same scene with the part at `placement` (the boxes stay where they are)."""
+        mesh_mm, boxes, holes = self._made_of
+        return SlraScene(mesh_mm, placement, boxes, holes)
 
     @classmethod
     def from_truth(cls, part_dir: Path, workcell: Workcell, extra_boxes: Sequence[Box] = ()) -> SlraScene:

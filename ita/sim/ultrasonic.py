@@ -279,7 +279,7 @@ class UltrasonicSim:
 
     def _tip_ray(self) -> tuple[FloatArray, FloatArray]:
         """Ray start (part mm, _LEAD_MM before the free tip) and unit tip axis (part frame)."""
-        placement = self.world.cell.part
+        placement = self.world.part_placement
         tcp = self.world.tcp_pose()
         tip = placement.to_part(tcp[:3, 3][None])[0]
         axis = tcp[:3, 2] @ placement.rotation_matrix()

@@ -42,7 +42,7 @@ from ita.part.truth import simulated_part as _simulated
 from ita.sim.faults import FaultSet
 from ita.workcell import Box, Pose, ToolSpec, Workcell, load_workcell
 from ita.workcell.frames import homogeneous, matrix_to_quaternion, quaternion_to_matrix
-from ita.workcell.model import TIP_CLEARANCE
+from ita.workcell.model import TIP_CLEARANCE, PartPlacement
 
 p = import_pybullet()   # the pybullet module (its build-time line silenced)
 
@@ -110,7 +110,9 @@ class SimWorld:
     to load (None: the built-in bulkhead, materialised on first use); asbuilt_mesh: a mesh
     (part frame, mm) to use instead (tests); seed: of every random draw in the simulator;
     faults: the faults switched on (replace `world.faults` to change them later).
-    q0: the initial configuration (default zeros).
+    q0: the initial configuration (default zeros).  part_placement: where the part really
+    sits (ita.sim.fixture; default: exactly at the cell's nominal placement); only the
+    simulator knows it (:meth:`place_part` moves it).
     """
 
     def __init__(
@@ -122,8 +124,10 @@ class SimWorld:
         seed: int = 0,
         faults: FaultSet | None = None,
         q0: Iterable[float] | None = None,
+        part_placement: PartPlacement | None = None,
     ) -> None:
         self.cell = cell if cell is not None else load_workcell()
+        self.part_placement: PartPlacement = part_placement if part_placement is not None else self.cell.part
         self.model: ArmModel = arm_model(self.cell.arm)
         self.asbuilt_mesh = asbuilt_mesh if asbuilt_mesh is not None else _load_asbuilt(part_dir)
         self.seed = int(seed)
@@ -149,7 +153,7 @@ class SimWorld:
         self.bodies: dict[str, int] = {}
         for box in self.cell.static_boxes():
             self._add(box.name, _box_body(box, c))
-        self._add(PART, _mesh_body(self.asbuilt_mesh, self.cell, c))
+        self._add(PART, _mesh_body(self.asbuilt_mesh, self.part_placement, c))
         arm = self.cell.arm
         self.arm = p.loadURDF(str(arm.urdf), arm.base.position, arm.base.quaternion,
                               useFixedBase=True, physicsClientId=c)
@@ -194,6 +198,15 @@ class SimWorld:
             corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
             reach[k] = max(reach[k], float(np.linalg.norm(corners - frames[k, :3, 3], axis=1).max()))
         return reach
+
+    def place_part(self, placement: PartPlacement) -> None:
+        """Move the part to `placement` (a knock on the fixture, a person clamping it again)."""
+        self.part_placement = placement
+        quat = matrix_to_quaternion(placement.rotation_matrix())
+        p.resetBasePositionAndOrientation(self.bodies[PART], placement.translation, quat.tolist(),
+                                          physicsClientId=self.client)
+        body = self.bodies[PART]
+        self._static_aabbs[body] = np.array(p.getAABB(body, physicsClientId=self.client))
 
     def _add(self, name: str, body: int) -> None:
         self.bodies[name] = body
@@ -411,9 +424,8 @@ def _box_body(box: Box, client: int) -> int:
                              baseOrientation=box.pose.quaternion, physicsClientId=client)
 
 
-def _mesh_body(mesh: trimesh.Trimesh, cell: Workcell, client: int) -> int:
+def _mesh_body(mesh: trimesh.Trimesh, placement: PartPlacement, client: int) -> int:
     """The part as a static concave triangle mesh: vertices scaled to m, placed in the world."""
-    placement = cell.part
     vertices = (np.asarray(mesh.vertices, dtype=float) * placement.scale).tolist()
     indices = np.asarray(mesh.faces, dtype=np.int64).reshape(-1).tolist()
     shape = p.createCollisionShape(p.GEOM_MESH, vertices=vertices, indices=indices,

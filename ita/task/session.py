@@ -32,10 +32,12 @@ from ita.planning import OperationPlanner, store_path
 from ita.sensors.ultrasonic import UltrasonicGauge
 from ita.sequence.plan import planning_context, with_mkb
 from ita.sequence.store import apply_tool_marks, load_tool_marks
+from ita.sim.fixture import seated
 from ita.sim.person import SimPerson
 from ita.sim.slra import SlraScene
 from ita.sim.ultrasonic import UltrasonicSim
 from ita.sim.world import SimClock, SimWorld, simulated_part
+from ita.task.align import Alignment, datums_of
 from ita.vision.for_part import vision_context
 
 if TYPE_CHECKING:
@@ -80,6 +82,8 @@ class Session:
     simulated: str = "generated"
     #: a serial's own as-built part (ita.part.serials), its directory relative to the part's
     asbuilt_dir: str | None = None
+    #: where the part was registered on its datums (ita.task.align; None: not registered)
+    alignment: Alignment | None = None
     _specs: dict[str, MeasurementSpec] = field(default_factory=dict, repr=False)
     _specs_of: PlanningContext | None = field(default=None, repr=False)   # the context _specs are of
 
@@ -126,11 +130,13 @@ class Session:
 
 def open_session(part_dir: Path | None = None, *, seed: int = 0,
                  progress: Callable[[str], None] = lambda _m: None, serial: str | None = None,
-                 shifts: Mapping[str, float] | None = None) -> Session:
+                 shifts: Mapping[str, float] | None = None, placement_error: bool = False) -> Session:
     """Load everything a run needs; prepare the part first (sequence plan, MKB, MACROPs)
     when what is stored is missing or stale.  serial: the simulator holds that serial's own
     as-built part of a generated design (shifts: special causes asked, spec id -> mm;
-    ita.part.serials); another part keeps its one as-built part."""
+    ita.part.serials); another part keeps its one as-built part.  placement_error: the
+    simulator seats the part off its nominal placement as a fixture does (ita.sim.fixture,
+    a draw of `seed`; only a part with datum holes to register it on, ita.task.align)."""
 
     t0 = time.perf_counter()
     progress("loading the knowledge bases and the part")
@@ -152,7 +158,12 @@ def open_session(part_dir: Path | None = None, *, seed: int = 0,
     cell = ctx.workcell
     reasoner = GeometricReasoner(mkb, cell, ctx.specs)
     progress("building the simulated workcell")
-    world = SimWorld(cell, part.directory, asbuilt_mesh=simulated.mesh, seed=seed, q0=reasoner.home)
+    truth = cell.part
+    if placement_error and len(datums_of(part.features, ctx.specs)) >= 2:
+        middle = (np.asarray(truth.envelope_min_mm) + np.asarray(truth.envelope_max_mm)) / 2.0
+        truth = seated(truth, middle, np.random.default_rng([seed, 41]))
+    world = SimWorld(cell, part.directory, asbuilt_mesh=simulated.mesh, seed=seed, q0=reasoner.home,
+                     part_placement=truth)
     try:
         gauge_sim = UltrasonicSim(world)
         ut = UltrasonicGauge(gauge_sim)
@@ -162,7 +173,7 @@ def open_session(part_dir: Path | None = None, *, seed: int = 0,
         slra_tools = [t for t in cell.tools if t.tool_class.value == "slra_tool"]
         vctx = vision_context(part, cell, tool=slra_tools[0].name if slra_tools else "slra_1",
                                        specs=list(ctx.specs))
-        scene = SlraScene.from_simulated(simulated, cell)
+        scene = SlraScene.from_simulated(simulated, cell, placement=world.part_placement)
         slra = SlraDevice(world, scene, reasoner, vctx, specs, np.random.default_rng([seed, 21]))
         person = PersonDevice(SimPerson(world), world.clock)
         executive = PlanExecutive(kb, {"path_planner": arm, "vision": slra, "person": person}, clock=world.clock)

@@ -30,6 +30,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from ita.archive import Event
+from ita.devices.injection import paused
 from ita.diagnosis.tests import Situation
 from ita.logic.terms import Term, Var
 from ita.task.measure import MeasureOutcome, MeasureStatus
@@ -145,10 +146,7 @@ class CellChecks:
         kind = self._tool_type()
         test, found = self.tests.get(kind or "", ("", ""))
         self.count += 1
-        injector = getattr(s.arm, "injector", None)
-        if injector is not None:     # like the Exception Handler's tests, a check meets no new fault
-            injector.paused = True
-        try:
+        with paused(s.arm.injector):     # like the Exception Handler's tests, a check meets no new fault
             if tool is None or not test:
                 done = CheckDone(None, test or "none", "not_run", f"no check with {tool or 'nothing'} in hand",
                                  state)
@@ -156,9 +154,6 @@ class CellChecks:
                 done = self._reference(tool, found, state)
             else:
                 done = self._bench_test(test, tool, found, state)
-        finally:
-            if injector is not None:
-                injector.paused = False
         if done.passed is not None:
             self.last_s = s.clock.now
         self.archive.record_event(self.run_id, Event("interim_check", "top", s.clock.now, {
@@ -224,14 +219,8 @@ class CellChecks:
         repairs meet no new fault)."""
         handler = self.handling.handler
         assert handler is not None   # of(): a run without a handler has no checks
-        injector = getattr(self.session.arm, "injector", None)
-        if injector is not None:
-            injector.paused = True
-        try:
+        with paused(self.session.arm.injector):
             return call(handler)
-        finally:
-            if injector is not None:
-                injector.paused = False
 
     def _events(self, out: MeasureOutcome, label: str) -> None:
         if out.plan is not None and out.report is not None:

@@ -15,6 +15,7 @@ import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
+from ita.devices.injection import paused
 from ita.diagnosis import ExceptionHandler
 
 if TYPE_CHECKING:
@@ -67,11 +68,5 @@ class Handling:
     def __call__(self, failed: MeasureOutcome) -> Handled | None:
         if self.handler is None:
             return None
-        injector = getattr(self.session.arm, "injector", None)
-        if injector is not None:
-            injector.paused = True
-        try:
+        with paused(self.session.arm.injector):
             return self.handler.handle(failed)
-        finally:
-            if injector is not None:
-                injector.paused = False

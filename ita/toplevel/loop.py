@@ -92,11 +92,13 @@ from ita.toplevel.recording import (
     Recorder,
     measured_result,
 )
+from ita.toplevel.registration import PartRegistration
 from ita.toplevel.signals import RunSignals, StopNow
 from ita.toplevel.start import start_run
 
 if TYPE_CHECKING:
     from ita.archive import Archive
+    from ita.task.align import Alignment
     from ita.task.session import Session
 
 __all__ = ["JOB", "MAX_FAILURES_IN_A_ROW", "Progress", "RunSummary", "TASKS", "TopLevel", "job_tasks", "jobs",
@@ -164,6 +166,7 @@ class TopLevel:
             if handle_exceptions else Handling(session, None)
         #: the interim checks of the cell against its reference artifacts (None: the knowledge sets none)
         self.checks = CellChecks.of(session, archive, run_id, self.plans, self.handle)
+        self.registration = PartRegistration(session, archive, run_id, self.plans)
         self.failed_in_others: dict[str, str] = {}   # view-group members another's frame could not measure
         self.exceptions = 0
         self.frames = 0
@@ -293,7 +296,8 @@ class TopLevel:
                      **{f"slra_{k}": v for k, v in s.slra.stats.items()},
                      "path_planning_wall_s": s.arm.planning_seconds},
             continue_hint=None if status is RunStatus.COMPLETED else f"ita continue {self.run_id}", alarm=alarm,
-            cell=self.cell, planner=self._planner_figures())
+            cell=self.cell, planner=self._planner_figures(),
+            alignment=None if s.alignment is None else s.alignment.to_dict())
         if on_progress is not None:
             on_progress(self._progress(started, current, status.value))
         return summary
@@ -427,6 +431,9 @@ class TopLevel:
         elif name == "note_resequence":
             k = int(args[0])
             self.archive.record_event(self.run_id, sequence_event(self._remade[k], self._cursors[k], s.clock.now))
+        elif name == "register_part":
+            self._state = self.registration.register(self._state)
+            self._reference_from_alignment()
         elif name == "calibrate_probe":
             self._state = self.calibration.calibrate(args[0], self._state)
         elif name == "measure":
@@ -526,7 +533,9 @@ class TopLevel:
         most MAX_HANDLINGS times per measurement), and whether the diagnosis has what was
         measured since the cell's last good check measured again (an arm drift found)."""
         step, out, events, plan_no = self._outcomes[spec_id]
+        aligned = self.session.alignment
         handled = self.handle(out)
+        self._realigned(aligned)
         again = remeasure = False
         if handled is not None:
             found = [handled.diagnosis, *handled.nested]
@@ -553,7 +562,9 @@ class TopLevel:
         if self.checks is None or not self.results.since_check:
             return [], False
         before = self._world()
+        aligned = self.session.alignment
         done = self.checks.check(self._state)
+        self._realigned(aligned)
         self._state = done.state
         if done.handled is not None:
             self.diagnoses += 1
@@ -563,6 +574,21 @@ class TopLevel:
         if done.passed is not False:
             self.results.checked()
         return [], self._world() != before
+
+    def _reference_from_alignment(self) -> None:
+        """The interim checks' reference reading of tooling hole B: where the registration
+        found it (its first check then compares with it, no reading of its own)."""
+        a = self.session.alignment
+        if self.checks is None or a is None or self.checks.bench.reference_spec is None:
+            return
+        self.checks.bench.baseline = a.registered(self.checks.bench.reference_spec)
+
+    def _realigned(self, before: Alignment | None) -> None:
+        """After the Exception Handler: the part registered again (a displaced part) is
+        recorded, and the checks' reference reading is where it found tooling hole B."""
+        if self.session.alignment is not before:
+            self.registration.note_change(before, "a recovery: the part found displaced")
+            self._reference_from_alignment()
 
     def _retake_not_done(self) -> tuple[list[TermValue], bool]:
         """Measure once more, before the run ends, what it left not done after a fault it

@@ -19,7 +19,7 @@ result is recorded once, when its network is solved.
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -101,11 +101,15 @@ def _frame_id(spec_id: str, k: object) -> str:
 
 
 def decide(pendings: Sequence[Pending], specs: Mapping[str, MeasurementSpec], features: Mapping[str, Feature],
-           pose_sigma: float) -> tuple[list[Result], NetworkSolution]:
+           pose_sigma: float, registration: Callable[[Sequence[float]], float] | None = None
+           ) -> tuple[list[Result], NetworkSolution]:
     """Solve the network of `pendings` and decide each: a measured result (value 2 |d|, its
     standard uncertainty 2 sigma along the worst axis, the reason saying how the network
     decided it), or not done when its hole is in no frame the network kept.  pose_sigma:
-    a frame's shift in the part's plane (mm, 1 sigma per axis)."""
+    a frame's shift in the part's plane (mm, 1 sigma per axis); registration: the part's
+    registration on its datums, the standard uncertainty (mm, per axis) of where it puts a
+    part point (x, y): a network without a datum hole of its own rests on the frames'
+    poses, which the registration placed, and its holes carry that term too."""
     holes = {f.id: f for f in features.values() if isinstance(f, Hole)}
     sightings = [s for p in pendings for s in p.sightings]
     nominal = {h: holes[h].center[:2] for h in {s.hole for s in sightings} if h in holes}
@@ -125,8 +129,14 @@ def decide(pendings: Sequence[Pending], specs: Mapping[str, MeasurementSpec], fe
                                          sim_time_end=p.t1))
             continue
         d = np.asarray(est.deviation)
-        u = 2 * _radial_sigma(d, np.asarray(est.cov))  # the value is 2 |d|
-        term, size = max(est.budget.items(), key=lambda kv: kv[1])
+        cov = np.asarray(est.cov)
+        budget = dict(est.budget)
+        if registration is not None and not fixed:
+            u_reg = registration(holes[spec.feature].center[:2]) if spec.feature in holes else 0.0
+            cov = cov + np.eye(2) * u_reg ** 2
+            budget["registration on the datums"] = u_reg
+        u = 2 * _radial_sigma(d, cov)  # the value is 2 |d|
+        term, size = max(budget.items(), key=lambda kv: kv[1])
         zone = spec.upper - spec.lower
         note = (f"network of {n_frames} frames (seen in {len(est.frames)}); U/tolerance {2 * u / zone:.2f}; "
                 f"largest term: {term} (u {2 * size:.4f} mm)")

@@ -108,8 +108,10 @@ class HeldPositions:
             if not waiting or (not final and any(i not in done and i not in self.pending for i in members)):
                 continue
             try:
+                a = self.session.alignment
                 decided, solution = decide(waiting, self.session.specs, ctx.features,
-                                           ctx.pose_sigma_m / ctx.placement.scale)
+                                           ctx.pose_sigma_m / ctx.placement.scale,
+                                           None if a is None else a.u_at)
             except (ValueError, RuntimeError, np.linalg.LinAlgError) as exc:   # never lose the frames
                 for p in waiting:
                     self.pending.pop(p.spec_id, None)

@@ -83,6 +83,7 @@ class RunSummary:
     alarm: str = ""             # why the Top Level stopped the run itself (failures in a row)
     cell: JsonObject | None = None   # a cell check's report (the job cell_check)
     planner: dict[str, float] = field(default_factory=dict)   # the HTN plan's figures (plan_s, replans, ...)
+    alignment: JsonObject | None = None   # where the part was registered (ita.task.align), last
 
     @property
     def cycle_s(self) -> float:
@@ -100,4 +101,5 @@ class RunSummary:
                 "devices": {k: round(v, 3) for k, v in self.devices.items()},
                 "continue": self.continue_hint, "alarm": self.alarm or None,
                 "planner": {k: round(v, 4) for k, v in self.planner.items()},
+                "alignment": self.alignment,
                 **({"cell": self.cell} if self.cell is not None else {})}

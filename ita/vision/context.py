@@ -174,6 +174,9 @@ class VisionContext:
     web_tolerance: float = 0.127
     position_zones: Mapping[str, float] = field(default_factory=dict)
     pose_sigma_m: float = 0.25e-3 / 3
+    #: the part's registration on its datums: standard uncertainty (mm, per axis) of where
+    #: it puts a point of the part, at its farthest corner (ita.task.align; 0: not registered)
+    registration_u_mm: float = 0.0
     shape: tuple[int, int] = (256, 256)
     pose_datum_frames: int = POSE_DATUM_FRAMES
     diameter_tolerances: Mapping[str, float] = field(default_factory=dict)

@@ -48,13 +48,14 @@ FloatArray = NDArray[np.float64]
 
 
 def _hole_diameter(view: View, spec: MeasurementSpec, hole: Hole, ctx: VisionContext) -> VisionResult:
-    fit, _, diag = fit_rim(view, hole, "rim")
+    fit, near, diag = fit_rim(view, hole, "rim")
     px = diag["pixel_mm"]
     edge_model = RIM_EDGE_MODEL_PX * px if fit.coverage >= WHOLE_RIM else edge_sigma(px, fit.n)
     budget = {"rim fit": 2 * EDGE_CORRELATION * fit.radius_sigma, "edge model": 2 * edge_model,
               "scanner angle scale": 2e-4 * fit.radius, "rim model (wall, surfaces beyond)": 2 * diag["u_model"]}
     u = math.hypot(*budget.values())
-    diag.update(center=fit.center, budget=budget)
+    # the face round the hole, at its centre: a datum hole's face is the part's datum face
+    diag.update(center=fit.center, budget=budget, face_z=near.z(float(fit.center[0]), float(fit.center[1])))
     return VisionResult(spec.id, spec.kind, 2 * fit.radius, u, diag)
 
 
@@ -80,14 +81,16 @@ def _hole_position(view: View, spec: MeasurementSpec, hole: Hole, ctx: VisionCon
     # error (a new draw at each approach); the same in every frame: the edge model and the
     # neighbours' own position errors
     u_random = math.hypot(u_fit, pose_u) if not used else u_fit
-    u_system = math.hypot(diag["u_model_centre"], u_reg) if used else diag["u_model_centre"]
+    # with the pose as datum, the part's registration on its datums is the frame's datum too
+    u_system = math.hypot(diag["u_model_centre"], u_reg) if used else \
+        math.hypot(diag["u_model_centre"], ctx.registration_u_mm)
     u_axis = math.hypot(u_random, u_system)
     # the rims of this frame for a network adjustment (ita.vision.network) of the frames
     diag.update(center=fit.center, registered_on=used, left_out=left, shift=tuple(shift), deviation=tuple(d),
                 datum="neighbours" if used else "pose", u_random=u_random, u_systematic=u_system,
                 sightings=sightings, budget={"rim fit": u_fit, "edge model": float(diag["u_model_centre"]),
                                              **({"neighbours' positions": u_reg} if used else
-                                                {"arm pose": pose_u})})
+                                                {"arm pose": pose_u, "registration": ctx.registration_u_mm})})
     return VisionResult(spec.id, spec.kind, 2 * float(np.hypot(*d)), 2 * u_axis, diag)
 
 

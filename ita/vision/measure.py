@@ -190,7 +190,12 @@ def _mean_size(spec: MeasurementSpec, replies: Sequence[VisionResult]) -> Vision
             "budget": budget}
     centres = [r.diagnostics.get("center") for r in replies]
     if all(c is not None for c in centres):       # a hole's centre: the frames' mean (their pose errors average)
-        diag["center"] = tuple(float(x) for x in np.mean(np.asarray(centres, dtype=float), axis=0))
+        c = np.asarray(centres, dtype=float)
+        diag["center"] = tuple(float(x) for x in np.mean(c, axis=0))
+        diag["center_scatter"] = float(np.sqrt(np.mean(np.var(c, axis=0, ddof=1))))   # per axis, one frame
+    faces = [r.diagnostics.get("face_z") for r in replies]
+    if all(f is not None for f in faces):
+        diag["face_z"] = float(np.mean(np.asarray(faces, dtype=float)))
     return VisionResult(spec.id, spec.kind, float(values.mean()), math.hypot(*budget.values()), diag)
 
 

@@ -157,6 +157,25 @@ class PartPlacement:
         """World directions (n, 3) of part directions (n, 3) (unit in, unit out)."""
         return frames.rotate_vectors(normals, self.rotation_matrix())
 
+    def moved(self, rotation: np.ndarray, shift_mm: np.ndarray) -> PartPlacement:
+        """This placement with the part first moved in its own frame: the part point p (mm)
+        goes where ``rotation @ p + shift_mm`` was (a rigid motion of the part, as a fixture
+        error or a registration states it)."""
+        r0 = self.rotation_matrix()
+        rot = r0 @ np.asarray(rotation, dtype=float)
+        t = np.asarray(self.translation, dtype=float) + self.scale * (r0 @ np.asarray(shift_mm, dtype=float))
+        r = [(float(row[0]), float(row[1]), float(row[2])) for row in rot]
+        return PartPlacement(self.scale, (r[0], r[1], r[2]), (float(t[0]), float(t[1]), float(t[2])),
+                             self.envelope_min_mm, self.envelope_max_mm)
+
+    def offset_from(self, other: PartPlacement) -> tuple[np.ndarray, np.ndarray]:
+        """(rotation (3, 3), shift (3,) mm) that :meth:`moved` applies to `other` to give
+        this placement: where this placement puts the part, in `other`'s part frame."""
+        r0 = other.rotation_matrix()
+        rot = r0.T @ self.rotation_matrix()
+        shift = r0.T @ (np.asarray(self.translation, dtype=float) - np.asarray(other.translation, dtype=float))
+        return rot, shift / other.scale
+
 
 #: A contact probe's shape (the simulator's and the collision model's one definition):
 PROBE_HOLDER_RADIUS = 0.03   # m: the holder, a cylinder along the flange axis up to the bend

@@ -100,6 +100,10 @@
     const meta = [["run", run.id], ["part", run.part], ["part directory", run.part_dir], ["seed", run.seed],
       ["status", run.status], ["created (UTC)", run.created], ["ended (UTC)", run.ended]].filter((kv) => kv[1] !== null && kv[1] !== undefined);
     html += "<h3>Run</h3>" + table(["", ""], meta.concat(sec.settings || []));
+    if (sec.alignment && sec.alignment.length) {
+      html += "<h3>Alignment: the part located on its datums</h3>" +
+        table(["simulated time", "when", "registration"], sec.alignment);
+    }
     root.insertAdjacentHTML("beforeend", html);
   }
 

@@ -1,0 +1,76 @@
+"""The Top Level registers the part on its datums before it measures it (kb/tasks.pl:
+``register_part`` opens the jobs that measure the part), and records every registration,
+its own or a recovery's (a part found displaced is registered again, ita.diagnosis), as
+an ``alignment`` event: the report and the QIF export state it from there.
+
+    reg = PartRegistration(session, archive, run_id, plans)
+    state = reg.register(state)          # the SLRA fetched if need be; an alignment event
+    reg.note_change(before, "recovery")  # after a handler: an event when it registered again
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from ita.archive import Event
+from ita.devices.injection import paused
+from ita.logic.json_value import JsonObject
+from ita.logic.world import WorldModel
+from ita.task.align import AlignDone, Alignment, register_part
+from ita.toplevel.events import PlanNumbers, plan_events
+
+if TYPE_CHECKING:
+    from ita.archive import Archive
+    from ita.planning.state import WorldState
+    from ita.task.session import Session
+
+__all__ = ["PartRegistration", "alignment_payload"]
+
+
+def alignment_payload(done: AlignDone | None, alignment: Alignment | None, why: str) -> JsonObject:
+    """An ``alignment`` event's payload."""
+    if alignment is None:
+        return {"registered": False, "why": why, "reason": done.reason if done is not None else ""}
+    return {"registered": True, "why": why, "line": alignment.line(), **alignment.to_dict()}
+
+
+class PartRegistration:
+    """The run's registrations (module docstring)."""
+
+    def __init__(self, session: Session, archive: Archive, run_id: str, plans: PlanNumbers) -> None:
+        self.session = session
+        self.archive = archive
+        self.run_id = run_id
+        self.plans = plans
+
+    def register(self, state: WorldState) -> WorldState:
+        """Register the part with a working SLRA (its first look and measuring steps, no
+        new fault injected meanwhile); the arm's state after."""
+        s = self.session
+        usable = WorldModel(s.kb).usable(state.arm, "slra_tool")
+        held = s.held
+        tool = held if held in usable else (usable[0] if usable else None)
+        if tool is None:
+            self.archive.record_event(self.run_id, Event("alignment", "top", s.clock.now, alignment_payload(
+                None, None, "the run's start") | {"reason": "no working slra_tool to register the part with: "
+                                                               "measured at its nominal placement"}))
+            return state
+        with paused(s.arm.injector):
+            done = register_part(s, state, tool)
+        for out in done.outcomes:
+            if out.plan is not None and out.report is not None:
+                self.archive.record_events(self.run_id, plan_events(out.plan, out.report, None, "registration",
+                                                                    self.plans.next(), tool=out.tool))
+        if done.alignment is not None:
+            s.alignment = done.alignment
+        self.archive.record_event(self.run_id, Event("alignment", "top", s.clock.now,
+                                                     alignment_payload(done, done.alignment, "the run's start")))
+        return done.state
+
+    def note_change(self, before: Alignment | None, why: str) -> None:
+        """An ``alignment`` event when the session's registration is no longer `before`
+        (the Exception Handler registered the part again)."""
+        now = self.session.alignment
+        if now is not None and now is not before:
+            self.archive.record_event(self.run_id, Event("alignment", "top", self.session.clock.now,
+                                                         alignment_payload(None, now, why)))
