@@ -5,15 +5,18 @@ on its datum face A on the fixture's pads, which set its height and tilt; its pl
 the plane of A and its turn about A's normal are found from the tooling holes, datums B
 and C, by the SLRA (a 3-2-1 alignment whose face-A part the fixture makes):
 
-1. each tooling hole from FRAMES frames, each after its own approach (the arm's
-   repeatability averages), its centre from the rim fit (which re-centres its band where
-   the frame shows the hole when it is a little off); a hole the band misses altogether
-   (millimetres off) is first found in its frame as a region of its size
-   (:func:`ita.vision.locate.find_hole`), the part moved there (by that hole alone, or
-   fitted with the holes before it) and the hole measured again;
-2. the part's motion in its plane from the centres (a least-squares rigid fit,
-   :func:`fit_motion`) moves every pose on the part;
+1. a first look: each tooling hole in one frame where the current placement puts it, its
+   centre from the rim fit (which re-centres its band where the frame shows the hole when
+   it is a little off) or, a hole the band misses altogether (millimetres off), from where
+   the frame shows a region of its size (:func:`ita.vision.locate.find_hole`); the part's
+   motion in its plane from those centres (a least-squares rigid fit, :func:`fit_motion`)
+   moves every pose on the part;
+2. a measurement: each tooling hole from FRAMES frames, each after its own approach (the
+   arm's repeatability averages; a hole still missed is found in its frame, the part moved
+   there and the hole measured again), the motion fitted again and composed;
 3. again while the last fit moved a datum by more than SETTLED_MM (at most ROUNDS).
+   Face A's height round each hole comes from the same frames: further than FACE_OFF_MM
+   from nominal, the part does not sit on the fixture's pads and is not registered.
 
 The result, an :class:`Alignment`, is the registered placement (what the Geometric
 Reasoner puts every pose on the part by, and Vision turns frames into part points by),
@@ -289,24 +292,27 @@ def register_part(session: Session, state: WorldState, tool: str, *, frames: int
     residuals = np.zeros(len(datums))
     nominal = np.array([h.center[:2] for h, _ in datums], dtype=float)
     steps = 0
-    for step in range(ROUNDS):
+    for step in range(ROUNDS + 1):          # a first look (one frame each), then the measuring steps
+        n = 1 if step == 0 else frames
         seen: list[FloatArray] = []
         us: list[float] = []
         counts: list[int] = []
         faces: list[float] = []
         for i, (hole, spec_id) in enumerate(datums):
-            out = _look(session, spec_id, state, tool, frames)
+            out = _look(session, spec_id, state, tool, n)
             outcomes.append(out)
             state = out.state
             c, u, k, measured, face = _centre(out, hole, placement)
-            if c is not None and not measured:
+            if step == 0 and c is not None:     # a first look: where it is, roughly, is enough
+                measured = True
+            elif c is not None and not measured:
                 # found in a frame, not where its rim was looked for: the part moved there
                 # (by this hole alone, or fitted on the holes before it), and measured again
                 rot, shift3 = _coarse(nominal[:i + 1], [*seen, c])
                 placement = placement.moved(rot, shift3)
                 apply_alignment(session, placement)
                 seen = [_into(rot, shift3, p) for p in seen]
-                out = _look(session, spec_id, state, tool, frames)
+                out = _look(session, spec_id, state, tool, n)
                 outcomes.append(out)
                 state = out.state
                 c, u, k, measured, face = _centre(out, hole, placement)
@@ -334,7 +340,7 @@ def register_part(session: Session, state: WorldState, tool: str, *, frames: int
                                       (float(c[0]), float(c[1])), float(u), int(k),
                                       _xy(_rot2(theta).T @ (c - fitted[i]) + nominal[i]), faces[i])
                          for i, ((h, sid), c, u, k) in enumerate(zip(datums, seen, us, counts)))
-        if moved <= SETTLED_MM:
+        if step > 0 and moved <= SETTLED_MM:
             break
     rot_total, shift_total = placement.offset_from(nominal_place)
     turn = math.degrees(math.atan2(rot_total[1, 0], rot_total[0, 0]))
