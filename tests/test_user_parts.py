@@ -103,6 +103,7 @@ def test_a_lone_found_hole_takes_the_pose_for_datum(plate):
     assert all(h.role is HoleRole.LIGHTENING for h in holes.values())   # none within a fastener pitch
 
 
+@pytest.mark.slow     # about 160 s on a 2-core machine: its calibration on the master alone is most of it
 def test_an_asbuilt_plate_calibrated_on_its_master_is_scored_without_false_accepts(plate, tmp_path, ita_home):
     from ita.scoring.truth import true_values, truth_source
 
