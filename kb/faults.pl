@@ -80,6 +80,7 @@ exception(out_of_view,             'a patch the measurement needs is outside the
 exception(too_few_pixels,          'too few valid pixels or edge points in the frame').
 exception(fit_residual,            'a fit does not match the range image').
 exception(range_image_implausible, 'the range image makes no sense').
+exception(view_not_measurable,     'the nominal part leaves nothing in the view to measure the feature on').
 exception(tool_not_seated,         'the tool did not latch on pick-up').
 exception(position_drift_detected, 'the arm is not where it says it is').
 
@@ -151,6 +152,7 @@ raises(view_cannot_measure,        out_of_view,             0.8).
 raises(occlusion,                  out_of_view,             0.3).
 raises(view_cannot_measure,        too_few_pixels,          0.5).
 raises(view_cannot_measure,        fit_residual,            0.3).
+raises(view_cannot_measure,        view_not_measurable,     1.0).
 raises(dirty_window(slra),         too_few_pixels,          0.9).
 raises(occlusion,                  too_few_pixels,          0.6).
 raises(dirty_window(slra),         fit_residual,            0.4).

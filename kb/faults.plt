@@ -31,6 +31,10 @@ test(a_cause_needs_its_context, true(Causes == [sensor_cable_fault(gauge), arm_d
     candidate_causes(no_echo, [device=gauge], Pairs),
     pairs_keys(Pairs, Causes).
 
+% a view the nominal part leaves nothing to measure on is no fault: no cable, no recovery
+test(a_view_with_nothing_to_measure_on_is_no_fault, true(Causes == [view_cannot_measure])) :-
+    findall(C, raises(C, view_not_measurable, _), Causes).
+
 test(the_cal_block_tells_a_worn_probe, true(O == doubled)) :-
     test_outcome(read_cal_block, worn_probe(us_probe_2), [probe=us_probe_2], O).
 

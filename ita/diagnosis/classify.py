@@ -32,7 +32,7 @@ _GAUGE = {
 #: Vision's failure -> the exception
 _VISION = {
     "out_of_view": "out_of_view", "occluded": "too_few_pixels", "too_few_pixels": "too_few_pixels",
-    "fit_residual": "fit_residual", "not_measurable": "range_image_implausible", "garbage": "range_image_implausible",
+    "fit_residual": "fit_residual", "not_measurable": "view_not_measurable", "garbage": "range_image_implausible",
 }
 #: other exception replies -> the exception
 _OTHER = {

@@ -13,6 +13,7 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy import ndimage
 
+from ita.part import geometry2d as g2
 from ita.part.model import Feature, FlangeSegment, Hole, HoleRole, Stiffener
 from ita.specs.model import MeasurementKind as K
 from ita.specs.model import MeasurementSpec
@@ -122,12 +123,26 @@ def _edge_distance(view: View, spec: MeasurementSpec, hole: Hole, ctx: VisionCon
 def _web_plane(view: View, c: FloatArray, u: FloatArray, v: FloatArray, u_range, v_range, ctx: VisionContext,
                name: str, clear: bool = False) -> tuple[FloatArray, float]:
     mid = c + 0.5 * (u_range[0] + u_range[1]) * u
-    z_web = ctx.web_at(mid)
+    z_web, at = ctx.web_at(mid), mid
+    if z_web is None and clear:
+        # a rib meets the feature here: the floor on the nearer side of it along the patch
+        for t in sorted(np.linspace(v_range[0], v_range[1], 9), key=abs):
+            at = mid + t * v
+            z_web = ctx.web_at(at)
+            if z_web is not None:
+                break
     if z_web is None:
         raise VisionFail(VisionFailure.NOT_MEASURABLE, f"no pocket floor beside the feature at {tuple(np.round(mid, 1))}")
     patch, region = rect_patch(view, name, c, u, v, u_range, v_range, z_web)
     if clear:
         region = region & _clear_of_steps(view, patch, z_web, ctx)
+        pocket = next((p for p in ctx.pockets() if g2.points_in_polygon(np.atleast_2d(at), p.outline_array)[0]), None)
+        if pocket is not None:           # one pocket's floor: a rib across the patch parts two
+            xy = nominal_points(view, patch, z_web)[..., :2].reshape(-1, 2)
+            inside = np.zeros(len(xy), dtype=bool)
+            ok = np.isfinite(xy).all(axis=1)
+            inside[ok] = g2.points_in_polygon(xy[ok], pocket.outline_array)
+            region = region & inside.reshape(region.shape)
     _, used = fit_face(view, patch, region, z_web)
     return patch.take(view.points)[used], z_web
 
@@ -135,10 +150,11 @@ def _web_plane(view: View, c: FloatArray, u: FloatArray, v: FloatArray, u_range,
 def _clear_of_steps(view: View, patch: Patch, z: float, ctx: VisionContext) -> NDArray[np.bool_]:
     """(h, w) over the patch: pixels whose beam stays on the nominal face at height z,
     every pixel within STEP_CLEAR_MM of them (in the image, at the face) meeting that face
-    on the nominal mesh along its ray through the reported pose.  All True when Vision has
-    no nominal mesh (a generated part, whose patches are placed on its exact features)."""
+    on the nominal mesh along its ray through the reported pose.  Without a nominal mesh (a
+    generated part, whose patches are placed on its exact features): the pixels whose ray
+    passes clear of every rib standing on that face (:func:`_clear_of_ribs`)."""
     if ctx.floor is None:
-        return np.ones((patch.r1 - patch.r0, patch.c1 - patch.c0), dtype=bool)
+        return _clear_of_ribs(view, patch, z, ctx)
     h, w = view.shape
     reach = float(np.nanmedian(view.plane_range((0.0, 0.0, z), patch.take(view.dirs))))
     m = int(math.ceil(STEP_CLEAR_MM / view.pixel_mm(reach))) + 1
@@ -149,6 +165,41 @@ def _clear_of_steps(view: View, patch: Patch, z: float, ctx: VisionContext) -> N
         on = (np.abs(view.origin[2] + dist * dirs[:, 2] - z) < FACE_MATCH_MM).reshape(r1 - r0, c1 - c0)
     clear = ndimage.minimum_filter(on, size=2 * m + 1, mode="nearest")
     return clear[patch.r0 - r0:patch.r1 - r0, patch.c0 - c0:patch.c1 - c0]
+
+
+#: heights along a ray at which it is tested against a rib's strip
+_RAY_SAMPLES = 8
+
+
+def _clear_of_ribs(view: View, patch: Patch, z: float, ctx: VisionContext) -> NDArray[np.bool_]:
+    """(h, w) over the patch: pixels whose ray, from the face at height z up to the top of
+    each nominal rib that stands higher, stays further than half the rib's width, the blur
+    and STEP_CLEAR_MM from the rib's line (a flange height's web patch beside a rib that
+    meets the flange there would fit the rib's side and top as the web)."""
+    xy = nominal_points(view, patch, z)[..., :2]
+    o = view.origin
+    lean = (o[:2] - xy) / max(float(o[2]) - z, 1e-9)       # xy per mm of height, toward the sensor
+    clear = np.ones(xy.shape[:2], dtype=bool)
+    centre = np.nanmean(xy.reshape(-1, 2), axis=0)
+    size = float(np.nanmax(np.linalg.norm(xy.reshape(-1, 2) - centre, axis=1)))
+    for rib in ctx.features.values():
+        if not isinstance(rib, Stiffener) or rib.height <= z:
+            continue
+        a, b = np.asarray(rib.start, dtype=float), np.asarray(rib.end, dtype=float)
+        reach = rib.width / 2 + BLUR_MM + STEP_CLEAR_MM
+        rise = rib.height - z
+        if _point_segment(centre[None], a, b)[0] > size + reach + rise * float(np.nanmax(np.abs(lean))):
+            continue
+        for hh in np.linspace(0.0, rise, _RAY_SAMPLES):
+            clear &= _point_segment(xy + lean * hh, a, b) > reach
+    return clear
+
+
+def _point_segment(p: FloatArray, a: FloatArray, b: FloatArray) -> FloatArray:
+    """Distances (...) of points p (..., 2) from the segment a-b."""
+    d = b - a
+    t = np.clip(((p - a) @ d) / max(float(d @ d), 1e-12), 0.0, 1.0)
+    return np.asarray(np.linalg.norm(p - (a + t[..., None] * d), axis=-1), dtype=np.float64)
 
 
 def _height(top: FloatArray, webs: list[tuple[FloatArray, float]], ctx: VisionContext) -> tuple[float, float, dict]:
