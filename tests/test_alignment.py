@@ -124,3 +124,27 @@ def test_a_part_knocked_mid_run_is_found_registered_again_and_the_run_completes(
         assert all(a["registered"] for a in aligned)
         causes = [e.payload.get("cause") for e in archive.events(run_id, kinds=["diagnosis"])]
         assert "part_displaced" in causes
+
+
+def test_a_part_that_could_not_be_registered_says_so_at_the_end_of_its_run(tmp_path, builtin_part, monkeypatch) -> None:
+    """Tooling holes not found where the cell can see them: the run goes on at the placement
+    it has, and its summary says the part was not registered, and why (`alignment` of the
+    JSON summary too); the archive keeps the event."""
+    from click.testing import CliRunner
+
+    import ita.toplevel.registration as registration
+    from ita.archive import Archive, archive_path
+    from ita.cli import main
+    from ita.task.align import AlignDone
+
+    def not_found(session, state, tool, **_):
+        return AlignDone(None, "TH-B (datum B) not found in its view: the part is further off its place than the "
+                               "cell can see", (), state)
+
+    monkeypatch.setattr(registration, "register_part", not_found)
+    res = CliRunner().invoke(main, ["inspect", "--limit", "2", "--runs-dir", str(tmp_path), "--placement", "exact"])
+    assert res.exit_code == 0, res.output
+    assert "the part was NOT registered on its datums: TH-B (datum B) not found" in res.output
+    with Archive.open(archive_path(tmp_path), create=False) as archive:
+        events = archive.events(archive.resolve("last"), kinds=["alignment"])
+    assert [e.payload["registered"] for e in events] == [False] and "not found" in events[0].payload["reason"]

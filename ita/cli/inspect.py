@@ -125,6 +125,10 @@ def _summary_text(summary: Any) -> str:
              + (f" ({d['wall_s_per_measurement'] * 1000:.0f} ms each)" if d["wall_s_per_measurement"] else ""),
              "  breakdown: " + ", ".join(f"{k} {v:.0f} s" for k, v in summary.breakdown.items() if v > 0),
              f"  exceptions {summary.exceptions}; SLRA scans {summary.frames}"]
+    aligned = summary.alignment
+    if aligned is not None:
+        lines.append(f"  {aligned['line']}" if aligned.get("registered") else
+                     f"  the part was NOT registered on its datums: {aligned.get('reason', '')}")
     if summary.planner:
         f = summary.planner
         lines.append(f"  top level: {f['actions']:.0f} actions of an HTN plan made in {f['plan_s']:.2f} s; "

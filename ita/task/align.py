@@ -138,7 +138,8 @@ class Alignment:
 
     def to_dict(self) -> JsonObject:
         rot = self.placement.rotation_matrix()
-        return {"shift_mm": [round(x, 4) for x in self.shift_mm], "turn_deg": round(self.turn_deg, 5),
+        return {"registered": True, "line": self.line(),
+                "shift_mm": [round(x, 4) for x in self.shift_mm], "turn_deg": round(self.turn_deg, 5),
                 "u_shift_mm": round(self.u_shift_mm, 4), "u_turn_deg": round(self.u_turn_deg, 5),
                 "residuals_mm": {k: round(v, 4) for k, v in self.residuals_mm.items()},
                 "datums": list(self.datums), "steps": self.steps, "seconds": round(self.seconds, 1),

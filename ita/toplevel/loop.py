@@ -297,7 +297,7 @@ class TopLevel:
                      "path_planning_wall_s": s.arm.planning_seconds},
             continue_hint=None if status is RunStatus.COMPLETED else f"ita continue {self.run_id}", alarm=alarm,
             cell=self.cell, planner=self._planner_figures(),
-            alignment=None if s.alignment is None else s.alignment.to_dict())
+            alignment=self.registration.last if s.alignment is None else s.alignment.to_dict())
         if on_progress is not None:
             on_progress(self._progress(started, current, status.value))
         return summary

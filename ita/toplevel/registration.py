@@ -31,7 +31,7 @@ def alignment_payload(done: AlignDone | None, alignment: Alignment | None, why: 
     """An ``alignment`` event's payload."""
     if alignment is None:
         return {"registered": False, "why": why, "reason": done.reason if done is not None else ""}
-    return {"registered": True, "why": why, "line": alignment.line(), **alignment.to_dict()}
+    return {"why": why, **alignment.to_dict()}
 
 
 class PartRegistration:
@@ -42,6 +42,8 @@ class PartRegistration:
         self.archive = archive
         self.run_id = run_id
         self.plans = plans
+        #: the last registration's event payload (None: none made in this process)
+        self.last: JsonObject | None = None
 
     def register(self, state: WorldState) -> WorldState:
         """Register the part with a working SLRA (its first look and measuring steps, no
@@ -51,9 +53,9 @@ class PartRegistration:
         held = s.held
         tool = held if held in usable else (usable[0] if usable else None)
         if tool is None:
-            self.archive.record_event(self.run_id, Event("alignment", "top", s.clock.now, alignment_payload(
-                None, None, "the run's start") | {"reason": "no working slra_tool to register the part with: "
-                                                               "measured at its nominal placement"}))
+            self.last = alignment_payload(None, None, "the run's start") | {
+                "reason": "no working slra_tool to register the part with: measured at its nominal placement"}
+            self.archive.record_event(self.run_id, Event("alignment", "top", s.clock.now, self.last))
             return state
         with paused(s.arm.injector):
             done = register_part(s, state, tool)
@@ -63,8 +65,8 @@ class PartRegistration:
                                                                     self.plans.next(), tool=out.tool))
         if done.alignment is not None:
             s.alignment = done.alignment
-        self.archive.record_event(self.run_id, Event("alignment", "top", s.clock.now,
-                                                     alignment_payload(done, done.alignment, "the run's start")))
+        self.last = alignment_payload(done, done.alignment, "the run's start")
+        self.archive.record_event(self.run_id, Event("alignment", "top", s.clock.now, self.last))
         return done.state
 
     def note_change(self, before: Alignment | None, why: str) -> None:
