@@ -57,6 +57,8 @@ def test_a_side_hole_is_measured_in_a_frame_along_its_axis(plate):
     assert np.allclose(local_ctx.placement.to_world(np.array([hole.center])), world)
 
 
+@pytest.mark.slow     # about 2 minutes on a 2-core machine (the default suite inspects a user's mesh part in
+                      # tests/test_user_mesh_scaled.py)
 def test_the_plate_is_prepared_inspected_and_reported(plate, tmp_path, ita_home):
     """Simulated as designed (no as-built given): scored against the nominal mesh's own values."""
     result = run("prepare", "--part", str(plate))

@@ -37,13 +37,17 @@ def _tool_for(part_dir: Path | None, kb: KnowledgeBase, meas_id: str) -> str:
 
 
 def _planner(part_dir: Path | None) -> tuple["OperationPlanner", Part]:
-    """The part and an Operation Planner on its MACROP store (slow imports here)."""
+    """The part and an Operation Planner on its MACROP store, its world model the one a run
+    starts from (reset, then the tool marks a person set; slow imports here)."""
     from ita.logic.bridge import KnowledgeBase
     from ita.part.store import load_part, part_key
     from ita.planning import OperationPlanner, store_path
+    from ita.sequence.store import apply_tool_marks, load_tool_marks
 
     part = load_part(part_dir)
-    return OperationPlanner(KnowledgeBase(), store_path(part_key(part))), part
+    kb = KnowledgeBase()
+    apply_tool_marks(kb, load_tool_marks())
+    return OperationPlanner(kb, store_path(part_key(part))), part
 
 
 def _table(headers: tuple[str, ...], rows: Sequence[tuple[str, ...]]) -> str:
