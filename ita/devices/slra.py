@@ -38,8 +38,9 @@ measures.  The executive advances the clock to each reply.
 
 from __future__ import annotations
 
+import contextlib
 import math
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import replace
 
 import numpy as np
@@ -151,6 +152,21 @@ class SlraDevice:
         if self._scene.placement != self.world.part_placement:
             self._scene = self._scene.placed(self.world.part_placement)
         return self._scene
+
+    @contextlib.contextmanager
+    def frames_for_reading(self, spec_id: str, frames: int) -> Iterator[None]:
+        """At least `frames` frames of `spec_id` (each after its own approach) while inside:
+        a reading of the reference feature or of a datum, not the run's own need."""
+        asked = self.frames_asked
+        before = asked.get(spec_id)
+        asked[spec_id] = max(frames, before or 1)
+        try:
+            yield
+        finally:
+            if before is None:
+                asked.pop(spec_id, None)
+            else:
+                asked[spec_id] = before
 
     def register(self, placement: PartPlacement, u_mm: float = 0.0) -> None:
         """Measure in the part frame of `placement` from now on (the part registered on its

@@ -375,16 +375,8 @@ class TestBench:
     def reference_reading(self, spec_id: str, state: WorldState, tool: str) -> MeasureOutcome:
         """The reference feature measured from REFERENCE_FRAMES frames, each after its own
         approach (asked of the SLRA for this reading only)."""
-        asked = self.session.slra.frames_asked
-        before = asked.get(spec_id)
-        asked[spec_id] = max(REFERENCE_FRAMES, before or 1)
-        try:
+        with self.session.slra.frames_for_reading(spec_id, REFERENCE_FRAMES):
             return measure_one(self.session, spec_id, state, tool)
-        finally:
-            if before is None:
-                asked.pop(spec_id, None)
-            else:
-                asked[spec_id] = before
 
     def reference_centre(self, out: MeasureOutcome) -> tuple[float, float] | None:
         """The reference feature's centre (part frame, mm) in a measurement of it."""

@@ -7,8 +7,10 @@ face A and its turn about the face's normal are off by a few tenths of a millime
 tenth of a degree or two, a new draw every time it is clamped.  A knock displaces it much
 further (:func:`knocked`).
 
-    placement = seated(cell.part, part_middle_mm, rng)     # the truth of one run
-    placement = knocked(placement, part_middle_mm, rng)     # after a knock mid-run
+    placement = seated(cell.part, rng)          # the truth of one run
+    placement = knocked(placement, rng)         # after a knock mid-run
+
+Both turn the part about the middle of its envelope.
 
 Only the simulator holds the result (``SimWorld.part_placement``); the measuring side
 finds it by registering the part on its datums (ita.task.align).
@@ -19,7 +21,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import NDArray
 
 from ita.workcell.model import PartPlacement
 
@@ -50,23 +52,21 @@ SEATING = FixtureError(shift_mm=0.25, turn_deg=0.1)
 KNOCK = FixtureError(shift_mm=1.5, turn_deg=0.2)
 
 
-def _turned(placement: PartPlacement, middle_mm: ArrayLike, shift: FloatArray, turn: float) -> PartPlacement:
+def _turned(placement: PartPlacement, shift: FloatArray, turn: float) -> PartPlacement:
     c, s = np.cos(turn), np.sin(turn)
     rot = np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
-    m = np.asarray(middle_mm, dtype=float)
+    m = (np.asarray(placement.envelope_min_mm, dtype=float) + np.asarray(placement.envelope_max_mm, dtype=float)) / 2
     return placement.moved(rot, m - rot @ m + shift)       # turned about the part's middle, then shifted
 
 
-def seated(nominal: PartPlacement, middle_mm: ArrayLike, rng: np.random.Generator,
-           error: FixtureError = SEATING) -> PartPlacement:
-    """Where a clamping puts the part: `nominal` turned about `middle_mm` (part frame) and
-    shifted by a draw of `error`."""
+def seated(nominal: PartPlacement, rng: np.random.Generator, error: FixtureError = SEATING) -> PartPlacement:
+    """Where a clamping puts the part: `nominal` turned about its middle and shifted by a
+    draw of `error`."""
     shift, turn = error.draw(rng)
-    return _turned(nominal, middle_mm, shift, turn)
+    return _turned(nominal, shift, turn)
 
 
-def knocked(placement: PartPlacement, middle_mm: ArrayLike, rng: np.random.Generator,
-            error: FixtureError = KNOCK) -> PartPlacement:
+def knocked(placement: PartPlacement, rng: np.random.Generator, error: FixtureError = KNOCK) -> PartPlacement:
     """Where a knock puts the part that sat at `placement`."""
     shift, turn = error.draw(rng)
-    return _turned(placement, middle_mm, shift, turn)
+    return _turned(placement, shift, turn)

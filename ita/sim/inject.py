@@ -252,9 +252,7 @@ class FaultInjector:
         if any(c.obstacle == "part" for c in world.contacts(OBSTACLE_CLEARANCE_M)):
             return False
         before = world.part_placement
-        nominal = world.cell.part
-        middle = (np.asarray(nominal.envelope_min_mm) + np.asarray(nominal.envelope_max_mm)) / 2.0
-        world.place_part(knocked(before, middle, self.rng))
+        world.place_part(knocked(before, self.rng))
         if any(c.obstacle == "part" for c in world.contacts(OBSTACLE_CLEARANCE_M)):
             world.place_part(before)
             return False

@@ -57,9 +57,7 @@ class SimPerson:
         seconds = self._take("reclamp_part")
         world = self.world
         self._reclamps += 1
-        nominal = world.cell.part
-        middle = (np.asarray(nominal.envelope_min_mm) + np.asarray(nominal.envelope_max_mm)) / 2.0
-        world.place_part(seated(nominal, middle, np.random.default_rng([world.seed, 43, self._reclamps])))
+        world.place_part(seated(world.cell.part, np.random.default_rng([world.seed, 43, self._reclamps])))
         world.faults = world.faults.without(Fault.PART_DISPLACED)
         return f"part re-clamped in {seconds:.0f} s"
 

@@ -261,17 +261,8 @@ def _into(rot: FloatArray, shift3: FloatArray, p: FloatArray) -> FloatArray:
 
 def _look(session: Session, spec_id: str, state: WorldState, tool: str, frames: int) -> MeasureOutcome:
     """Measure `spec_id` from `frames` frames, each after its own approach."""
-    asked = session.slra.frames_asked
-    before = asked.get(spec_id)
-    if frames > 1:
-        asked[spec_id] = max(frames, before or 1)
-    try:
+    with session.slra.frames_for_reading(spec_id, frames):
         return measure_one(session, spec_id, state, tool)
-    finally:
-        if before is None:
-            asked.pop(spec_id, None)
-        else:
-            asked[spec_id] = before
 
 
 def register_part(session: Session, state: WorldState, tool: str, *, frames: int = FRAMES) -> AlignDone:

@@ -160,8 +160,7 @@ def open_session(part_dir: Path | None = None, *, seed: int = 0,
     progress("building the simulated workcell")
     truth = cell.part
     if placement_error and len(datums_of(part.features, ctx.specs)) >= 2:
-        middle = (np.asarray(truth.envelope_min_mm) + np.asarray(truth.envelope_max_mm)) / 2.0
-        truth = seated(truth, middle, np.random.default_rng([seed, 41]))
+        truth = seated(truth, np.random.default_rng([seed, 41]))
     world = SimWorld(cell, part.directory, asbuilt_mesh=simulated.mesh, seed=seed, q0=reasoner.home,
                      part_placement=truth)
     try:
