@@ -62,3 +62,51 @@ def test_vision_that_finds_nothing_to_measure_on_raises_no_cable_fault() -> None
 
     assert classify_reply("exception", Term("VISION", ("not_measurable",))) == "view_not_measurable"
     assert classify_reply("exception", Term("VISION", ("garbage",))) == "range_image_implausible"
+
+
+def test_a_narrow_ribs_top_is_found_where_the_frame_shows_it() -> None:
+    """An arm's lateral error of a few tenths moves a 2.5 mm rib's top window onto its
+    edges; the window is centred on the plateau the frame shows (the median across of the
+    pixels at the top's height), not where the reported pose puts it."""
+    from ita.vision.kinds import _rib_offset
+
+    t = np.tile(np.linspace(-6.0, 6.0, 121), (40, 1))              # mm across the rib, 0.1 mm pixels
+    shift = 0.3                                                     # the rib lies 0.3 mm off nominal
+    z = np.where(np.abs(t - shift) < 1.25, 36.0, 3.0)
+    z = z + np.random.default_rng(1).normal(0.0, 0.02, z.shape)
+    z[:, ::17] = np.nan                                             # dropouts
+    region = np.ones(z.shape, dtype=bool)
+    assert abs(_rib_offset(z, t, region, 36.0, 2.4) - shift) < 0.06
+    assert _rib_offset(np.full(z.shape, 3.0), t, region, 36.0, 2.4) == 0.0    # no plateau seen: nominal
+
+
+def test_a_narrow_ribs_height_frame_has_pixels_across_its_top(builtin_part) -> None:
+    """The window that keeps the beam's blur from a rib's edges is a sliver of the default
+    raster on a narrow rib: its height's frame gets the raster that puts MIN_TOP_PIXELS
+    across it; a wide rib keeps the default, and one whose top no raster clears keeps it too
+    (the measurer says it cannot be measured)."""
+    from ita.part.model import Stiffener
+    from ita.specs.model import MeasurementKind as K
+    from ita.specs.model import MeasurementSpec
+    from ita.vision.context import BLUR_MM
+    from ita.vision.for_part import vision_context
+    from ita.vision.scan import MIN_TOP_PIXELS, scan_for
+    from ita.workcell import load_workcell
+
+    ctx = vision_context(builtin_part, load_workcell())
+
+    def frame_for(width: float):
+        rib = Stiffener("R-TEST", (0.0, -100.0), (0.0, 100.0), width, 36.0)
+        spec = MeasurementSpec("SH-TEST", K.STIFFENER_HEIGHT, rib.id, (0.0, 0.0, 36.0), (0.0, 0.0, 1.0), 36.0,
+                               -0.25, 0.25)
+        return scan_for(spec, replace(ctx, features={**ctx.features, rib.id: rib}))
+
+    def pixels_across_top(width: float, g) -> float:
+        window = 2 * ctx.standoff_m * 1000 * np.tan(np.radians(max(g.fov_deg)) / 2)
+        pixel = window / max(g.shape)
+        return 2 * (width / 2 - BLUR_MM - pixel) / pixel
+
+    narrow, wide, too_narrow = frame_for(2.5), frame_for(6.0), frame_for(1.8)
+    assert max(narrow.shape) > max(ctx.shape) and pixels_across_top(2.5, narrow) >= MIN_TOP_PIXELS
+    assert wide.shape == ctx.shape and pixels_across_top(6.0, wide) >= MIN_TOP_PIXELS
+    assert too_narrow.shape == ctx.shape

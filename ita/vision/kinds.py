@@ -21,6 +21,7 @@ from ita.vision.context import (
     BLUR_MM,
     EDGE_CORRELATION,
     FACE_MATCH_MM,
+    MIN_PLANE_PIXELS,
     RIM_EDGE_MODEL_PX,
     STEP_CLEAR_MM,
     WHOLE_RIM,
@@ -46,6 +47,14 @@ from ita.vision.rims import (
 )
 
 FloatArray = NDArray[np.float64]
+
+#: a rib's top plateau: pixels this close to its nominal height (a floor tens of mm below
+#: moves a mixed pixel by more once it holds a few per cent of the footprint)
+PLATEAU_MM = 0.5
+
+#: a rib's top window: at least this half-width (mm) clear of the blur of both its edges (a
+#: window reaching into the blur reads the top low: 4 um on a 2.5 mm rib 36 mm tall)
+MIN_TOP_MM = 0.1
 
 
 def _hole_diameter(view: View, spec: MeasurementSpec, hole: Hole, ctx: VisionContext) -> VisionResult:
@@ -273,6 +282,20 @@ def _inward(seg: FlangeSegment, spec: MeasurementSpec) -> FloatArray:
     return n / np.linalg.norm(n)
 
 
+def _rib_offset(z: FloatArray, t: FloatArray, region: NDArray[np.bool_], height: float, reach: float) -> float:
+    """Where the rib's top lies across the patch (mm along t) as the frame shows it: the
+    median t of the pixels within PLATEAU_MM of its nominal height (0 with too few).  The
+    frame's points sit where its reported pose puts them; an arm's lateral error of a few
+    tenths moves a narrow rib's top window onto its edges, whose mixed pixels (a floor tens
+    of millimetres below) pull the top face down.  Centred on the plateau the frame shows,
+    the window keeps its margin from both edges."""
+    with np.errstate(invalid="ignore"):
+        top = region & np.isfinite(z) & (np.abs(z - height) < PLATEAU_MM) & (np.abs(t) < reach)
+    if int(top.sum()) < MIN_PLANE_PIXELS:
+        return 0.0
+    return float(np.median(t[top]))
+
+
 def _stiffener(view: View, spec: MeasurementSpec, rib: Stiffener, ctx: VisionContext) -> VisionResult:
     along, across = frame_uv(rib.direction)
     p = np.asarray(spec.point[:2])
@@ -282,7 +305,14 @@ def _stiffener(view: View, spec: MeasurementSpec, rib: Stiffener, ctx: VisionCon
     patch, region = rect_patch(view, "rib", p, across, along, (-half - b - 4.0, half + b + 4.0), span, rib.height)
     q = nominal_points(view, patch, rib.height)[..., :2] - p
     t = q @ across
-    top_w = max(half - b, 0.3)
+    t = t - _rib_offset(patch.take(view.points)[..., 2], t, region, rib.height, half + b)
+    top_w = half - b          # the top's window keeps the beam's blur from both edges
+    if spec.kind is K.STIFFENER_WIDTH:
+        top_w = max(top_w, 0.3)   # the edges' reference plane only: a width hardly feels its height
+    elif top_w < MIN_TOP_MM:
+        raise VisionFail(VisionFailure.NOT_MEASURABLE,
+                         f"rib {rib.id} is {rib.width:.2f} mm wide: its top is not seen clear of its edges' mixed "
+                         f"pixels (the beam blurs {b:.2f} mm from each edge)")
     top, top_px = fit_face(view, patch, region & (np.abs(t) < top_w), rib.height)
     if spec.kind is K.STIFFENER_HEIGHT:
         webs = []

@@ -28,6 +28,9 @@ REAPPROACH_SHAPE = (128, 128)  # pixels of each re-approach frame (a rim fit nee
 MIN_HOLE_PIXELS = 11     # a fastener hole's position frame spans the hole's diameter with at least this many pixels
 
 
+MIN_TOP_PIXELS = 4       # a rib height's frame puts at least this many pixels across the rib's top window
+
+
 RASTER_STEP = 128        # a finer raster than ctx.shape grows in steps of this many pixels a side
 
 
@@ -74,6 +77,8 @@ def _raster_for(spec: MeasurementSpec, ctx: VisionContext, fov_deg: tuple[float,
     that many (at most :data:`MAX_RASTER`).  Everything else: ctx.shape.
     """
     f = ctx.features.get(spec.feature)
+    if spec.kind is K.STIFFENER_HEIGHT and isinstance(f, Stiffener):
+        return _rib_top_raster(f, ctx, fov_deg)
     if not (spec.kind is K.HOLE_POSITION and isinstance(f, Hole) and f.role is HoleRole.FASTENER):
         return ctx.shape
     out = []
@@ -82,6 +87,22 @@ def _raster_for(spec: MeasurementSpec, ctx: VisionContext, fov_deg: tuple[float,
         need = MIN_HOLE_PIXELS * window_mm / f.diameter
         out.append(n if need <= n else max(n, min(MAX_RASTER, RASTER_STEP * math.ceil(need / RASTER_STEP))))
     return out[0], out[1]
+
+
+def _rib_top_raster(rib: Stiffener, ctx: VisionContext, fov_deg: tuple[float, float]) -> tuple[int, int]:
+    """A rib height's raster: its top is read in a window that keeps the beam's blur and a
+    pixel from both edges (ita.vision.kinds._stiffener), on a narrow rib a sliver of the
+    default raster's pixels; the first multiple of :data:`RASTER_STEP` (at most
+    :data:`MAX_RASTER`) that puts :data:`MIN_TOP_PIXELS` across it.  A rib whose top no
+    raster clears of the blur keeps ctx.shape (the measurer says it cannot be measured)."""
+    window_mm = 2 * ctx.standoff_m * 1000 * math.tan(math.radians(max(fov_deg)) / 2)
+    n = max(ctx.shape)
+    while n <= MAX_RASTER:
+        pixel = window_mm / n
+        if 2 * (rib.width / 2 - BLUR_MM - pixel) >= MIN_TOP_PIXELS * pixel:
+            return (n, n) if n > max(ctx.shape) else ctx.shape
+        n = RASTER_STEP * (n // RASTER_STEP + 1)
+    return ctx.shape
 
 
 @dataclass(frozen=True)
