@@ -160,3 +160,60 @@ def make_scaled_mesh_part(directory: Path) -> Path:
     (directory / "specs.csv").write_text("\n".join([HEADER, *box_specs(mesh)]) + "\n")
     (directory / "workcell.toml").write_text(own_workcell())
     return directory
+
+
+RIM_WEB = 3.0
+RIM_TOP = 30.0
+RIM_WALL = 12.0
+RIM_X, RIM_Y = 250.0, 200.0           # the plate's half size
+
+
+def rim_plate_mesh() -> trimesh.Trimesh:
+    """A 500 x 400 mm plate whose rim is a wall 12 mm thick and 30 mm high (no flange cap),
+    a 3 mm web in two pockets parted by a 4 mm rib, a lightening hole in each pocket; datum A
+    (the back face) at z = 0."""
+    x0, y0, w = RIM_X - RIM_WALL, RIM_Y - RIM_WALL, 2.0
+    solid = _box((-RIM_X, -RIM_Y, 0), (RIM_X, RIM_Y, RIM_TOP))
+    cutters = [_box((-x0, -y0, RIM_WEB), (-w, y0, RIM_TOP + 5)), _box((w, -y0, RIM_WEB), (x0, y0, RIM_TOP + 5))]
+    for x in (-120.0, 120.0):
+        cutters.append(_cylinder((x, 0, 0), (0, 0, 1), 20.0, 20.0))
+    return solid.difference(trimesh.boolean.union(cutters))
+
+
+def rim_plate_specs() -> list[str]:
+    """Web thicknesses, the rim's heights (no width spec: a wall has no cap) and its wall
+    thicknesses from outside, the rib's heights and widths, the lightening holes."""
+    rows = []
+    for i, (x, y) in enumerate(((-180, 100), (-60, -120), (60, 120), (180, -100))):
+        rows.append(_row(f"WT-{i + 1}", "web_thickness", f"P{i // 2 + 1}", (x, y, RIM_WEB), (0, 0, 1), RIM_WEB,
+                         -0.127, 0.127, note="pocket floor"))
+    mid = RIM_WALL / 2
+    sides = [("N", (0.0, 1.0), ((-120.0, RIM_Y), (120.0, RIM_Y))), ("S", (0.0, -1.0), ((-120.0, -RIM_Y), (120.0, -RIM_Y))),
+             ("E", (1.0, 0.0), ((RIM_X, -100.0), (RIM_X, 100.0))), ("W", (-1.0, 0.0), ((-RIM_X, -100.0), (-RIM_X, 100.0)))]
+    for side, (nx, ny), points in sides:
+        for k, (x, y) in enumerate(points):
+            top = (x - nx * mid, y - ny * mid, RIM_TOP)
+            rows.append(_row(f"FH-{side}{k + 1}", "flange_height", f"RIM-{side}", top, (0, 0, 1), RIM_TOP, -0.25, 0.25,
+                             note="rim wall's top above datum A"))
+            rows.append(_row(f"FT-{side}{k + 1}", "flange_thickness", f"RIM-{side}", (x, y, RIM_TOP / 2), (nx, ny, 0),
+                             RIM_WALL, -0.127, 0.127, note="rim wall from its outer face"))
+    for i, y in enumerate((-100.0, 100.0)):
+        rows.append(_row(f"SH-R1-{i + 1}", "stiffener_height", "R1", (0, y, RIM_TOP), (0, 0, 1), RIM_TOP,
+                         -0.25, 0.25, note="rib top above datum A"))
+        rows.append(_row(f"SW-R1-{i + 1}", "stiffener_width", "R1", (0, y, RIM_TOP), (0, 0, 1), 4.0,
+                         -0.127, 0.127, d=(1, 0, 0), note="rib thickness"))
+    for i, x in enumerate((-120.0, 120.0)):
+        rows.append(_row(f"HD-L{i + 1}", "hole_diameter", f"L{i + 1}", (x, 0, RIM_WEB), (0, 0, 1), 40.0, -0.1, 0.1,
+                         note="lightening hole"))
+        rows.append(_row(f"HP-L{i + 1}", "hole_position", f"L{i + 1}", (x, 0, RIM_WEB), (0, 0, 1), 0.0, 0.0, 0.5,
+                         note="true position"))
+    return rows
+
+
+def make_rim_plate(directory: Path) -> Path:
+    """The rim-walled plate's directory: plate.stl, specs.csv and its own workcell.toml."""
+    directory.mkdir(parents=True, exist_ok=True)
+    rim_plate_mesh().export(directory / "plate.stl")
+    (directory / "specs.csv").write_text("\n".join([HEADER, *rim_plate_specs()]) + "\n")
+    (directory / "workcell.toml").write_text(own_workcell())
+    return directory

@@ -1,6 +1,6 @@
 """`ita diagnosis`: the Exception Handler's diagnoses and what it has learned.
 
-    ita diagnosis show [RUN] [--json]     each diagnosis of a run: exception, posterior,
+    ita diagnosis show [RUN] [--json]     the run's exceptions counted, and each diagnosis: exception, posterior,
                                           tests in order with results and costs, cause,
                                           world update, recovery
     ita diagnosis counts [--json]         how often each exception and cause has occurred
@@ -34,20 +34,41 @@ def diagnosis() -> None:
 @click.option("--json", "as_json", is_flag=True, help="Print JSON.")
 @reports_errors
 def show(run: str, runs_dir: Path | None, as_json: bool) -> None:
-    """Every diagnosis of RUN (an id, a unique prefix, or "last"), in order."""
+    """Every diagnosis of RUN (an id, a unique prefix, or "last"), in order, after the run's
+    count of exceptions (ita.archive.exceptions: the count `ita inspect`, `ita monitor`, the
+    web pages and the reports show).  --json: the counts and one entry per exception (where
+    it happened, its diagnosis or the one that ran it), and any diagnosis no exception
+    raised (an interim check's)."""
+    from ita.archive.exceptions import EVENT_KINDS, ExceptionCounts, exception_records
+
     with open_archive(runs_dir) as archive:
         run_id = resolve_run(archive, run)
-        found = archive.events(run_id, kinds=["diagnosis"])
+        events = archive.events(run_id, kinds=EVENT_KINDS)
+    found = [e for e in events if e.kind == "diagnosis"]
+    records = exception_records(events)
+    counts = ExceptionCounts.of(records)
+    linked = {id(r.diagnosis) for r in records if r.diagnosis is not None}
+    unlinked = [e for e in found if id(e.payload) not in linked]
     if as_json:
-        click.echo(json.dumps([{"sim_time": e.sim_time, **e.payload} for e in found], indent=1))
+        click.echo(json.dumps({"run": run_id, "counts": counts.to_dict(),
+                               "exceptions": [r.to_dict() for r in records],
+                               "diagnoses_without_exception": [{"sim_time": e.sim_time, **e.payload}
+                                                               for e in unlinked]}, indent=1))
         return
+    click.echo(f"run {run_id}: {counts.text()}")
+    aside = [r for r in records if not r.diagnosed]
+    if aside:
+        click.echo("  not diagnosed on their own: " + "; ".join(
+            f"{r.at or 0:.1f} s {r.where} ({r.purpose or 'measurement'}{', ' + r.spec if r.spec else ''}): "
+            f"{r.message[:60]}" for r in aside[:8]) + (f"; and {len(aside) - 8} more" if len(aside) > 8 else ""))
     if not found:
-        click.echo(f"run {run_id}: no exception needed a diagnosis")
+        click.echo("no exception needed a diagnosis")
         return
-    click.echo(f"run {run_id}: {len(found)} diagnoses")
+    click.echo(f"{len(found)} diagnoses")
     for e in found:
         d = e.payload
-        click.echo(f"\n{e.sim_time:9.1f} s  {d['spec']}: {d['exception']}  ({d.get('reply', '')[:90]})")
+        click.echo(f"\n{e.sim_time:9.1f} s  {d['spec']}: {d['exception']}  ({d.get('reply', '')[:90]})"
+                   + (f"  [met while handling {d['during']}]" if d.get("during") else ""))
         click.echo("   posterior: " + ", ".join(f"{c} {p:.2f}" for c, p in d.get("posterior", [])))
         click.echo(f"   decision tree's expected cost: {d.get('expected_s', 0):.1f} s")
         for k, t in enumerate(d.get("tests", []), 1):

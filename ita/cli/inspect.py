@@ -124,7 +124,7 @@ def _summary_text(summary: Any) -> str:
              f"; wall-clock {summary.wall_s:.1f} s for {summary.measured_now} results"
              + (f" ({d['wall_s_per_measurement'] * 1000:.0f} ms each)" if d["wall_s_per_measurement"] else ""),
              "  breakdown: " + ", ".join(f"{k} {v:.0f} s" for k, v in summary.breakdown.items() if v > 0),
-             f"  exceptions {summary.exceptions}; SLRA scans {summary.frames}"]
+             f"  {summary.exceptions.text()}; SLRA scans {summary.frames}"]
     aligned = summary.alignment
     if aligned is not None:
         lines.append(f"  {aligned['line']}" if aligned.get("registered") else
@@ -364,7 +364,7 @@ def monitor_text(state: dict, columns: int = 100) -> list[str]:
     lines = [f"{state['run']}  {state['state']}  {state['done']}/{state['total'] or '?'}  "
              f"sim {format_duration(state['sim_s'])}  wall {format_duration(state['wall_s'])}"
              + (f"  left ~{format_duration(state['eta_wall_s'])}" if state.get("eta_wall_s") is not None else ""),
-             f"  {counts}; exceptions {state['exception_count']}",
+             f"  {counts}; {state['exception_counts']['text']}",
              f"  current: group {'-' if group is None else group + 1}, tool {cur.get('tool') or '-'}, "
              f"measurement {cur.get('spec') or '-'}" + (f"; next {state['next']}" if state.get("next") else "")]
     if state["last"]:

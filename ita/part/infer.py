@@ -12,7 +12,10 @@ is there.  Rays cast from the spec point find it:
   rays along it;
 - a flange cap (flange height and width; the point on the cap top, normal +Z, the
   direction across the cap toward its free edge): the cap's width, its thickness and the
-  wall's thickness under it, as a short straight segment.
+  wall's thickness under it, as a short straight segment;
+- a wall without a cap, a rim (flange height without a width spec; the point on the
+  wall's top): its thickness across and the floor beside it, the side its height is
+  measured from, as a segment whose cap is the wall's whole top.
 
 A part without features.json has its thickness specs checked too: a face at the point, a
 back wall within the gauge's range, parallel to the face.
@@ -58,7 +61,11 @@ FACE_MM = 0.2             # the ring around a rim lies within this of the entry 
 MAX_RIB_WIDTH_MM = 30.0   # wider than this is no rib
 UP_COS = 0.999            # a rib's or a cap's top faces +Z within ~2.5 deg
 FASTENER_PITCH_MM = 100.0  # holes on one face this close are a fastener row (datums for each other)
-SEGMENT_HALF_MM = 20.0    # a found flange segment reaches this far along the cap each side
+SEGMENT_HALF_MM = 20.0    # a found flange segment reaches this far along the cap each side where no end shows
+MAX_RIM_WIDTH_MM = 60.0   # a wall without a cap (a rim) at most this thick
+FLOOR_CLEAR_MM = 3.0      # a rim's floor is looked for this far past its face
+MIN_RIM_HEIGHT_MM = 1.0   # and lies at least this far below its top
+ON_TOP_MM = 0.5           # every spec of a found flange or rim lies on its top within this
 
 
 @dataclass(frozen=True)
@@ -225,12 +232,62 @@ def _find_rib(rays: MeshRays, fid: str, specs: Sequence[MeasurementSpec]) -> Sti
 
 
 def _find_flange(rays: MeshRays, fid: str, specs: Sequence[MeasurementSpec]) -> FlangeSegment | str:
-    s = next((x for x in specs if x.direction is not None), specs[0])
+    """The flange (or rim) under its specs: found at each point its specs name (a width
+    spec's direction there says which way the cap points; none: a rim), one segment when
+    they are one, else a path through the wall's face at each point with its normal there
+    (a run round a corner arc)."""
+    points: dict[tuple[float, ...], MeasurementSpec] = {}
+    for x in specs:
+        key = tuple(round(float(c), 3) for c in x.point)
+        if key not in points or (points[key].direction is None and x.direction is not None):
+            points[key] = x
+    pieces = []
+    for x in points.values():
+        got = _flange_at(rays, fid, x)
+        if isinstance(got, str):
+            return got
+        pieces.append((np.asarray(x.point[:2], dtype=float), got))
+    if len(pieces) == 1:
+        return pieces[0][1]
+    first = pieces[0][1]
+    for p, seg in pieces[1:]:
+        if abs(seg.cap_width - first.cap_width) > ON_TOP_MM or abs(seg.height - first.height) > ON_TOP_MM:
+            return (f"its walls differ: {first.cap_width:.1f} mm across and {first.height:.1f} high at its first spec, "
+                    f"{seg.cap_width:.1f} and {seg.height:.1f} at {_xyz(p)}: give each its own feature id")
+    return _joined(fid, pieces)
+
+
+def _joined(fid: str, pieces: list[tuple[FloatArray, FlangeSegment]]) -> FlangeSegment:
+    """One segment through the wall's face at each piece's point, in order along the run
+    (from the point farthest from their middle, nearest next), reaching SEGMENT_HALF_MM
+    past the first and the last; the first piece's sections."""
+    faces = [(p - seg.normals_array[0] * seg.from_wall(p), seg.normals_array[0]) for p, seg in pieces]
+    middle = np.mean([f for f, _ in faces], axis=0)
+    order = [int(np.argmax([np.linalg.norm(f - middle) for f, _ in faces]))]
+    while len(order) < len(faces):
+        last = faces[order[-1]][0]
+        rest = [k for k in range(len(faces)) if k not in order]
+        order.append(min(rest, key=lambda k: float(np.linalg.norm(faces[k][0] - last))))
+    path = [faces[k][0] for k in order]
+    normals = [faces[k][1] for k in order]
+    head = (path[0] - path[1]) / max(float(np.linalg.norm(path[0] - path[1])), 1e-9)
+    tail = (path[-1] - path[-2]) / max(float(np.linalg.norm(path[-1] - path[-2])), 1e-9)
+    path = [path[0] + head * SEGMENT_HALF_MM, *path, path[-1] + tail * SEGMENT_HALF_MM]
+    normals = [normals[0], *normals, normals[-1]]
+    first = pieces[order[0]][1]
+    length = float(sum(np.linalg.norm(np.diff(np.asarray(path), axis=0), axis=1)))
+    return FlangeSegment(fid, first.side, (0.0, length), tuple((float(x), float(y)) for x, y in path),
+                         tuple((float(x), float(y)) for x, y in normals), first.height, first.wall_thickness,
+                         first.cap_width, first.cap_thickness)
+
+
+def _flange_at(rays: MeshRays, fid: str, s: MeasurementSpec) -> FlangeSegment | str:
+    """The flange cap or rim under spec s's point (see :func:`_find_flange`)."""
     p, n = np.asarray(s.point, dtype=float), np.asarray(s.normal, dtype=float)
     if n[2] < UP_COS:
         return f"the flange cap's top at {_xyz(p)} does not face +Z (normal {_xyz(n, 3)})"
     if s.direction is None:
-        return "a flange needs a width spec (its direction says which way the cap points, from the wall to its free edge)"
+        return _find_rim(rays, fid, p)
     found = _across(rays, p, np.asarray(s.direction, dtype=float), 1e9)
     u, to_free, to_outer = found
     if not (math.isfinite(to_free) and math.isfinite(to_outer)):
@@ -249,12 +306,54 @@ def _find_flange(rays: MeshRays, fid: str, specs: Sequence[MeasurementSpec]) -> 
     along = np.array([-u[1], u[0], 0.0])
     mid = outer + u * min(wall / 2, cap_width / 2) - np.array([0.0, 0.0, INSIDE_MM])
     reach = rays.first(np.vstack([mid, mid]), np.vstack([along, -along]))
-    half_a, half_b = (min(float(x), SEGMENT_HALF_MM) for x in reach)
+    half_a, half_b = (float(x) if math.isfinite(x) else SEGMENT_HALF_MM for x in reach)    # its straight run
     a, b = outer[:2] - along[:2] * half_b, outer[:2] + along[:2] * half_a
     path = ((float(a[0]), float(a[1])), (float(b[0]), float(b[1])))
     normal = (float(u[0]), float(u[1]))
     return FlangeSegment(fid, "outer", (0.0, half_a + half_b), path, (normal, normal), round(float(p[2]), 6),
                          round(wall, 6), round(float(cap_width), 6), round(cap_thickness, 6))
+
+
+def _find_rim(rays: MeshRays, fid: str, p: FloatArray) -> FlangeSegment | str:
+    """A wall without a cap (a rim) under top point p: its narrowest direction across, the
+    floor beside it (the side where, just past the wall, the mesh lies below its top: the
+    web its height is measured from), as a segment whose cap is the wall's top, its normal
+    from the wall's other face toward that floor.  Without a width spec a flange height's
+    feature is such a wall; an L section names its cap's direction by its width spec."""
+    found = _across(rays, p, None, MAX_RIM_WIDTH_MM)
+    if isinstance(found, str):
+        return f"no wall or flange cap at {_xyz(p)}: {found} (an L section's cap needs a width spec: its direction)"
+    u, d_plus, d_minus = found
+    down = np.array([0.0, 0.0, -1.0])
+    floors = []
+    for side, reach in ((u, d_plus), (-u, d_minus)):
+        q = p + side * (reach + FLOOR_CLEAR_MM) + np.array([0.0, 0.0, 1.0])
+        depth = float(rays.first(q[None], down[None])[0]) - 1.0
+        if math.isfinite(depth) and depth > MIN_RIM_HEIGHT_MM:
+            floors.append((depth, side, reach))
+    if not floors:
+        return f"no floor beside the wall under {_xyz(p)}: a rim's height is measured from the web beside it"
+    depth, inward, to_free = min(floors, key=lambda f: f[0])      # the nearer floor (the web, not the fixture)
+    width = d_plus + d_minus
+    outer = p - inward * (width - to_free)
+    along = np.array([-inward[1], inward[0], 0.0])
+    mid = outer + inward * width / 2 - np.array([0.0, 0.0, INSIDE_MM])
+    ends = rays.first(np.vstack([mid, mid]), np.vstack([along, -along]))     # a rim runs wall to wall
+    half_a, half_b = (float(x) if math.isfinite(x) else SEGMENT_HALF_MM for x in ends)
+    a, b = outer[:2] - along[:2] * half_b, outer[:2] + along[:2] * half_a
+    normal = (float(inward[0]), float(inward[1]))
+    return FlangeSegment(fid, "outer", (0.0, half_a + half_b), ((float(a[0]), float(a[1])), (float(b[0]), float(b[1]))),
+                         (normal, normal), round(float(p[2]), 6), round(width, 6), round(width, 6), round(depth, 6))
+
+
+def _on_segment(seg: FlangeSegment, specs: Sequence[MeasurementSpec]) -> FlangeSegment | str:
+    """The segment found from one spec when every spec of its feature lies on its top
+    (within the cap, across, and along its straight run); else why not."""
+    off = [s.id for s in specs if not -ON_TOP_MM <= seg.from_wall(s.point) <= seg.cap_width + ON_TOP_MM]
+    if off:
+        return (f"{', '.join(off)} not on the straight wall found at the feature's first spec (a wall {seg.cap_width:.1f} "
+                f"mm across): give each straight wall or flange run its own feature id")
+    return seg
 
 
 def _thickness_problem(rays: MeshRays, s: MeasurementSpec) -> str:
@@ -310,6 +409,8 @@ def infer_features(mesh: trimesh.Trimesh, specs: Sequence[MeasurementSpec],
             got = _find_rib(rays, fid, group)
         elif kinds <= set(FLANGE_KINDS):
             got = _find_flange(rays, fid, group)
+            if isinstance(got, FlangeSegment):
+                got = _on_segment(got, group)
         else:
             got = (f"its specs ask for different features ({', '.join(sorted(k.value for k in kinds))}); "
                    f"give each feature its own id")

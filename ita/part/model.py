@@ -124,6 +124,43 @@ class FlangeSegment:
         """(n, 2) float: unit normals into the flange."""
         return np.asarray(self.normals, dtype=float)
 
+    def across(self, xy) -> tuple[float, np.ndarray]:
+        """Where part point xy (mm) lies across the flange: its distance from the wall's free
+        face along the flange's normal there, and that normal (2,).  The normal runs
+        linearly along each piece of the path between its ends' normals; the foot is the
+        path point whose normal passes through xy (a spec's point anywhere on the cap's
+        top, on a straight run or round a corner arc)."""
+        p, path, normals = np.asarray(xy, dtype=float)[:2], self.path_array, self.normals_array
+        if len(path) < 2:
+            return float(np.dot(p - path[0], normals[0])), normals[0]
+        best: tuple[float, np.ndarray] | None = None
+        for a, b, n0, n1 in zip(path[:-1], path[1:], normals[:-1], normals[1:]):
+            d, m, r = b - a, n1 - n0, p - a
+            # cross(r - t d, n0 + t m) = 0: c0 + c1 t + c2 t^2
+            c0 = r[0] * n0[1] - r[1] * n0[0]
+            c1 = (r[0] * m[1] - r[1] * m[0]) - (d[0] * n0[1] - d[1] * n0[0])
+            c2 = -(d[0] * m[1] - d[1] * m[0])
+            if abs(c2) >= 1e-12:
+                roots = [float(t.real) for t in np.roots([c2, c1, c0]) if abs(t.imag) < 1e-9]
+            else:
+                roots = [-c0 / c1] if abs(c1) > 1e-12 else []
+            for t in roots:
+                if -1e-6 <= t <= 1 + 1e-6:
+                    n = n0 + t * m
+                    n = n / np.linalg.norm(n)
+                    dist = float(np.dot(p - (a + t * d), n))
+                    if best is None or abs(dist) < abs(best[0]):
+                        best = (dist, n)
+        if best is None:      # past the path's ends: from the nearer end, along its normal
+            k = 0 if np.linalg.norm(p - path[0]) <= np.linalg.norm(p - path[-1]) else -1
+            best = (float(np.dot(p - path[k], normals[k])), normals[k])
+        return best
+
+    def from_wall(self, xy) -> float:
+        """How far part point xy (mm) lies from the wall's free face, across the flange
+        (:meth:`across`)."""
+        return self.across(xy)[0]
+
     def bounds(self) -> np.ndarray:
         """(2, 3) float: axis-aligned box of the segment (wall and cap)."""
         p = np.vstack([self.path_array, self.path_array + self.cap_width * self.normals_array])

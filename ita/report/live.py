@@ -10,6 +10,8 @@ from __future__ import annotations
 import time
 from typing import Any
 
+from ita.archive.exceptions import EVENT_KINDS as EXCEPTION_EVENTS
+from ita.archive.exceptions import ExceptionCounts
 from ita.archive.store import Archive
 from ita.report.data import event_row, result_row
 
@@ -21,7 +23,7 @@ def live_state(archive: Archive, run_id: str, *, last: int = LAST_RESULTS) -> di
     failed, dead), running (its process lives), done, total, counts, current (group,
     tool, spec of the latest plan), next (the next measurement of the run's order
     without a result), last (rows of the last results), exceptions (the last ten),
-    exception_count, sim_s, wall_s (since the run or its latest resumption started),
+    exception_count and exception_counts (ita.archive.exceptions: the one count every view shows), sim_s, wall_s (since the run or its latest resumption started),
     eta_wall_s and eta_sim_s (left, from the pace so far), key (changes whenever
     anything shown does)."""
     info = archive.run(run_id)
@@ -32,6 +34,7 @@ def live_state(archive: Archive, run_id: str, *, last: int = LAST_RESULTS) -> di
         current = {"spec": p.get("spec") or plans[0].spec_id, "group": p.get("group"), "tool": p.get("tool")}
     rows = [result_row(r) for r in archive.results(run_id, last=last)]
     exceptions = archive.events(run_id, kinds=["exception"])
+    exception_counts = ExceptionCounts.from_events(archive.events(run_id, kinds=EXCEPTION_EVENTS))
     starts = archive.events(run_id, kinds=["run_start", "resume"], last=1)
     t_start = starts[0].wall_time if starts else None
     t_start_sim = starts[0].sim_time if starts else None
@@ -53,7 +56,8 @@ def live_state(archive: Archive, run_id: str, *, last: int = LAST_RESULTS) -> di
     return {"run": run_id, "part": info.part, "state": info.state_label, "running": running, "done": done,
             "total": total, "counts": archive.decision_counts(run_id), "current": current, "next": nxt,
             "last": rows, "exceptions": [event_row(e) for e in exceptions[-10:]],
-            "exception_count": len(exceptions), "sim_s": info.sim_time, "wall_s": wall_s,
+            "exception_count": exception_counts.total,
+            "exception_counts": exception_counts.to_dict(), "sim_s": info.sim_time, "wall_s": wall_s,
             "eta_wall_s": eta_wall if running else None, "eta_sim_s": eta_sim if running else None, "key": key}
 
 

@@ -19,6 +19,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from ita.archive import timeline
+from ita.archive.exceptions import ExceptionCounts
 from ita.report import figures
 from ita.report.data import (
     COLUMNS,
@@ -118,10 +119,11 @@ def _tours(data: ReportData, ctx: Context) -> dict[str, Any] | None:
 
 def _events(data: ReportData, ctx: Context) -> dict[str, Any]:
     rows = notable_events(data.events)
-    n_exc = sum(1 for r in rows if r["kind"] == "exception")
+    counted = ExceptionCounts.from_events(data.events).text()
     return {"kind": "events", "title": "Exceptions and run events", "id": "events", "events": rows,
-            "note": (f"{n_exc} exception(s). Every exception, recovery, interrupt, stop, resumption and "
-                     "resequencing of the run, with what it recorded." if rows else "No exceptions.")}
+            "note": (f"{counted[0].upper() + counted[1:]}. Every exception (a plan that ended on a device's "
+                     "exception or a timeout), recovery, interrupt, stop, resumption and resequencing of the run, "
+                     "with what it recorded." if rows else "No exceptions.")}
 
 
 def _task_tree(data: ReportData, ctx: Context) -> dict[str, Any] | None:
@@ -167,7 +169,8 @@ def _exceptions(data: ReportData, ctx: Context) -> dict[str, Any] | None:
                     + ((_injected_found(scored[i]),) if scored is not None else ()))
     header = ["sim time (s)", "spec", "exception", "posterior (first four)", "tests in order",
               "cause", "world update", "recovery"]
-    note = (f"{len(rows)} diagnoses: the posterior over the exception's causes, the tests the Exception "
+    note = (f"{ExceptionCounts.from_events(data.events).text()}; {len(rows)} diagnoses (one per diagnosed "
+            "exception, a second fault met while handling one included): the posterior over the exception's causes, the tests the Exception "
             "Handler made in the cell in the order its decision tree chose them, what each found and "
             "cost, the cause isolated, the world model's update and the recovery.")
     if scored is not None:

@@ -60,6 +60,8 @@ from dataclasses import replace
 from typing import TYPE_CHECKING
 
 from ita.archive import Event, Outcome, RunStatus
+from ita.archive.exceptions import EVENT_KINDS as EXCEPTION_EVENTS
+from ita.archive.exceptions import ExceptionCounts
 from ita.archive.timeline import breakdown, intervals, span
 from ita.diagnosis.tests import DISPLACED_MM
 from ita.errors import PrologError
@@ -168,7 +170,6 @@ class TopLevel:
         self.checks = CellChecks.of(session, archive, run_id, self.plans, self.handle)
         self.registration = PartRegistration(session, archive, run_id, self.plans)
         self.failed_in_others: dict[str, str] = {}   # view-group members another's frame could not measure
-        self.exceptions = 0
         self.frames = 0
         self.diagnoses = 0
         # the plan's state on the Python side: positions of the sequence plan (the first:
@@ -290,7 +291,8 @@ class TopLevel:
         self.archive.update_totals(self.run_id, specs=total, done=done, sim_time_s=end_t, counts=counts)
         summary = RunSummary(
             self.run_id, status.value, done, total, counts, started.sim_s, end_t,
-            time.perf_counter() - started.wall_s, self.results.recorded_now, self.exceptions, self.frames,
+            time.perf_counter() - started.wall_s, self.results.recorded_now,
+            ExceptionCounts.from_events(self.archive.events(self.run_id, kinds=EXCEPTION_EVENTS)), self.frames,
             breakdown=self.breakdown(),
             devices={**{f"arm_{k}": v for k, v in s.arm.stats.items()},
                      **{f"slra_{k}": v for k, v in s.slra.stats.items()},
@@ -310,7 +312,8 @@ class TopLevel:
 
     def _progress(self, started: Started, step: Step | None, status: str) -> Progress:
         return progress(self.run_id, started, done=len(self.results.done), total=len(self.todo), step=step,
-                        status=status, sim_s=self.session.clock.now, exceptions=self.exceptions,
+                        status=status, sim_s=self.session.clock.now,
+                        exceptions=self.archive.count_events(self.run_id, "exception"),
                         counts=self.results.counts)
 
     # -- the attached procedures: the Sequence Planner and the run's state, asked by the plan --
@@ -499,7 +502,6 @@ class TopLevel:
             self.frames += 1
         self._outcomes[step.spec_id] = (step, out, events, plan_no)
         if out.status is not MeasureStatus.MEASURED and out.report is not None and not out.report.ok:
-            self.exceptions += 1
             return [Term("failed", (step.spec_id,))]
         return []
 
@@ -549,8 +551,6 @@ class TopLevel:
             out = replace(handled.outcome, others=out.others + handled.outcome.others)
             self._handlings[spec_id] = self._handlings.get(spec_id, 0) + 1
             again = handled.retry_failed and self._handlings[spec_id] < MAX_HANDLINGS
-            if again:
-                self.exceptions += 1
         self._outcomes[spec_id] = (step, out, events, plan_no)
         return again, remeasure
 

@@ -12,6 +12,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
+from ita.archive.exceptions import ExceptionCounts
 from ita.logic.json_value import JsonObject
 
 if TYPE_CHECKING:
@@ -75,7 +76,7 @@ class RunSummary:
     sim_end_s: float
     wall_s: float
     measured_now: int
-    exceptions: int
+    exceptions: ExceptionCounts
     frames: int
     breakdown: dict[str, float] = field(default_factory=dict)
     devices: dict[str, float] = field(default_factory=dict)
@@ -96,7 +97,8 @@ class RunSummary:
                 "counts": dict(self.counts), "simulated_cycle_s": round(self.sim_end_s, 3),
                 "simulated_this_session_s": round(self.cycle_s, 3), "wall_s": round(self.wall_s, 3),
                 "wall_s_per_measurement": round(self.wall_s / self.measured_now, 4) if self.measured_now else None,
-                "recorded_now": self.measured_now, "exceptions": self.exceptions, "slra_scans": self.frames,
+                "recorded_now": self.measured_now, "exceptions": self.exceptions.total,
+                "exception_counts": self.exceptions.to_dict(), "slra_scans": self.frames,
                 "breakdown_s": {k: round(v, 2) for k, v in self.breakdown.items()},
                 "devices": {k: round(v, 3) for k, v in self.devices.items()},
                 "continue": self.continue_hint, "alarm": self.alarm or None,

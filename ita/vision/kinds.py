@@ -234,7 +234,7 @@ def _height(top: FloatArray, webs: list[tuple[FloatArray, float]], ctx: VisionCo
 def _flange(view: View, spec: MeasurementSpec, seg: FlangeSegment, ctx: VisionContext) -> VisionResult:
     u, v = frame_uv(spec.direction or _inward(seg, spec))
     p = np.asarray(spec.point[:2])
-    outer = p - u * (seg.wall_thickness + seg.cap_width) / 2          # the wall's free face
+    outer = p - u * seg.from_wall(p)          # the wall's free face
     free = outer + u * seg.cap_width
     b = BLUR_MM + view.pixel_mm(ctx.standoff_m * 1000)
     along = (-8.0, 8.0)

@@ -51,7 +51,11 @@ def _window_mm(spec: MeasurementSpec, ctx: VisionContext) -> float:
     if spec.kind is K.EDGE_DISTANCE and isinstance(f, Hole):
         return 2 * (abs(spec.nominal) + 12.0)
     if spec.kind in (K.FLANGE_HEIGHT, K.FLANGE_WIDTH) and isinstance(f, FlangeSegment):
-        return 2 * (f.cap_width + 2.0)
+        # the patches reach 5 mm past the wall's face and 14 mm past the cap's free edge
+        # (the web, ita.vision.kinds._flange), from the spec's point anywhere on the cap
+        at = f.from_wall(spec.point)
+        reach = max(at + BLUR_MM + 5.0, f.cap_width - at + BLUR_MM + 14.0)
+        return 2 * (max(f.cap_width, reach) + 2.0)
     if spec.kind in (K.STIFFENER_HEIGHT, K.STIFFENER_WIDTH) and isinstance(f, Stiffener):
         # the webs beside the rib reach 14 mm across it and 10 along: at any roll of the
         # sensor about its axis the square window must hold that rectangle's corners

@@ -58,6 +58,7 @@ from ita.archive import (
     UnknownRun,
     archive_path,
 )
+from ita.archive.exceptions import ExceptionCounts
 from ita.errors import InputError, ItaError
 from ita.report.assets import asset_path
 from ita.report.data import (
@@ -403,7 +404,8 @@ def _live(state: State, run_id: str) -> dict[str, Any]:
         starting = state.procs.running(run_id)
         out = {"run": run_id, "state": "starting" if starting else ("failed to start" if code else "unknown"),
                "running": starting, "done": 0, "total": None, "counts": {}, "current": {}, "last": [],
-               "exceptions": [], "exception_count": 0, "sim_s": None, "wall_s": None, "eta_wall_s": None,
+               "exceptions": [], "exception_count": 0, "exception_counts": ExceptionCounts().to_dict(),
+               "sim_s": None, "wall_s": None, "eta_wall_s": None,
                "eta_sim_s": None, "key": f"starting:{starting}:{code}"}
     out["log"] = state.procs.log_tail(run_id) if state.procs.log_path(run_id).exists() else ""
     out["continuable"] = out["state"] in ("interrupted", "stopped", "dead", "failed")

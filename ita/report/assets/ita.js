@@ -332,7 +332,11 @@
           `<td>${esc(r.kind)}</td><td class="num">${num(r.value)}</td><td class="num">${num(r.U)}</td>` +
           `<td class="dec">${chip((opts.colours || {})[r.decision] || "#000")}${esc(label(r.decision))}</td><td>${esc(r.reason)}</td></tr>`).join("") + "</table>";
     }
-    if (s.exceptions && s.exceptions.length) html += `<h3>Exceptions (${s.exceptions.length})</h3>` + eventsTable(s.exceptions.slice(-10));
+    if (s.exceptions && s.exceptions.length) {
+      const counted = s.exception_counts ? s.exception_counts.text : `${s.exception_count} exceptions`;
+      html += `<h3 id="live-exceptions">Exceptions: ${esc(counted)}</h3>` +
+        (s.exceptions.length < s.exception_count ? `<p>the last ${s.exceptions.length}:</p>` : "") + eventsTable(s.exceptions.slice(-10));
+    }
     if (s.log) html += `<details><summary>process output</summary><pre>${esc(s.log)}</pre></details>`;
     root.innerHTML = html;
   };
