@@ -338,7 +338,9 @@ role_rank(Role, Rank) :-
 %   the Facts about it: `use(ToolType, Tool, Rule)` from the most preferred rule that
 %   applies and has a usable tool, or `cannot(Reason)` when none does (Reason is that
 %   of the most preferred candidate rule).  Why lists `rejected(Rule, Reason)` for each
-%   more preferred candidate that lost and, for a use, `chosen(Rule, How)`.
+%   more preferred candidate that lost and, for a use, `chosen(Rule, How)`.  A fact
+%   `unmeasurable(Reason)` (the feature the measurement names is not on the part's mesh,
+%   ita.part.infer) makes it `cannot(unmeasurable(Reason))` whatever the rules say.
 %
 %   @error domain_error(measurement_kind, Kind) for an unknown kind
 %   @error domain_error(feature_kind, FeatureKind) for an unknown feature kind
@@ -347,7 +349,10 @@ role_rank(Role, Rank) :-
 select_tool(Kind, FeatureKind, Facts, Choice, Why) :-
     must_be(list, Facts),
     candidate_rules(Kind, FeatureKind, Rules),
-    (   Rules == []
+    (   memberchk(unmeasurable(Reason), Facts)
+    ->  Choice = cannot(unmeasurable(Reason)),
+        Why = []
+    ;   Rules == []
     ->  Choice = cannot(no_rule(Kind, FeatureKind)),
         Why = []
     ;   try_rules(Rules, Facts, Choice, Why)

@@ -205,6 +205,12 @@ test(unknown_feature_kind, error(domain_error(feature_kind, boss))) :-
     select_tool(web_thickness, boss, [], _, _).
 test(facts_not_a_list, error(type_error(list, nope))) :-
     select_tool(web_thickness, pocket, nope, _, _).
+% A measurement whose feature is not on the part's mesh cannot be done, with that reason,
+% even where every rule's conditions hold.
+test(unmeasurable_feature, Choice == cannot(unmeasurable('no hole at (1.0, 2.0, 3.0)'))) :-
+    select_tool(hole_diameter, unknown, [reach(slra_tool, reachable), unmeasurable('no hole at (1.0, 2.0, 3.0)')],
+                Choice, _).
+
 test(bad_request, error(type_error(request, foo(1)))) :-
     select_tools([foo(1)], _).
 test(unknown_condition, error(domain_error(tool_condition_name, smell))) :-

@@ -161,7 +161,10 @@ def test_a_bad_user_part_is_refused_before_any_work_naming_file_and_line(plate, 
     (part / "specs.csv").write_text("" if specs == "" else HEADER + "\n" + (specs + "\n" if specs else ""))
     for command in (["spec", "validate"], ["prepare"], ["inspect", "--runs-dir", str(tmp_path / "runs")]):
         result = run(*command, "--part", str(part))
-        assert result.exit_code == 2, (command, result.output)
+        # validate: a spec whose feature is not there is a warning (exit 1), a run marks it cannot be done;
+        # a part none of whose specs can be measured is refused
+        warning = command == ["spec", "validate"] and line == 2 and "no spec" not in message
+        assert result.exit_code == (1 if warning else 2), (command, result.output)
         assert message in result.output and f"specs.csv{':' + str(line) if line else ''}" in result.output
     assert not (tmp_path / "runs").exists() and sorted(p.name for p in part.iterdir()) == ["plate.stl", "specs.csv"]
 

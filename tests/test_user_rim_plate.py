@@ -84,3 +84,22 @@ def test_the_rim_plate_is_prepared_with_every_spec_and_measured(rim_plate, tmp_p
     tools = {r["spec_id"]: r["tool"] for r in measured}
     assert {tools[f"FH-{s}{k}"] for s in "NSEW" for k in (1, 2)} == {"slra_1"}
     assert "us_probe_90" in {tools[f"FT-{s}{k}"] for s in "NSEW" for k in (1, 2)}     # where the 45-degree one cannot
+
+
+def test_a_spec_whose_feature_is_not_there_cannot_be_done_and_the_rest_is_planned(rim_plate, tmp_path):
+    """Not the whole part refused: `ita spec validate` warns (exit 1) naming the spec, and
+    the Sequence Planner's tool rules make that one spec cannot be done with the reason."""
+    from ita.sequence.plan import build_plan, planning_context
+
+    part = tmp_path / "rim"
+    part.mkdir()
+    for name in ("plate.stl", "workcell.toml", "specs.csv"):
+        (part / name).write_bytes((rim_plate / name).read_bytes())
+    with (part / "specs.csv").open("a") as f:
+        f.write("HD-X,hole_diameter,X,-150,-100,3.0,0,0,1,8.0,-0.076,0.076,A,,,,no hole here\n")
+    result = CliRunner().invoke(main, ["spec", "validate", "--part", str(part)])
+    assert result.exit_code == 1 and "HD-X: feature 'X' not found" in result.output, result.output
+    plan = build_plan(planning_context(part, use_mkb=False))
+    cannot = dict(plan.cannot)
+    assert list(cannot) == ["HD-X"] and cannot["HD-X"].startswith("unmeasurable(no hole at (-150.0, -100.0, 3.0)")
+    assert sum(len(g.order) for g in plan.groups) == 28

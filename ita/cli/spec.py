@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import sys
 from dataclasses import asdict
 from pathlib import Path
 
@@ -253,8 +254,19 @@ def validate_cmd(file: Path | None, max_distance: float, part_dir: Path | None) 
     """Check FILE (default: the part's specs.csv) against the schema and the part.
 
     The points are checked against the mesh in chunks, so memory stays bounded however
-    long the file (a million rows in under 2 GB); at most 1000 problems are listed."""
+    long the file (a million rows in under 2 GB); at most 1000 problems are listed.
+
+    Exit codes: 0 every spec valid; 1 warnings the run can live with (a spec whose feature
+    the mesh does not show: the run marks it cannot be done, with the reason, and measures
+    the rest); 2 a file it cannot read, or points off the part."""
     from ita.part import specfile
 
-    n = specfile.validate_file(_load_part(part_dir), file, max_distance)
-    click.echo(f"ok: {n} specs valid")
+    n, warnings = specfile.validate_file(_load_part(part_dir), file, max_distance)
+    if not warnings:
+        click.echo(f"ok: {n} specs valid")
+        return
+    for where, message in warnings:
+        click.echo(f"warning: {where}: {message}", err=True)
+    click.echo(f"{n} specs: {len(warnings)} cannot be measured (a run marks them cannot be done, with the "
+               f"reason), {n - len(warnings)} valid")
+    sys.exit(1)

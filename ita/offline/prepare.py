@@ -273,6 +273,7 @@ def prepare(part_dir: Path | None, progress: Callable[[str], None] = lambda _msg
 
     part = step("part", "building/loading the part", lambda: load_part(part_dir))
     step("specs", "validating the specs against the part", lambda: specfile.validate_file(part))
+    specfile.check_measurable(part)      # a spec whose feature is not there: cannot be done; none measurable: refused
     specs = specfile.load(part)
     kb = step("knowledge_bases", "loading the knowledge bases", KnowledgeBase)
     diagnostics = step("kb_check", "checking the knowledge bases", kb.check)

@@ -31,16 +31,17 @@ def load(part: PartLike) -> list[MeasurementSpec]:
 
 
 def validate_file(part: PartLike, path: Path | None = None,
-                  max_distance: float = DEFAULT_MAX_DISTANCE_MM) -> int:
-    """Validate a specs file (default: the part's own) against the part; returns the count."""
+                  max_distance: float = DEFAULT_MAX_DISTANCE_MM) -> tuple[int, list[tuple[Location, str]]]:
+    """Validate a specs file (default: the part's own) against the part: the count of specs
+    and the warnings, the specs whose feature the mesh does not show (a run marks them
+    cannot be done, with the reason, and measures the rest).  InputError for a file it
+    cannot read and for points off the part."""
     table = read_spec_table(Path(path) if path is not None else part.specs_path)
     _require_specs(table)
     problems = check_on_surface(table.specs, part.mesh, str(table.path), table.lines, max_distance)
-    if not problems:
-        problems = feature_problems(part, table.specs, str(table.path), table.lines)
     if problems:
         raise InputError(problems)
-    return len(table.specs)
+    return len(table.specs), feature_problems(part, table.specs, str(table.path), table.lines)
 
 
 def feature_problems(part: PartLike, specs: Sequence[MeasurementSpec], file: str,
@@ -72,13 +73,15 @@ def _require_specs(table) -> None:
 
 
 def check_measurable(part: PartLike) -> None:
-    """InputError (file, line, field) when the part's specs file has no specs, or names
-    features its mesh does not show (the part's `unfound`, ita.part.infer): the quick checks
-    a run makes before any work (`validate_file` makes them all)."""
+    """InputError (file, line) when the part's specs file cannot be read or has no specs:
+    the quick check a run makes before any work.  A spec whose feature the mesh does not
+    show (the part's `unfound`, ita.part.infer) is not refused here: the run marks it
+    cannot be done with the reason (the tool rules' `unmeasurable/1`) and measures the rest;
+    only a part none of whose specs can be measured is refused."""
     table = read_spec_table(part.specs_path)
     _require_specs(table)
     unfound = getattr(part, "unfound", ())
-    if unfound:
+    if unfound and {n.spec_id for n in unfound} >= {s.id for s in table.specs}:
         raise InputError(_unfound_problems(unfound, table.specs, str(table.path), table.lines))
 
 

@@ -231,7 +231,9 @@ def _check_generated(tmp: Path, params_path: Path) -> None:
     fit: an opening across the ribs, ribs too close for a pocket) is refused, naming the
     parameter file and the first specs that are off."""
     try:
-        specfile.validate_file(load_part(tmp))
+        _, warnings = specfile.validate_file(load_part(tmp))
+        if warnings:
+            raise InputError(warnings)
     except InputError as exc:
         problems = list(exc.problems)
         raise InputError([(Location(str(params_path)), f"these parameters make a part whose specs leave its surface "

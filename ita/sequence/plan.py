@@ -36,6 +36,7 @@ import numpy as np
 
 from ita.geometry import load_mkb, mkb_digest
 from ita.logic.bridge import KnowledgeBase
+from ita.logic.terms import Term
 from ita.logic.world import WorldModel
 from ita.part.store import load_part, part_key
 from ita.sequence.cost import (
@@ -171,13 +172,18 @@ class PlanningContext:
     method: str = "default"
     cost_model: CostModel = MOTION_TIME_COST
     facts: FactsFunction = pose_facts
+    unmeasurable: Mapping[str, str] = field(default_factory=dict)   # spec id -> why its feature is not on the part
     _facts_cache: dict = field(default_factory=dict, repr=False)
 
     def spec_facts(self) -> list:
         """The facts of every spec (computed once per specs and facts function)."""
         key = ("facts", id(self.specs), self.facts)
         if key not in self._facts_cache:
-            self._facts_cache[key] = (self.specs, self.facts(self.workcell, self.specs))
+            facts = self.facts(self.workcell, self.specs)
+            if self.unmeasurable:
+                facts = [[*f, Term("unmeasurable", (self.unmeasurable[s.id],))] if s.id in self.unmeasurable else f
+                         for s, f in zip(self.specs, facts)]
+            self._facts_cache[key] = (self.specs, facts)
         return self._facts_cache[key][1]
 
     def spec(self, spec_id: str) -> MeasurementSpec:
@@ -217,6 +223,7 @@ def planning_context(
     specs = tuple(read_specs(loaded.specs_path))
     ctx = PlanningContext(
         kb=kb, part_name=part_key(loaded), specs=specs, feature_kinds=feature_kinds_of(loaded.features),
+        unmeasurable={n.spec_id: n.reason for n in loaded.unfound},
         workcell=workcell_for(loaded.directory, loaded.mesh.bounds), specs_digest=specs_digest(loaded.specs_path), method=method,
         cost_model=cost_model,
     )

@@ -507,10 +507,12 @@ class TopLevel:
 
     def _why_not(self, reason: str | None) -> str:
         """A leftover's reason in words: what is missing (``no_working_tool(slra_tool)``:
-        which tools of that type there are and their state), else that the Sequence
-        Planner never handed it out."""
+        which tools of that type there are and their state; ``unmeasurable(Why)``: the
+        feature the mesh does not show), else that the Sequence Planner never handed it out."""
         if reason is None:
             return "not handed out by the sequence planner"
+        if reason.startswith("unmeasurable(") and reason.endswith(")"):
+            return "its feature is not on the part's mesh: " + reason[len("unmeasurable("):-1]
         if reason.startswith("no_working_tool(") and reason.endswith(")"):
             tool_type = reason[len("no_working_tool("):-1]
             world = WorldModel(self.session.kb)
