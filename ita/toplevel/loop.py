@@ -55,9 +55,9 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import replace
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from ita.archive import Event, Outcome, RunStatus
 from ita.archive.exceptions import EVENT_KINDS as EXCEPTION_EVENTS
@@ -116,9 +116,17 @@ MAX_REPLANS_IN_A_ROW = 20
 MAX_HANDLINGS = 3
 #: lines of the plan's decomposition tree kept with a run (the System Monitor and the report show them)
 TREE_LINES = 400
-#: a not-done result whose reason says one of these is not taken once more at the end: its
-#: cause cannot be put right in the cell, or Vision cannot measure it in its view at all
-_NOT_RETAKEN = ("cannot be put right in the cell", "not_measurable")
+#: the exceptions whose not-done measurement is not taken once more at the end: Vision
+#: cannot measure the feature in its view at all
+_NOT_RETAKEN = ("view_not_measurable",)
+
+
+def _beyond_the_cell(diagnosis: Mapping[str, Any]) -> bool:
+    """Whether a diagnosis (its archive event's payload) left its measurement beyond the
+    cell's reach: a cause found that no action puts right, or an exception of
+    :data:`_NOT_RETAKEN` (Vision cannot measure the feature in its view at all)."""
+    return bool(diagnosis.get("cause")) and not diagnosis.get("actions") or \
+        diagnosis.get("exception") in _NOT_RETAKEN
 #: the actions that begin a measurement: the control table is read before the first of them
 _POLL_BEFORE = frozenset({"note_resequence", "calibrate_probe", "measure", "measure_again"})
 
@@ -596,13 +604,15 @@ class TopLevel:
         """Measure once more, before the run ends, what it left not done after a fault it
         then put right (a retry that met another fault, a tool that was replaced later);
         not what cannot be put right in the cell or Vision cannot measure in its view
-        (:data:`_NOT_RETAKEN`).  Once per run."""
+        (:func:`_beyond_the_cell`, from the run's diagnoses in the archive: a continued run
+        knows them too).  Once per run."""
         if self._retaken:
             return [], False
         self._retaken = True
+        beyond = {str(e.payload.get("spec")) for e in self.archive.events(self.run_id, kinds=["diagnosis"])
+                  if _beyond_the_cell(e.payload)}
         ids = [r.spec_id for r in self.archive.results(self.run_id)
-               if r.outcome is Outcome.NOT_DONE and r.spec_id in self.todo_set
-               and not any(w in (r.reason or "") for w in _NOT_RETAKEN)]
+               if r.outcome is Outcome.NOT_DONE and r.spec_id in self.todo_set and r.spec_id not in beyond]
         if not ids:
             return [], False
         self._requeue(None, ids, "left not done after a fault the run put right: measured once more before it ends")
