@@ -134,9 +134,21 @@ def test_results_table_filters_and_sorts(site) -> None:
                      "s.value = 'does_not_conform'; s.dispatchEvent(new Event('change'));")
     shown = b.find_elements("css selector", "#sec-results tbody tr")
     assert shown and all("does not conform" in r.text for r in shown)
-    # the live panel says the run is completed; only CONTINUE would make sense, and it does not
-    assert "completed" in b.find_element("id", "live").text
+    # the live panel (folded below the report of a run that has ended) says it is completed;
+    # only CONTINUE would make sense, and it does not
+    assert "completed" in b.execute_script("return document.getElementById('live').textContent")
     assert b.find_element("id", "btn-stop").get_attribute("disabled")
+    # the headers sort from the keyboard, and say how (aria-sort)
+    th = b.find_element("css selector", "#sec-results th[data-key=deviation]")
+    th.send_keys("\ue007")                                    # Enter
+    assert th.get_attribute("aria-sort") == "ascending"
+    b.execute_script("const d = document.querySelector('#sec-results select[data-f=decision]');"
+                     "d.value = ''; d.dispatchEvent(new Event('change'));"
+                     "const s = document.querySelector('#sec-results select[data-sort]');"
+                     "s.value = 'deviation_over_tolerance'; s.dispatchEvent(new Event('change'));")
+    classes = b.execute_script("return [...document.querySelectorAll('#sec-results tbody tr')].map("
+                               "(tr) => tr.className)")
+    assert classes and classes[0] == "st-does_not_conform"      # the furthest out first
 
 
 def test_3d_view_renders(site) -> None:
@@ -211,3 +223,98 @@ def test_start_stop_continue_from_the_page(site, builtin_part) -> None:
         assert ids.keys() == set(a.run(run_id).settings["specs"])
         assert [e.kind for e in a.events(run_id, kinds=["stop", "resume"])] == ["stop", "resume"]
     assert any(r.outcome is Outcome.MEASURED for r in results)
+
+
+def _running_run(runs: Path, n: int) -> str:
+    """A run as big as a whole part's, RUNNING in this (live) process: its page has every
+    result and STOP, INTERRUPT enabled."""
+    from archive_synth import fake_specs as specs_of
+    from archive_synth import record_synthetic_run as record
+
+    from ita.archive import RunStatus
+
+    specs = specs_of(n)
+    with Archive.open(archive_path(runs)) as a:
+        return record(a, specs, true_values(specs), status=RunStatus.RUNNING)
+
+
+def test_stop_is_answered_within_a_second_with_a_whole_runs_page_open(site) -> None:
+    """The page says STOP at once and the run's control table has it within 1 s, while the
+    page draws a whole run's report (1,076 results): the live panel does not wait for it."""
+    b = site["browser"]
+    run_id = _running_run(site["runs"], 1076)
+    b.get(f"{site['base']}/runs/{run_id}")
+    _wait(b, "return !document.getElementById('btn-stop').disabled", 30)
+    # the page notes (wall clock, ms) when its message first changes and when it says STOP sent
+    b.execute_script("window.seen = {}; const m = document.getElementById('control-msg');"
+                     "new MutationObserver(() => { const t = m.textContent;"
+                     "  if (t && !window.seen.first) window.seen.first = Date.now();"
+                     "  if (t === 'STOP sent' && !window.seen.sent) window.seen.sent = Date.now(); })"
+                     ".observe(m, {childList: true, characterData: true, subtree: true});")
+    t0 = time.time()
+    b.find_element("id", "btn-stop").click()
+    seen = _wait(b, "return window.seen.sent && window.seen", 10)
+    with Archive.open(archive_path(site["runs"])) as a:
+        pending = a.pending_control(run_id)
+    acknowledged, sent = seen["first"] / 1000 - t0, seen["sent"] / 1000 - t0
+    assert acknowledged < 1.0 and sent < 1.0, (acknowledged, sent)     # sent: the control table has it
+    assert [getattr(p.command, "value", p.command) for p in pending] == ["STOP"]
+    _wait(b, "return document.querySelectorAll('#sec-results tbody tr').length === 1076", 60)
+
+
+def test_a_finished_runs_page_leads_with_its_verdict_and_fits_the_window(site) -> None:
+    b = site["browser"]
+    b.set_window_size(1400, 1000)
+    try:
+        b.get(f"{site['base']}/runs/{site['run']}")
+        _wait(b, "return document.body.dataset.ready && document.querySelector('table.results tbody tr')")
+        top = b.execute_script("return document.getElementById('verdict').getBoundingClientRect().bottom")
+        height = b.execute_script("return window.innerHeight")
+        assert 0 < top <= height, (top, height)
+        assert "PART" in b.find_element("id", "verdict").text
+        fits = b.execute_script("const t = document.querySelector('table.results');"
+                                "return [t.scrollWidth, t.parentElement.clientWidth]")
+        assert fits[0] <= fits[1], fits
+        assert not b.execute_script("return document.getElementById('live-panel').open")   # the spent panel folded
+    finally:
+        b.set_window_size(1300, 1500)
+
+
+def test_a_page_whose_server_is_gone_says_so_and_turns_its_controls_off(site, tmp_path) -> None:
+    """A server stopped under an open page: the page says so and disables STOP and
+    INTERRUPT; when a server answers again on that address, the banner goes and they are back."""
+    import uvicorn
+
+    from ita.web.app import create_app
+
+    b = site["browser"]
+    run_id = _running_run(site["runs"], 5)
+    port = _free_port()
+
+    def serve():
+        server = uvicorn.Server(uvicorn.Config(create_app(site["runs"]), host="127.0.0.1", port=port,
+                                               log_level="warning", timeout_graceful_shutdown=1))
+        thread = threading.Thread(target=server.run, daemon=True)
+        thread.start()
+        deadline = time.monotonic() + 20
+        while not server.started and time.monotonic() < deadline:
+            time.sleep(0.05)
+        return server, thread
+
+    server, thread = serve()
+    try:
+        b.get(f"http://127.0.0.1:{port}/runs/{run_id}")
+        _wait(b, "return !document.getElementById('btn-stop').disabled", 30)
+        assert b.execute_script("return document.getElementById('server-gone').hidden")
+        server.should_exit = True
+        thread.join(timeout=10)
+        _wait(b, "return !document.getElementById('server-gone').hidden", 20)
+        assert "not answering" in b.find_element("id", "server-gone").text
+        assert b.find_element("id", "btn-stop").get_attribute("disabled")
+        assert b.find_element("id", "btn-interrupt").get_attribute("disabled")
+        server, thread = serve()
+        _wait(b, "return document.getElementById('server-gone').hidden", 30)
+        _wait(b, "return !document.getElementById('btn-stop').disabled", 10)
+    finally:
+        server.should_exit = True
+        thread.join(timeout=10)

@@ -264,6 +264,12 @@ START_BODIES = [
     (b'{"serial": "' + b"x" * 65 + b'"}', "serial"),
     (b'{"operator": ["A"]}', "operator"),
     (b'{"operator": "A\\u001b[2J"}', "operator"),
+    (b'{"inject": "melt_probe:after=3"}', "inject"),
+    (b'{"inject": "broken_probe:after=soon"}', "inject"),
+    (b'{"inject": 7}', "inject"),
+    (b'{"inject": "' + b"transient " * 9 + b'"}', "at most 8"),
+    (b'{"inject": "transient:after=' + b"1" * 90 + b'"}', "at most 8"),
+    (b'{"inject": "transient;rm -rf /"}', "inject"),
 ]
 
 
@@ -301,7 +307,8 @@ def _state(pid: int) -> str | None:
 def test_a_good_body_starts_the_run_and_its_child_is_reaped(site) -> None:
     """The page's strings (limit "2", seed "7") and a fault rate reach `ita inspect`; the
     child, once it has ended, is reaped without another request (no zombie)."""
-    body = {"part": f"  {site['part']}  ", "limit": "2", "seed": "7", "faults": 0.05}
+    body = {"part": f"  {site['part']}  ", "limit": "2", "seed": "7", "faults": 0.05,
+            "inject": "transient@controller:after=5"}
     r = site["client"].post("/api/runs", headers=X_ITA, json=body)
     assert r.status_code == 201
     run_id = r.json()["run"]
@@ -316,6 +323,7 @@ def test_a_good_body_starts_the_run_and_its_child_is_reaped(site) -> None:
     assert args[:3] == ["-m", "ita.cli", "inspect"]
     flags = dict(zip(args[3::2], args[4::2], strict=True))
     assert flags == {"--run-id": run_id, "--seed": "7", "--limit": "2", "--faults": "0.05",
+                     "--inject": "transient@controller:after=5",
                      "--part": str(site["part"].resolve()), "--runs-dir": str(site["runs"])}
 
 

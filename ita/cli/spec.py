@@ -1,4 +1,5 @@
-"""`ita spec`: list, show, add, edit, remove, import, export and validate measurement specs."""
+"""`ita spec`: list, show, add, edit, remove, import, export, validate measurement specs, and
+pick one from the part's mesh at a point (`ita spec pick --at X,Y,Z`)."""
 
 from __future__ import annotations
 
@@ -270,3 +271,59 @@ def validate_cmd(file: Path | None, max_distance: float, part_dir: Path | None) 
     click.echo(f"{n} specs: {len(warnings)} cannot be measured (a run marks them cannot be done, with the "
                f"reason), {n - len(warnings)} valid")
     sys.exit(1)
+
+
+def _triple(ctx: click.Context, param: click.Parameter, value: str | None) -> tuple[float, float, float] | None:
+    """A point 'x,y,z' of three finite numbers (mm)."""
+    import math
+
+    if value is None:
+        return None
+    parts = value.replace(" ", "").split(",")
+    try:
+        out = tuple(float(x) for x in parts)
+    except ValueError:
+        raise click.BadParameter(f"three numbers x,y,z in mm, e.g. 10,20,3 (got {value!r})") from None
+    if len(out) != 3 or not all(math.isfinite(x) for x in out):
+        raise click.BadParameter(f"three finite numbers x,y,z in mm, e.g. 10,20,3 (got {value!r})")
+    return (out[0], out[1], out[2])
+
+
+@spec.command("pick")
+@click.option("--at", "at", required=True, callback=_triple, metavar="X,Y,Z",
+              help="The point picked on the part (mm, part frame; datum A at z = 0).")
+@click.option("--kind", type=KIND_CHOICE, default=None,
+              help="The kind of measurement wanted there (default: the first that fits).")
+@click.option("--json", "as_json", is_flag=True, help="Print JSON.")
+@part_option
+@reports_errors
+def pick_cmd(at: tuple[float, float, float], kind: str | None, as_json: bool, part_dir: Path | None) -> None:
+    """Propose a spec from the part's mesh at a picked point: what is there (a hole from its
+    wall or rim, a web or a wall with its back face, the top of a rib or a rim), the kinds
+    that fit it, the nominal measured on the mesh, the feature, the point and the normal.
+    Add it with `ita spec add` (with its tolerance and datum).
+
+    Exit codes: 0 a proposal; 1 nothing of that kind measurable there (the reason is said,
+    and in the JSON); 2 bad input."""
+    from ita.part.pick import propose
+
+    proposal = propose(_load_part(part_dir), at, None if kind is None else MeasurementKind(kind))
+    if as_json:
+        click.echo(json.dumps(proposal.to_dict(), indent=1))
+    elif proposal.kind is None:
+        click.echo(f"nothing to propose at {at}: {proposal.reason}"
+                   + (f" (what fits: {', '.join(proposal.candidates)})" if proposal.candidates else ""))
+    else:
+        d = proposal.to_dict()
+        click.echo(f"{proposal.what}: {proposal.kind} of {proposal.feature}, nominal {proposal.nominal:.4f} mm")
+        click.echo(f"  point {d['point']}  normal {d['normal']}" + (f"  direction {d['direction']}"
+                                                                   if d["direction"] else ""))
+        if len(proposal.candidates) > 1:
+            click.echo(f"  also fits: {', '.join(k for k in proposal.candidates if k != proposal.kind)} (--kind)")
+        fmt = ",".join
+        click.echo(f"  add it: ita spec add --id ID --kind {proposal.kind} --feature {proposal.feature} "
+                   f"--point {fmt(f'{x:g}' for x in d['point'])} --normal {fmt(f'{x:g}' for x in d['normal'])} "
+                   f"--nominal {proposal.nominal:g} --lower L --upper U --datum A"
+                   + (f" --direction {fmt(f'{x:g}' for x in d['direction'])}" if d["direction"] else ""))
+    if proposal.kind is None:
+        sys.exit(1)

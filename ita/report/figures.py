@@ -121,6 +121,12 @@ def mesh_trace(vertices: Any, faces: Any, *, name: str = "part", colour: str = "
             "lighting": {"ambient": 0.55, "diffuse": 0.6, "specular": 0.1}, "showscale": False}
 
 
+#: deviation over the tolerance, -1.5 .. +1.5, as inspection software shows it: green within
+#: the tolerance (paler toward its limits), red beyond the upper limit, blue beyond the lower
+DEVIATION_COLOURS = [[0.0, "#08306b"], [0.1666, "#4292c6"], [0.1667, "#a1d99b"], [0.5, "#2ca02c"],
+                     [0.8333, "#a1d99b"], [0.8334, "#ef3b2c"], [1.0, "#67000d"]]
+
+
 def _deviation_share(r: StoredResult) -> float | None:
     """Deviation from nominal over half the tolerance band: 0 on nominal, +-1 at a limit
     (with an asymmetric band, the limit on the deviation's side)."""
@@ -183,7 +189,7 @@ def part_figure(specs: Sequence[SpecPoint], results: Sequence[StoredResult], mes
                                 f" mm = {d:+.2f} of the tolerance" for m, deviation, d in measured],
                        "hoverinfo": "text", "name": "deviation / tolerance",
                        "marker": {"size": 4, "color": [round(d, 3) for d in dev], "cmin": -1.5, "cmax": 1.5,
-                                  "colorscale": "RdBu", "reversescale": True, "showscale": True,
+                                  "colorscale": DEVIATION_COLOURS, "showscale": True,
                                   "colorbar": {"title": {"text": "deviation /<br>tolerance"}, "len": 0.6}}})
     base = [True] if mesh is not None else []
     by_decision = base + [True] * n_decision + ([False] if measured else [])

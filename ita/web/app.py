@@ -288,7 +288,7 @@ async def api_runs(request: Request) -> JSONResponse:
         start = await run_in_threadpool(start_request, body, spec_count)
         run_id = await run_in_threadpool(state.procs.start_inspect, limit=start.limit, seed=start.seed,
                                          part=start.part, faults=start.faults, serial=start.serial,
-                                         operator=start.operator)
+                                         operator=start.operator, inject=start.inject)
         return _json({"run": run_id, "started": True}, 201)
     return _json(await run_in_threadpool(_runs, state))
 
@@ -327,18 +327,24 @@ async def api_control(request: Request) -> JSONResponse:
     return out if out is not None else _error("no archive yet", 404)
 
 
-def _report(state: State, run_id: str) -> Any:
+#: the report's views on a run's page; LIGHT_VIEWS while the run goes (no 3-D part or
+#: timeline: they are redrawn when it ends)
+REPORT_VIEWS = ("summary", "results", "part3d", "gantt", "breakdown", "events", "tours")
+LIGHT_VIEWS = ("summary", "results", "events")
+
+
+def _report(state: State, run_id: str, light: bool = False) -> Any:
     def make(archive: Archive) -> Any:
         rid = archive.resolve(run_id)
         info = archive.run(rid)
         last = archive.events(rid, last=1)
-        key = f"{info.status.value}:{info.done}:{last[0].seq if last else 0}"
+        key = f"{info.status.value}:{info.done}:{last[0].seq if last else 0}:{light}"
         scene = state.scene(info.part_dir)
 
         def build() -> Any:
             data = collect(archive, rid, scene.specs if scene is not None else None)
             payload = report_payload(data, mesh=None if scene is None else scene.mesh,
-                                     only=("summary", "results", "part3d", "gantt", "breakdown", "events", "tours"))
+                                     only=LIGHT_VIEWS if light else REPORT_VIEWS)
             payload["scoring_available"] = _truth_dir(info) is not None
             return jsonable(payload)
 
@@ -356,7 +362,8 @@ def _truth_dir(info: RunInfo) -> Path | str | None:
 
 
 async def api_report(request: Request) -> JSONResponse:
-    payload = await run_in_threadpool(_report, _state(request), _run_id(request))
+    light = request.query_params.get("light") == "1"
+    payload = await run_in_threadpool(_report, _state(request), _run_id(request), light)
     return _json(payload) if payload is not None else _error("no archive yet", 404)
 
 

@@ -26,7 +26,9 @@ from ita.part.store import SPECS_FILE, ensure_builtin
 from ita.seeds import SEED_MAX
 from ita.specs.io import read_spec_table
 
-START_FIELDS = ("part", "limit", "seed", "faults", "serial", "operator")
+START_FIELDS = ("part", "limit", "seed", "faults", "inject", "serial", "operator")
+#: at most this many scripted faults in one start request, each at most INJECT_CHARS long
+MAX_INJECT, INJECT_CHARS = 8, 80
 CONTROL_FIELDS = ("command",)
 COMMANDS = ("STOP", "INTERRUPT", "CONTINUE")
 _WHOLE = re.compile(r"[0-9]{1,30}", re.ASCII)
@@ -50,6 +52,7 @@ class StartRequest:
     faults: float
     serial: str | None = None
     operator: str | None = None
+    inject: tuple[str, ...] = ()          # scripted faults, as `ita inspect --inject` takes them
 
 
 def _reject_constant(name: str) -> Any:
@@ -182,7 +185,32 @@ def start_request(body: dict[str, Any], spec_count: Callable[[str | None], int])
         limit = _whole(body, "limit", 1, count,
                        f"a whole number from 1 to {count} (the part's specs), or empty for every measurement")
     return StartRequest(part, limit, 0 if seed is None else seed, 0.0 if faults is None else faults,
-                        _label(body, "serial"), _label(body, "operator"))
+                        _label(body, "serial"), _label(body, "operator"), _inject(body))
+
+
+def _inject(body: dict[str, Any]) -> tuple[str, ...]:
+    """The scripted faults of a start request: a text of FAULT[@TARGET][:after=S] separated
+    by spaces or commas (or a list of such), each checked as `ita inspect --inject` checks
+    it (the fault known, the form right); the targets the run checks against its cell."""
+    from ita.errors import InputError
+    from ita.sim.inject import InjectionPlan
+
+    value = body.get("inject")
+    if value is None or value == "" or value == []:
+        return ()
+    if isinstance(value, str):
+        items = [x for x in re.split(r"[\s,]+", value.strip()) if x]
+    elif isinstance(value, list) and all(isinstance(x, str) for x in value):
+        items = [x.strip() for x in value if x.strip()]
+    else:
+        raise BadRequest(f"inject: a text of FAULT[@TARGET][:after=S], separated by spaces (got {_shown(value)})")
+    if len(items) > MAX_INJECT or any(len(x) > INJECT_CHARS for x in items):
+        raise BadRequest(f"inject: at most {MAX_INJECT} faults, each at most {INJECT_CHARS} characters")
+    try:
+        InjectionPlan.parse(scripts=items)
+    except InputError as exc:
+        raise BadRequest("inject: " + "; ".join(f"{where.field}: {why}" for where, why in exc.problems)) from None
+    return tuple(items)
 
 
 def _label(body: dict[str, Any], name: str) -> str | None:

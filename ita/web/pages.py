@@ -36,20 +36,32 @@ def runs_page() -> str:
             "<label>seed <input name=\"seed\" type=\"number\" value=\"0\"></label>"
             "<label>serial <input name=\"serial\" size=\"12\" maxlength=\"64\"></label>"
             "<label>operator <input name=\"operator\" size=\"14\" maxlength=\"64\"></label>"
+            "<label>fault rate <input name=\"faults\" type=\"number\" min=\"0\" max=\"1\" step=\"0.01\" "
+            "placeholder=\"0: none\" title=\"each command meets a fault with this chance (ita inspect --faults)\">"
+            "</label>"
+            "<label>inject <input name=\"inject\" size=\"34\" maxlength=\"700\" "
+            "placeholder=\"e.g. broken_probe@us_probe_1:after=60\" "
+            "title=\"scripted faults, FAULT[@TARGET][:after=S], separated by spaces (ita inspect --inject)\">"
+            "</label>"
             "<button type=\"submit\" id=\"start-run\">start inspection</button> <span id=\"start-msg\" class=\"note\"></span>"
             "</form><p class=\"note\">A run started here is `ita inspect` in a process of its own, on this server's "
-            "runs directory; loading the system takes about a minute before the first measurement. Faults to inject "
-            "will be offered here once the simulator has them.</p>")
+            "runs directory; loading the system takes about a minute before the first measurement. Faults are "
+            "simulated: a rate draws them at random, `inject` scripts them (the run's log says any that cannot "
+            "land).</p>")
     return _page("ITA runs", body, "ITAWeb.runsPage();", plotly=False)
 
 
 def run_page(run_id: str) -> str:
     body = (f"<h1>Run {html.escape(run_id)}</h1><p class=\"tabs\" id=\"tabs\"></p>"
-            "<div class=\"live\"><div class=\"controls\">"
+            "<p class=\"gone\" id=\"server-gone\" hidden role=\"alert\">The server is not answering: this page "
+            "shows the run as it last was, and its controls are off until the server is back.</p>"
+            "<div class=\"controls\">"
             "<button class=\"stop\" id=\"btn-stop\" disabled>STOP</button>"
             "<button class=\"interrupt\" id=\"btn-interrupt\" disabled>INTERRUPT</button>"
             "<button class=\"continue\" id=\"btn-continue\" disabled>CONTINUE</button>"
-            "<span id=\"control-msg\" class=\"note\"></span></div><div id=\"live\">connecting ...</div></div>"
+            "<span id=\"control-msg\" class=\"note\" aria-live=\"polite\"></span></div>"
+            "<details class=\"live\" id=\"live-panel\" open><summary>live: the run as it goes</summary>"
+            "<div id=\"live\">connecting ...</div></details>"
             "<div id=\"report\"></div>")
     return _page(f"ITA run {run_id}", body, f"ITAWeb.runPage({_arg(run_id)});")
 

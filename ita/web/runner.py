@@ -68,7 +68,8 @@ class Processes:
             self._watch(child)
 
     def start_inspect(self, *, limit: int | None = None, seed: int = 0, part: str | None = None,
-                      faults: float = 0.0, serial: str | None = None, operator: str | None = None) -> str:
+                      faults: float = 0.0, serial: str | None = None, operator: str | None = None,
+                      inject: tuple[str, ...] = ()) -> str:
         """Start `ita inspect` for a new run; returns its id (the run appears in the
         archive once the child has loaded the system, about a minute)."""
         run_id = new_run_id()
@@ -77,6 +78,8 @@ class Processes:
             args += ["--limit", str(int(limit))]
         if faults:
             args += ["--faults", repr(float(faults))]
+        for script in inject:
+            args += ["--inject", script]
         if part:
             args += ["--part", part]
         if serial:

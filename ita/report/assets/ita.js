@@ -128,10 +128,21 @@
       decisions.map((d) => `<option value="${d}">${esc(label(d))}</option>`).join("") + "</select>" +
       '<select data-f="kind"><option value="">every kind</option>' + kinds.map((k) => `<option>${esc(k)}</option>`).join("") + "</select>" +
       '<select data-f="tool"><option value="">every tool</option>' + tools.map((k) => `<option>${esc(k)}</option>`).join("") + "</select>" +
-      '<label><input type="checkbox" data-f="failed"> only not proven to conform</label> <span class="count note"></span>';
+      '<label><input type="checkbox" data-f="failed"> only not proven to conform</label>' +
+      '<label>sort by <select data-sort="1" aria-label="sort by"><option value="seq">order measured</option>' +
+      '<option value="abs_deviation">|deviation|, largest first</option>' +
+      '<option value="deviation_over_tolerance">deviation / tolerance, largest first</option></select></label>' +
+      ' <span class="count note"></span>';
     root.appendChild(f);
     const t = h("table", { class: "results" });
-    t.innerHTML = "<thead><tr>" + TABLE_COLUMNS.map((c) => `<th data-key="${c[0]}">${esc(c[1])}</th>`).join("") + "</tr></thead><tbody></tbody>";
+    t.innerHTML = "<thead><tr>" + TABLE_COLUMNS.map((c) => `<th data-key="${c[0]}" tabindex="0" aria-sort="none" ` +
+      `title="sort by ${esc(c[1])} (Enter)">${esc(c[1])}</th>`).join("") + "</tr></thead><tbody></tbody>";
+    // derived keys: |deviation| and the deviation over half the tolerance band (1: at a limit)
+    for (const r of rows) {
+      r.abs_deviation = r.deviation === null || r.deviation === undefined ? null : Math.abs(r.deviation);
+      const half = (r.upper - r.lower) / 2, mid = (r.upper + r.lower) / 2;
+      r.deviation_over_tolerance = r.abs_deviation === null || !(half > 0) ? null : Math.abs(r.deviation - mid) / half;
+    }
     const scroller = h("div", { class: "scroll" });
     scroller.appendChild(t);
     root.appendChild(scroller);
@@ -146,7 +157,7 @@
           return `<td>${href ? `<a href="${esc(href)}">${esc(v)}</a>` : esc(v)}</td>`;
         }
         case "tol": return `<td class="num">${signed(r.lower)} / ${signed(r.upper)}</td>`;
-        case "bar": return `<td>${ITA.toleranceBar(r)}</td>`;
+        case "bar": return `<td>${ITA.toleranceBar(r, 110)}</td>`;
         case "pct": return `<td class="num">${v === null || v === undefined ? "" : (100 * v).toFixed(1) + " %"}</td>`;
         case "dec": return `<td class="dec">${chip(colours[r.decision] || "#000")}${esc(label(r.decision))}</td>`;
         case "reason": return `<td class="reason">${esc(v)}</td>`;
@@ -170,18 +181,33 @@
         TABLE_COLUMNS.map((c) => cell(r, c)).join("") + "</tr>").join("");
       f.querySelector(".count").textContent = `${shown.length} of ${rows.length} results shown`;
       t.querySelectorAll("th").forEach((th) => {
-        th.classList.toggle("sorted-asc", th.dataset.key === sortKey && sortDir > 0);
-        th.classList.toggle("sorted-desc", th.dataset.key === sortKey && sortDir < 0);
+        const on = th.dataset.key === sortKey;
+        th.classList.toggle("sorted-asc", on && sortDir > 0);
+        th.classList.toggle("sorted-desc", on && sortDir < 0);
+        th.setAttribute("aria-sort", on ? (sortDir > 0 ? "ascending" : "descending") : "none");
       });
+      const by = f.querySelector("select[data-sort]");
+      if (by) by.value = ["abs_deviation", "deviation_over_tolerance"].includes(sortKey) ? sortKey : "seq";
     }
     f.querySelector("input[type=search]").addEventListener("input", (e) => { state.text = e.target.value; draw(); });
-    f.querySelectorAll("select").forEach((s) => s.addEventListener("change", (e) => { state[e.target.dataset.f] = e.target.value; draw(); }));
+    f.querySelectorAll("select[data-f]").forEach((s) => s.addEventListener("change", (e) => { state[e.target.dataset.f] = e.target.value; draw(); }));
     f.querySelector("input[type=checkbox]").addEventListener("change", (e) => { state.failed = e.target.checked; draw(); });
-    t.querySelectorAll("th").forEach((th) => th.addEventListener("click", () => {
+    function sortOn(th) {
       const key = th.dataset.key === "position_in_band" ? "deviation" : th.dataset.key;
       if (sortKey === key) sortDir = -sortDir; else { sortKey = key; sortDir = 1; }
       draw();
-    }));
+    }
+    t.querySelectorAll("th").forEach((th) => {
+      th.addEventListener("click", () => sortOn(th));
+      th.addEventListener("keydown", (e) => {
+        if (e.key === "Enter" || e.key === " ") { e.preventDefault(); sortOn(th); }
+      });
+    });
+    f.querySelector("select[data-sort]").addEventListener("change", (e) => {
+      sortKey = e.target.value;
+      sortDir = sortKey === "seq" ? 1 : -1;
+      draw();
+    });
     if (opts.onRow) t.tBodies[0].addEventListener("click", (e) => {
       const tr = e.target.closest("tr");
       if (tr && e.target.tagName !== "A") opts.onRow(tr.dataset.spec);
@@ -191,14 +217,30 @@
   };
 
   /* -------------------------------------------------------------------- events */
+  // an event a person reads as a sentence (null: shown field by field)
+  function sentence(kind, p) {
+    if (kind === "diagnosis") {
+      const tests = (p.tests || []).map((t) => `${label(t.test)} found ${label(t.outcome)}`).join(", then ");
+      const found = p.cause ? `the cause is ${p.cause}` : "no single cause was isolated" +
+        ((p.remaining || []).length ? ` (still possible: ${p.remaining.map((c) => c[0]).join(", ")})` : "");
+      return `${label(p.exception)}${p.during ? ` (met while handling ${label(p.during)})` : ""}: ` +
+        `${tests ? tests + "; " : "no test was needed; "}${found}. Recovery: ${p.recovery || "none"}.`;
+    }
+    if (kind === "exception") return `${p.kind === "timeout" ? "timeout" : "exception"}: ${p.message || ""}`;
+    if (kind === "recovery") return `recovery${p.cause ? " from " + p.cause : ""}: ${p.how || ""}`;
+    return null;
+  }
+
   function eventsTable(events) {
     if (!events.length) return "<p>No events.</p>";
     const first = ["message", "diagnosis", "recovery", "reason", "how"];
     let out = '<table class="events"><tr><th>#</th><th>sim time (s)</th><th>kind</th><th>stream</th><th>spec</th><th>what it recorded</th></tr>';
     for (const e of events) {
       const p = e.payload || {};
+      const said = sentence(e.kind, p);
       const keys = Object.keys(p).sort((a, b) => (first.indexOf(a) + 1 || 99) - (first.indexOf(b) + 1 || 99));
-      const what = keys.map((k) => `<b>${esc(k)}</b>: ${esc(typeof p[k] === "object" ? JSON.stringify(p[k]) : p[k])}`).join("; ");
+      const what = said !== null ? esc(said) :
+        keys.map((k) => `<b>${esc(k)}</b>: ${esc(typeof p[k] === "object" ? JSON.stringify(p[k]) : p[k])}`).join("; ");
       out += `<tr><td class="num">${e.seq ?? ""}</td><td class="num">${num(e.sim_time, 2)}</td><td>${esc(label(e.kind))}</td>` +
         `<td>${esc(e.stream)}</td><td>${esc(e.spec_id)}</td><td>${what}</td></tr>`;
     }
@@ -258,6 +300,16 @@
 
   ITA.renderSections = function (root, sections, opts) {
     for (const sec of sections) ITA.renderSection(root, sec, opts);
+  };
+  // the same, giving the page back between sections (a click on STOP is handled between
+  // them, not after a whole run's report has been drawn); `stale()` true: stop drawing
+  ITA.renderSectionsAsync = async function (root, sections, opts, stale) {
+    for (const sec of sections) {
+      await new Promise((resolve) => setTimeout(resolve, 0));
+      if (stale && stale()) return false;
+      ITA.renderSection(root, sec, opts);
+    }
+    return true;
   };
 
   /* --------------------------------------------------------------- one result */

@@ -38,7 +38,8 @@
       const msg = document.getElementById("start-msg");
       try {
         const out = await post("/api/runs", { part: f.get("part"), limit: f.get("limit"), seed: f.get("seed"),
-                                                serial: f.get("serial"), operator: f.get("operator") });
+                                                serial: f.get("serial"), operator: f.get("operator"),
+                                                faults: f.get("faults"), inject: f.get("inject") });
         window.location.href = `/runs/${enc(out.run)}`;
       } catch (err) { msg.textContent = err.message; msg.className = "err"; }
     });
@@ -49,56 +50,91 @@
     const live = document.getElementById("live");
     const report = document.getElementById("report");
     const msg = document.getElementById("control-msg");
+    const gone = document.getElementById("server-gone");
     const buttons = { STOP: "btn-stop", INTERRUPT: "btn-interrupt", CONTINUE: "btn-continue" };
-    let lastState = null, drawnKey = null;
+    let lastState = null, drawnKey = null, drawnAt = 0, connected = true;
     document.getElementById("tabs").innerHTML =
       `exports: <a href="/runs/${enc(run)}/results.csv">results.csv</a> <a href="/runs/${enc(run)}/results.json">results.json</a> ` +
-      `<a href="/runs/${enc(run)}/report.html">report.html</a> <a href="/runs/${enc(run)}/report.pdf">report.pdf</a> <span id="scoring-link"></span>`;
+      `<a href="/runs/${enc(run)}/report.html">report.html</a> <a href="/runs/${enc(run)}/report.pdf">report.pdf</a> <span id="scoring-link"></span>` +
+      ' · on this page: <a href="#sec-summary">verdict</a> <a href="#sec-results">results</a> <a href="#sec-part3d">3-D</a> ' +
+      '<a href="#sec-gantt">timeline</a> <a href="#sec-events">exceptions</a> <a href="#live-panel">live</a>';
     for (const [command, id] of Object.entries(buttons)) {
       document.getElementById(id).addEventListener("click", async () => {
+        msg.textContent = `${command}: sending ...`;       // said at once, before the server answers
+        msg.className = "note";
         try {
           await post(`/api/runs/${enc(run)}/control`, { command });
           msg.textContent = `${command} sent`;
           msg.className = "note";
-        } catch (err) { msg.textContent = err.message; msg.className = "err"; }
+        } catch (err) { msg.textContent = `${command} not sent: ${err.message}`; msg.className = "err"; }
       });
     }
-    // one report request at a time: while one is being built, later asks make one more after
-    // it (a fast run asks every few seconds; piled-up builds kept STOP waiting on a busy server)
-    let drawing = false, again = false;
-    async function drawReport() {
+    function setButtons(s) {
+      document.getElementById("btn-stop").disabled = !connected || !s || !s.running || s.state === "starting";
+      document.getElementById("btn-interrupt").disabled = !connected || !s || !s.running || s.state === "starting";
+      document.getElementById("btn-continue").disabled = !connected || !s || !s.continuable;
+    }
+    // one report request at a time; while the run goes, the light views (verdict so far,
+    // results, exceptions) at most every REDRAW_S, drawn a section at a time so that the
+    // controls always answer; the whole report once it has ended
+    const REDRAW_S = 30;
+    let drawing = false, again = false, generation = 0;
+    async function drawReport(running) {
       if (drawing) { again = true; return; }
       drawing = true;
+      const mine = ++generation;
       try {
-        const data = await getJSON(`/api/runs/${enc(run)}/report`);
-        report.innerHTML = "";
-        ITA.renderSections(report, data.sections, { resultHref: resultHref(run) });
+        const data = await getJSON(`/api/runs/${enc(run)}/report${running ? "?light=1" : ""}`);
+        const fresh = document.createElement("div");
+        const done = await ITA.renderSectionsAsync(fresh, data.sections, { resultHref: resultHref(run) },
+                                                   () => mine !== generation);
+        if (done) { report.replaceChildren(...fresh.childNodes); }
         if (data.scoring_available) document.getElementById("scoring-link").innerHTML =
           ` · <a href="/runs/${enc(run)}/scoring">scoring against the as-built part (simulation only)</a>`;
         document.body.dataset.ready = "1";
       } catch (err) { report.innerHTML = `<p class="note">${ITA.esc(err.message)}</p>`; }
       finally {
         drawing = false;
-        if (again) { again = false; drawReport(); }
+        if (again) { again = false; drawReport(lastState ? lastState.running : false); }
+      }
+    }
+    function verdictFirst(ended) {
+      // a run that has ended leads with its verdict: the report above, the spent live panel folded below
+      const panel = document.getElementById("live-panel");
+      if (ended && panel.previousElementSibling !== report) {
+        report.after(panel);
+        panel.open = false;
+      } else if (!ended && report.previousElementSibling !== panel) {
+        panel.after(report);
+        panel.open = true;
       }
     }
     function onState(s) {
       ITA.renderLive(live, s, { colours: { conforms: "#2ca02c", does_not_conform: "#d62728", uncertain: "#ff9f1c", not_done: "#6b6b6b", cannot_be_done: "#9467bd" }, resultHref: resultHref(run) });
-      document.getElementById("btn-stop").disabled = !s.running || s.state === "starting";
-      document.getElementById("btn-interrupt").disabled = !s.running || s.state === "starting";
-      document.getElementById("btn-continue").disabled = !s.continuable;
+      setButtons(s);
+      const running = s.running || s.state === "starting";
+      verdictFirst(!running && s.state !== "unknown");
       const key = `${s.state}:${s.done}`;
-      // the full views: at once, then again when the run ends or every 10 results while it runs
-      if (s.state !== "starting" && (drawnKey === null || (lastState && lastState.state !== s.state) || s.done - (drawnKey || 0) >= 10)) {
+      const now = Date.now() / 1000;
+      if (s.state !== "starting" && (drawnKey === null || (lastState && lastState.state !== s.state) ||
+                                     (running && s.done !== drawnKey && now - drawnAt >= REDRAW_S))) {
         drawnKey = s.done;
-        drawReport();
+        drawnAt = now;
+        drawReport(running);
       }
       lastState = s;
       live.dataset.key = key;
     }
+    function serverGone(isGone) {
+      connected = !isGone;
+      gone.hidden = !isGone;
+      document.body.dataset.serverGone = isGone ? "1" : "";
+      setButtons(lastState);
+    }
     const source = new EventSource(`/api/runs/${enc(run)}/live`);
-    source.addEventListener("state", (e) => onState(JSON.parse(e.data)));
-    source.onerror = () => { msg.textContent = "live stream interrupted; retrying ..."; };
+    source.addEventListener("state", (e) => { serverGone(false); onState(JSON.parse(e.data)); });
+    source.addEventListener("open", () => serverGone(false));
+    source.onerror = () => serverGone(true);      // the browser tries again on its own; the next state clears it
   };
 
   W.resultPage = async function (run, spec) {
