@@ -341,19 +341,22 @@ def test_what_a_run_left_not_done_after_a_fault_put_right_is_measured_once_more_
     from dataclasses import replace
 
     import ita.toplevel.loop as loop
-    from ita.archive import Archive, archive_path
+    from ita.archive import Archive, Event, archive_path
     from ita.task.measure import MeasureStatus
     from ita.toplevel import RunSignals, TopLevel
 
     real = loop.measure_one
     failed: list[str] = []
+    where: dict[str, object] = {}
 
     def first_two_fail(session, spec_id, state, tool=None):
         out = real(session, spec_id, state, tool)
         if len(failed) < 2 and spec_id not in failed and out.status is MeasureStatus.MEASURED and not out.others:
             failed.append(spec_id)
-            why = "no echo (a fault put right later)" if len(failed) == 1 else \
-                "view_cannot_measure cannot be put right in the cell"
+            why = "no echo (a fault put right later)" if len(failed) == 1 else "a cause beyond the cell"
+            if len(failed) == 2:        # its diagnosis, as the Exception Handler records it: no action puts it right
+                where["archive"].record_event(where["run"], Event("diagnosis", "top", out.t1, {
+                    "spec": spec_id, "exception": "no_echo", "cause": "broken_gauge", "actions": []}))
             return replace(out, status=MeasureStatus.NOT_DONE, value=None, reason=why)
         return out
 
@@ -362,6 +365,7 @@ def test_what_a_run_left_not_done_after_a_fault_put_right_is_measured_once_more_
     with Archive.open(archive_path(runs)) as archive:
         run_id = archive.create_run("bulkhead", session.part.directory, seed=2, settings={"specs": ids},
                                     total=len(ids))
+        where.update(archive=archive, run=run_id)
         summary = TopLevel(session, archive, run_id, RunSignals(message=None), handle_exceptions=False).run()
         results = {r.spec_id: r for r in archive.results(run_id)}
         again = archive.events(run_id, kinds=["remeasure"])

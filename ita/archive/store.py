@@ -648,6 +648,7 @@ class Archive:
         row = self._conn.execute("SELECT COUNT(*) FROM events WHERE run_id = ? AND kind = ?", (run_id, kind)).fetchone()
         return int(row[0])
 
+    @_reads
     def events(self, run_id: str, *, kinds: Iterable[str] | None = None,
                spec_id: str | None = None, after: int | None = None, last: int | None = None) -> list[Event]:
         """The run's events in order (seq), optionally of some kinds, of one spec, with a

@@ -42,6 +42,7 @@ from ita.part.infer import (
     ring,
 )
 from ita.part.model import FlangeSegment, Hole, Stiffener
+from ita.specs.io import read_specs
 from ita.specs.model import MeasurementKind as K
 from ita.specs.model import MeasurementSpec
 
@@ -302,8 +303,6 @@ def _new_feature(part: Any, prefix: str) -> str:
     """A feature id of `prefix` and the first number no spec of the part uses."""
     used: set[str] = set()
     try:
-        from ita.specs.io import read_specs
-
         used = {s.feature for s in read_specs(part.specs_path)}
     except Exception:  # noqa: BLE001 - a part whose specs cannot be read yet: any number is free
         used = set()

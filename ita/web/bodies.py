@@ -20,10 +20,11 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from ita.errors import ItaError
+from ita.errors import InputError, ItaError
 from ita.labels import LABEL_RULE, label_problem
 from ita.part.store import SPECS_FILE, ensure_builtin
 from ita.seeds import SEED_MAX
+from ita.sim.inject import InjectionPlan
 from ita.specs.io import read_spec_table
 
 START_FIELDS = ("part", "limit", "seed", "faults", "inject", "serial", "operator")
@@ -192,9 +193,6 @@ def _inject(body: dict[str, Any]) -> tuple[str, ...]:
     """The scripted faults of a start request: a text of FAULT[@TARGET][:after=S] separated
     by spaces or commas (or a list of such), each checked as `ita inspect --inject` checks
     it (the fault known, the form right); the targets the run checks against its cell."""
-    from ita.errors import InputError
-    from ita.sim.inject import InjectionPlan
-
     value = body.get("inject")
     if value is None or value == "" or value == []:
         return ()
