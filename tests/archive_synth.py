@@ -49,14 +49,14 @@ def true_values(specs: list[FakeSpec], seed: int = 1) -> dict[str, float]:
 
 def record_synthetic_run(archive: Archive, specs: list[FakeSpec], truth: dict[str, float],
                          *, seed: int = 3, part_dir: Path | None = None, status: RunStatus = RunStatus.COMPLETED,
-                         upto: int | None = None) -> str:
+                         upto: int | None = None, settings: dict | None = None) -> str:
     """Record a run of `specs` (the first `upto` of them) the way the run loop will:
     per spec a plan (gauge specs first, then SLRA), arm motion, gauge measurement with WAIT/CONTINUE, tool changes
     between kinds, an exception on every 40th spec (not done)."""
     rng = random.Random(seed)
     specs = sorted(specs, key=lambda s: s.kind != "web_thickness")  # grouped by tool, as sequenced
     run_id = archive.create_run("synthetic", part_dir, seed=seed, total=len(specs),
-                                settings={"simulated": True, "sequencer": "test"})
+                                settings={"simulated": True, "sequencer": "test", **(settings or {})})
     t, cmd, tool = 0.0, 0, None
     for i, s in enumerate(specs[:upto]):
         need = "us_tool" if s.kind == "web_thickness" else "slra_tool"

@@ -318,3 +318,49 @@ def test_a_page_whose_server_is_gone_says_so_and_turns_its_controls_off(site, tm
     finally:
         server.should_exit = True
         thread.join(timeout=10)
+
+
+def _fault_run(runs: Path) -> tuple[str, str]:
+    """A run with a diagnosis (two tests, the posterior at each node, a cause, a recovery)
+    and a result whose plan has a partial order."""
+    from ita.archive import Event
+
+    specs = fake_specs(30)
+    with Archive.open(archive_path(runs)) as a:
+        rid = record_synthetic_run(a, specs, true_values(specs))
+        a.record_event(rid, Event("diagnosis", "top", 50.0, {
+            "spec": "s0003", "exception": "no_echo", "posterior": [["dry_couplant", 0.6], ["broken_probe", 0.4]],
+            "tests": [{"test": "read_cal_block", "outcome": "no_echo", "estimated_s": 12.0, "seconds": 10.0,
+                       "posterior": [["dry_couplant", 0.6], ["broken_probe", 0.4]]},
+                      {"test": "swap_probe", "outcome": "ok", "estimated_s": 40.0, "seconds": 38.0,
+                       "posterior": [["broken_probe", 0.7], ["dry_couplant", 0.3]]}],
+            "cause": "broken_probe(us_probe_1)", "remaining": [], "recovery": "plan repair (4 steps)",
+            "updates": ["world: broken(us_probe_1)"], "t0": 50.0, "t1": 98.0}))
+        spec = type(specs[0])("plan-1", "web_thickness", (10.0, 10.0, 0.0), 2.5, -0.127, 0.127)
+        steps = [{"n": 1, "text": "move(t3, rack, meas(plan-1))", "after": []},
+                 {"n": 2, "text": "squirt(us_probe_1, couplant)", "after": [1]},
+                 {"n": 3, "text": "slra_prepare(slra_1)", "after": []},
+                 {"n": 4, "text": "us_measure(us_probe_1, t3, plan-1)", "after": [2, 3]}]
+        a.record_result(rid, Result.measured(spec, 2.51, 0.002, tool="us_probe_1"),
+                        details={"tool": "us_probe_1", "plan": {"source": "macrop", "macrop": "m3", "steps": steps}})
+    return rid, "plan-1"
+
+
+def test_the_components_graphics_are_drawn_for_a_fault_run(site) -> None:
+    """The Sequence Planner's tours on the part, the Exception Handler's test tree of each
+    diagnosis (tests, outcomes, the posterior at each node, the cause, the recovery), and
+    the Operation Planner's plan of a result as its partial order with its MACROP."""
+    b = site["browser"]
+    run_id, planned = _fault_run(site["runs"])
+    b.get(f"{site['base']}/runs/{run_id}")
+    _wait(b, "return document.body.dataset.ready && document.querySelector('#sec-diagnoses .dtree')")
+    tree = b.find_element("css selector", "#sec-diagnoses .dtree").text
+    for said in ("no echo", "read cal block", "swap probe", "broken_probe(us_probe_1)", "plan repair", "70 %"):
+        assert said in tree, (said, tree)
+    _wait(b, "return document.querySelector('#fig-tours .scatterlayer .trace')")
+    assert len(b.find_elements("css selector", "#fig-tours .scatterlayer .trace")) >= 2      # two tools' tours
+    b.get(f"{site['base']}/runs/{run_id}/results/{planned}")
+    _wait(b, "return document.body.dataset.ready && document.querySelector('svg.plangraph')")
+    assert len(b.find_elements("css selector", "svg.plangraph g.pstep")) == 4
+    assert len(b.find_elements("css selector", "svg.plangraph line")) == 3                    # 1->2, 2->4, 3->4
+    assert "MACROP m3" in b.find_element("id", "result").text

@@ -349,7 +349,7 @@ class ExceptionHandler:
                 # is diagnosed): none of these causes; for them the test ran and answered
                 run = replace(run, outcome="ok", note=f"{run.note}; {run.outcome}: another fault, not one of these"
                               .lstrip("; "))
-            runs.append(run)
+            runs.append(replace(run, posterior=last.posterior))       # the node the test was chosen at
             situation = replace(situation, state=run.state)
             if run.outcome != "not_run":
                 results.append((name, run.outcome))

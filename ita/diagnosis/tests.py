@@ -110,6 +110,7 @@ class TestRun:
     report: ExecutionReport | None = None
     note: str = ""
     measured: MeasureOutcome | None = None
+    posterior: tuple[tuple[str, float], ...] = ()   # over the causes when the test was chosen (its node)
 
     @property
     def seconds(self) -> float:
@@ -118,6 +119,7 @@ class TestRun:
     def to_dict(self) -> JsonObject:
         return {"test": self.test, "outcome": self.outcome, "estimated_s": round(self.estimated_s, 2),
                 "seconds": round(self.seconds, 2), "note": self.note,
+                "posterior": [[c, round(p, 4)] for c, p in self.posterior],
                 "plan": [s.text for s in self.plan.steps] if self.plan is not None else []}
 
 

@@ -95,6 +95,41 @@ def gantt_figure(events: Sequence[Event], results: Sequence[StoredResult] = ()) 
 
 
 # ---------------------------------------------------------------------- breakdown
+#: a colour per tour of the Sequence Planner's tours figure (cycled)
+TOUR_COLOURS = ("#1f77b4", "#ff7f0e", "#2ca02c", "#9467bd", "#8c564b", "#e377c2", "#17becf", "#bcbd22")
+
+
+def tours_figure(tours: Sequence[tuple[str, Sequence[StoredResult]]], todo: Sequence[SpecPoint] = (),
+                 next_spec: SpecPoint | None = None) -> dict[str, Any]:
+    """The Sequence Planner's tours drawn on the part, seen from above: each tour (the
+    measurements one tool made in a row) as a path in the order they were made, the
+    measurements still to make (in the run's order) in grey, the next one marked."""
+    traces: list[dict[str, Any]] = []
+    for i, (tool, rs) in enumerate(tours):
+        pts = [r for r in rs if r.point is not None]
+        if not pts:
+            continue
+        colour = TOUR_COLOURS[i % len(TOUR_COLOURS)]
+        traces.append({"type": "scatter", "mode": "lines+markers", "name": f"tour {i + 1}: {tool} ({len(pts)})",
+                       "x": [_r(r.point[0], 1) for r in pts], "y": [_r(r.point[1], 1) for r in pts],
+                       "customdata": [r.spec_id for r in pts], "text": [r.spec_id for r in pts],
+                       "hovertemplate": "%{text}<extra>" + tool + "</extra>",
+                       "line": {"color": colour, "width": 1.5}, "marker": {"size": 5, "color": colour}})
+    if todo:
+        traces.append({"type": "scatter", "mode": "lines+markers", "name": f"still to measure ({len(todo)})",
+                       "x": [_r(s.point[0], 1) for s in todo], "y": [_r(s.point[1], 1) for s in todo],
+                       "text": [s.id for s in todo], "hovertemplate": "%{text}<extra>to measure</extra>",
+                       "line": {"color": "#b0b0b0", "width": 1, "dash": "dot"},
+                       "marker": {"size": 4, "color": "#b0b0b0"}})
+    if next_spec is not None:
+        traces.append({"type": "scatter", "mode": "markers+text", "name": f"next: {next_spec.id}",
+                       "x": [_r(next_spec.point[0], 1)], "y": [_r(next_spec.point[1], 1)], "text": ["next"],
+                       "textposition": "top center", "marker": {"size": 16, "symbol": "star", "color": "#d62728"}})
+    return {"data": traces, "layout": {
+        "height": 560, "margin": {"l": 60, "r": 20, "t": 30, "b": 50}, "legend": {"orientation": "h", "y": -0.12},
+        "xaxis": {"title": {"text": "x (mm)"}}, "yaxis": {"title": {"text": "y (mm)"}, "scaleanchor": "x"}}}
+
+
 def breakdown_figure(parts: Mapping[str, float], cycle_s: float) -> dict[str, Any]:
     """The cycle time split into measuring, tool change, motion, other, waiting, idle."""
     colours = CATEGORY_COLOURS | {"idle": "#eeeeee"}

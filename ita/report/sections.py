@@ -107,14 +107,42 @@ def _breakdown(data: ReportData, ctx: Context) -> dict[str, Any] | None:
 
 
 def _tours(data: ReportData, ctx: Context) -> dict[str, Any] | None:
+    """The Sequence Planner's tours on the part (a figure), the next measurement marked
+    while the run goes, and their lengths and times (a table)."""
     tl = tours(data.results)
     if not tl:
         return None
     rows = [(str(i + 1), tool, str(len(rs)), f"{tour_length(rs):.0f} mm",
              "-" if tour_time(rs) is None else f"{tour_time(rs):.1f} s") for i, (tool, rs) in enumerate(tl)]
-    return {"kind": "kv", "title": "Tours (consecutive measurements with one tool)",
-            "header": ["tour", "tool", "measurements", "path on the part", "simulated time"], "rows": rows,
-            "collapsed": len(rows) > 12}
+    order = [str(x) for x in data.run.settings.get("specs") or []]
+    have = {r.spec_id for r in data.results}
+    where = {s.id: s for s in data.specs}
+    todo = [where[i] for i in order if i not in have and i in where]
+    running = data.run.status.value == "running"
+    return {"kind": "figure", "title": "Tours: the Sequence Planner's order on the part", "id": "tours",
+            "note": ("Each tour is the measurements one tool made in a row, in the order made, seen from above"
+                     + ("; grey: still to measure, in the run's order; the star: the next" if todo and running
+                        else "") + "."),
+            "figure": figures.tours_figure(tl, todo if running else (), todo[0] if todo and running else None),
+            "table": {"header": ["tour", "tool", "measurements", "path on the part", "simulated time"],
+                      "rows": rows}}
+
+
+def _diagnoses(data: ReportData, ctx: Context) -> dict[str, Any] | None:
+    """The Exception Handler's diagnoses as the branch of its test tree each took: the
+    exception with the posterior over its causes, each test with its outcome and the
+    posterior at its node, the cause isolated (or those left), the recovery."""
+    found = [e for e in data.events if e.kind == "diagnosis"]
+    if not found:
+        return None
+    trees = [{"sim_time": e.sim_time, **{k: e.payload.get(k) for k in (
+        "spec", "exception", "posterior", "tests", "cause", "remaining", "recovery", "updates", "during",
+        "expected_s")}} for e in found]
+    return {"kind": "diagnoses", "title": "The Exception Handler's test trees", "id": "diagnoses",
+            "note": (f"{len(trees)} diagnoses, each the branch of the decision tree the Exception Handler took: "
+                     "the exception and the posterior over its causes, each test it chose (its cost) with the "
+                     "outcome, the posterior at the next node, the cause isolated and the recovery."),
+            "trees": trees}
 
 
 def _events(data: ReportData, ctx: Context) -> dict[str, Any]:
@@ -237,6 +265,7 @@ SECTIONS: tuple[tuple[str, Builder], ...] = (
     ("breakdown", _breakdown),
     ("events", _events),
     ("exceptions", _exceptions),
+    ("diagnoses", _diagnoses),
     ("task_tree", _task_tree),
     ("tours", _tours),
     ("scoring", _scoring),

@@ -328,9 +328,9 @@ async def api_control(request: Request) -> JSONResponse:
 
 
 #: the report's views on a run's page; LIGHT_VIEWS while the run goes (no 3-D part or
-#: timeline: they are redrawn when it ends)
-REPORT_VIEWS = ("summary", "results", "part3d", "gantt", "breakdown", "events", "tours")
-LIGHT_VIEWS = ("summary", "results", "events")
+#: timeline: they are redrawn when it ends; the tours mark the next measurement)
+REPORT_VIEWS = ("summary", "results", "part3d", "gantt", "breakdown", "events", "diagnoses", "tours")
+LIGHT_VIEWS = ("summary", "results", "events", "tours")
 
 
 def _report(state: State, run_id: str, light: bool = False) -> Any:

@@ -217,6 +217,71 @@
   };
 
   /* -------------------------------------------------------------------- events */
+  // the Operation Planner's plan as its partial order: a step in the column after the
+  // steps it waits for (left to right), an arrow from each of them; the MACROP it came from
+  function planGraph(plan) {
+    const steps = plan.steps || [];
+    if (!steps.length) return "";
+    const level = {};
+    const byN = Object.fromEntries(steps.map((s) => [s.n, s]));
+    const depth = (n, seen) => {
+      if (level[n] !== undefined) return level[n];
+      if (seen.has(n)) return 0;
+      seen.add(n);
+      const after = (byN[n] && byN[n].after) || [];
+      level[n] = after.length ? 1 + Math.max(...after.map((a) => depth(a, seen))) : 0;
+      return level[n];
+    };
+    steps.forEach((s) => depth(s.n, new Set()));
+    const columns = {};
+    const pos = {};
+    const W = 190, H = 46, BW = 170, BH = 34;
+    steps.forEach((s) => {
+      const c = level[s.n];
+      columns[c] = (columns[c] || 0) + 1;
+      pos[s.n] = [10 + c * W, 10 + (columns[c] - 1) * H];
+    });
+    const width = 20 + (Math.max(...Object.keys(columns).map(Number)) + 1) * W;
+    const height = 20 + Math.max(...Object.values(columns)) * H;
+    let svg = `<svg class="plangraph" role="img" aria-label="the plan's partial order" width="${width}" height="${height}" ` +
+      `viewBox="0 0 ${width} ${height}"><defs><marker id="arr" viewBox="0 0 10 10" refX="10" refY="5" markerWidth="6" markerHeight="6" orient="auto"><path d="M0,0L10,5L0,10z" fill="#667"/></marker></defs>`;
+    steps.forEach((s) => (s.after || []).forEach((a) => {
+      if (!pos[a]) return;
+      const [x1, y1] = pos[a], [x2, y2] = pos[s.n];
+      svg += `<line x1="${x1 + BW}" y1="${y1 + BH / 2}" x2="${x2}" y2="${y2 + BH / 2}" stroke="#667" marker-end="url(#arr)"/>`;
+    }));
+    steps.forEach((s) => {
+      const [x, y] = pos[s.n];
+      const text = String(s.text || "");
+      svg += `<g class="pstep"><title>${esc(s.n + ": " + text)}</title><rect x="${x}" y="${y}" width="${BW}" height="${BH}" rx="5" fill="#f6fbff" stroke="#8aa"/>` +
+        `<text x="${x + 6}" y="${y + 14}" font-size="11"><tspan font-weight="600">${esc(s.n)}</tspan> ${esc(text.split("(")[0].slice(0, 22))}</text>` +
+        `<text x="${x + 6}" y="${y + 28}" font-size="10" fill="#555">${esc(text.slice(text.indexOf("(") + 1, text.indexOf("(") + 30))}</text></g>`;
+    });
+    return `<div class="scroll">${svg}</svg></div>`;
+  }
+
+  // one diagnosis as the branch of the test tree it took: nodes (the posterior there) and
+  // edges (the test chosen, its outcome), ending on the cause and the recovery
+  function posteriorText(post) {
+    return (post || []).slice(0, 3).map((cp) => `${esc(cp[0])} ${(100 * cp[1]).toFixed(0)} %`).join("<br>");
+  }
+  function diagnosisTree(d) {
+    const tests = d.tests || [];
+    let html = `<div class="dtree" data-spec="${esc(d.spec)}"><div class="dnode dexc"><b>${esc(label(d.exception))}</b>` +
+      `<small>${esc(d.spec)} · ${num(d.sim_time, 1)} s${d.during ? ` · met while handling ${esc(label(d.during))}` : ""}</small>` +
+      `<span class="dpost">${posteriorText(tests.length && tests[0].posterior && tests[0].posterior.length ? tests[0].posterior : d.posterior)}</span></div>`;
+    tests.forEach((t, i) => {
+      const after = i + 1 < tests.length ? tests[i + 1].posterior : null;
+      html += `<div class="dedge">test <b>${esc(label(t.test))}</b><small>est. ${num(t.estimated_s, 0)} s, took ${num(t.seconds, 0)} s</small>` +
+        `<span class="dout">&rarr; ${esc(label(t.outcome))}</span></div>`;
+      if (after && after.length) html += `<div class="dnode">${posteriorText(after)}</div>`;
+    });
+    const end = d.cause ? `cause <b>${esc(d.cause)}</b>` :
+      `no single cause${(d.remaining || []).length ? ": " + posteriorText(d.remaining) : ""}`;
+    html += `<div class="dnode dend">${end}<small>recovery: ${esc(d.recovery || "none")}</small></div></div>`;
+    return html;
+  }
+
   // an event a person reads as a sentence (null: shown field by field)
   function sentence(kind, p) {
     if (kind === "diagnosis") {
@@ -267,6 +332,16 @@
           if (spec) window.location.href = opts.resultHref(spec);
         }));
         if (sec.rows) wrap.insertAdjacentHTML("beforeend", table(["", "", ""], sec.rows, [1, 2]));
+        if (sec.table) {
+          const t = table(sec.table.header, sec.table.rows, []);
+          wrap.insertAdjacentHTML("beforeend", sec.table.rows.length > 12 ? `<details><summary>${sec.table.rows.length} rows</summary>${t}</details>` : t);
+        }
+        break;
+      }
+      case "diagnoses": {
+        const shown = sec.trees.slice(0, 20).map(diagnosisTree).join("");
+        const rest = sec.trees.slice(20).map(diagnosisTree).join("");
+        wrap.insertAdjacentHTML("beforeend", shown + (rest ? `<details><summary>${sec.trees.length - 20} more</summary>${rest}</details>` : ""));
         break;
       }
       case "events":
@@ -343,6 +418,7 @@
     if (plan) {
       root.appendChild(h("h2", {}, "Plan"));
       root.insertAdjacentHTML("beforeend", `<p class="note">source: ${esc(plan.source)}${plan.macrop ? `, MACROP ${esc(plan.macrop)}` : ""}; ${plan.steps.length} steps</p>` +
+        planGraph(plan) +
         table(["step", "action", "after steps"], plan.steps.map((s) => [s.n, s.text, (s.after || []).join(", ")]), [0]));
     }
     if (d.timeline_figure) {

@@ -1,0 +1,40 @@
+"""The components' graphics in the report's sections: the Sequence Planner's tours on the
+part (the next measurement marked while the run goes) and the Exception Handler's test
+trees."""
+
+from __future__ import annotations
+
+from archive_synth import fake_specs, record_synthetic_run, true_values
+
+from ita.archive import Archive, Event, RunStatus, archive_path
+from ita.report.data import collect
+from ita.report.sections import report_payload
+
+
+def _sections(tmp_path, status: RunStatus, upto: int | None = None) -> dict:
+    specs = fake_specs(40)
+    order = [s.id for s in sorted(specs, key=lambda s: s.kind != "web_thickness")]     # the run's order
+    with Archive.open(archive_path(tmp_path)) as a:
+        rid = record_synthetic_run(a, specs, true_values(specs), status=status, upto=upto, settings={"specs": order})
+        a.record_event(rid, Event("diagnosis", "top", 5.0, {
+            "spec": order[0], "exception": "no_echo", "posterior": [["dry_couplant", 0.6]],
+            "tests": [{"test": "read_cal_block", "outcome": "ok", "estimated_s": 9.0, "seconds": 8.0,
+                       "posterior": [["dry_couplant", 0.6]]}], "cause": "dry_couplant", "recovery": "squirted"}))
+        data = collect(a, rid, specs)
+    return {s["id"]: s for s in report_payload(data)["sections"] if "id" in s}, order
+
+
+def test_the_tours_are_drawn_per_tool_and_the_test_trees_per_diagnosis(tmp_path) -> None:
+    sections, _ = _sections(tmp_path, RunStatus.COMPLETED)
+    tours = sections["tours"]
+    assert tours["kind"] == "figure" and len(tours["table"]["rows"]) == len(tours["figure"]["data"]) == 2
+    assert not any(t["name"].startswith("next") for t in tours["figure"]["data"])        # the run has ended
+    trees = sections["diagnoses"]["trees"]
+    assert len(trees) == 1 and trees[0]["cause"] == "dry_couplant" and trees[0]["tests"][0]["posterior"]
+
+
+def test_while_the_run_goes_the_tours_show_what_is_left_and_the_next(tmp_path) -> None:
+    sections, order = _sections(tmp_path, RunStatus.RUNNING, upto=25)
+    traces = {t["name"].split(":")[0].split(" (")[0]: t for t in sections["tours"]["figure"]["data"]}
+    assert "still to measure" in traces and len(traces["still to measure"]["x"]) == 15
+    assert traces["next"]["name"] == f"next: {order[25]}"
