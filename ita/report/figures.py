@@ -106,13 +106,13 @@ def tours_figure(tours: Sequence[tuple[str, Sequence[StoredResult]]], todo: Sequ
     measurements still to make (in the run's order) in grey, the next one marked."""
     traces: list[dict[str, Any]] = []
     for i, (tool, rs) in enumerate(tours):
-        pts = [r for r in rs if r.point is not None]
+        pts = [(r.spec_id, r.point) for r in rs if r.point is not None]
         if not pts:
             continue
         colour = TOUR_COLOURS[i % len(TOUR_COLOURS)]
         traces.append({"type": "scatter", "mode": "lines+markers", "name": f"tour {i + 1}: {tool} ({len(pts)})",
-                       "x": [_r(r.point[0], 1) for r in pts], "y": [_r(r.point[1], 1) for r in pts],
-                       "customdata": [r.spec_id for r in pts], "text": [r.spec_id for r in pts],
+                       "x": [_r(p[0], 1) for _, p in pts], "y": [_r(p[1], 1) for _, p in pts],
+                       "customdata": [i for i, _ in pts], "text": [i for i, _ in pts],
                        "hovertemplate": "%{text}<extra>" + tool + "</extra>",
                        "line": {"color": colour, "width": 1.5}, "marker": {"size": 5, "color": colour}})
     if todo:
