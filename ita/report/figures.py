@@ -112,7 +112,7 @@ def tours_figure(tours: Sequence[tuple[str, Sequence[StoredResult]]], todo: Sequ
         colour = TOUR_COLOURS[i % len(TOUR_COLOURS)]
         traces.append({"type": "scatter", "mode": "lines+markers", "name": f"tour {i + 1}: {tool} ({len(pts)})",
                        "x": [_r(p[0], 1) for _, p in pts], "y": [_r(p[1], 1) for _, p in pts],
-                       "customdata": [i for i, _ in pts], "text": [i for i, _ in pts],
+                       "customdata": [sid for sid, _ in pts], "text": [sid for sid, _ in pts],
                        "hovertemplate": "%{text}<extra>" + tool + "</extra>",
                        "line": {"color": colour, "width": 1.5}, "marker": {"size": 5, "color": colour}})
     if todo:
