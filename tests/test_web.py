@@ -364,3 +364,46 @@ def test_the_components_graphics_are_drawn_for_a_fault_run(site) -> None:
     assert len(b.find_elements("css selector", "svg.plangraph g.pstep")) == 4
     assert len(b.find_elements("css selector", "svg.plangraph line")) == 3                    # 1->2, 2->4, 3->4
     assert "MACROP m3" in b.find_element("id", "result").text
+
+
+def test_specs_are_entered_by_pointing_at_the_part(site, tmp_path) -> None:
+    """The Offline Measurement Entry in the browser: a hole, a web and a rim picked on the
+    part (as a click on the 3-D view does), each saved with its tolerance to specs.csv
+    (checked as `ita spec add` checks it), one undone and put back, one deleted."""
+    from user_parts import HEADER, RIM_TOP, RIM_Y, make_rim_plate
+
+    from ita.specs.io import read_specs
+
+    part = make_rim_plate(tmp_path / "rim")
+    (part / "specs.csv").write_text(HEADER + "\n")
+    b = site["browser"]
+    b.get(f"{site['base']}/parts/specs?dir={part}")
+    _wait(b, "return document.body.dataset.ready && document.querySelector('#part3d .main-svg')")
+    assert "No specs yet" in b.find_element("id", "spec-list").text
+    picks = [((-100.0, 0.0, 2.0), "hole_diameter", "-0.1", "0.1"), ((-100.0, 50.0, 3.0), "web_thickness", "-0.127",
+                                                                   "0.127"),
+             ((50.0, RIM_Y - 6.0, RIM_TOP), "flange_height", "-0.25", "0.25")]
+    for k, (at, kind, lower, upper) in enumerate(picks, 1):
+        b.execute_script(f"ITAWeb.pickAt({list(at)})")
+        _wait(b, f"return Number(document.body.dataset.picked) === {k}")
+        assert b.find_element("id", "pick-kind").get_attribute("value") == kind
+        for name, value in (("lower", lower), ("upper", upper)):
+            box = b.find_element("id", f"pick-{name}")
+            box.clear()
+            box.send_keys(value)
+        b.find_element("id", "spec-save").click()
+        _wait(b, f"return document.querySelectorAll('#spec-table tbody tr').length === {k}")
+    specs = read_specs(part / "specs.csv")
+    assert [s.kind.value for s in specs] == ["hole_diameter", "web_thickness", "flange_height"]
+    assert specs[0].nominal == pytest.approx(40.0, abs=0.01) and specs[1].nominal == pytest.approx(3.0, abs=0.01)
+    b.find_element("id", "spec-undo").click()                       # the rim's height taken back ...
+    _wait(b, "return document.querySelectorAll('#spec-table tbody tr').length === 2")
+    assert len(read_specs(part / "specs.csv")) == 2
+    b.execute_script("document.querySelector('.spec-remove[data-id^=\"WT-\"]').click()")   # ... and the web deleted
+    _wait(b, "return document.querySelectorAll('#spec-table tbody tr').length === 1")
+    assert [s.kind.value for s in read_specs(part / "specs.csv")] == ["hole_diameter"]
+    # nothing measurable there: the reason, and nothing to save
+    b.execute_script("ITAWeb.pickAt([-100, 50, 0])")
+    _wait(b, "return Number(document.body.dataset.picked) === 4")
+    assert "faces down" in b.find_element("id", "pick-what").text
+    assert b.find_element("id", "spec-save").get_attribute("disabled")

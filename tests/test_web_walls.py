@@ -505,3 +505,66 @@ def test_ctrl_c_stops_the_server_within_a_second_with_a_live_page_open(tmp_path)
     assert took < 1.0, f"Ctrl-C took {took:.2f} s"
     assert code == 0 and "Traceback" not in log, log
     assert rest.endswith(b"0\r\n\r\n"), rest[-100:]
+
+
+# ------------------------------------------------------------------ the spec editor's walls
+@pytest.fixture
+def editor_part(tmp_path: Path) -> Path:
+    from user_parts import make_rim_plate
+
+    return make_rim_plate(tmp_path / "rim")
+
+
+def _add(site, part: Path, spec: dict, headers=X_ITA):
+    return site["client"].post(f"/api/parts/specs?dir={part}", headers=headers, json={"action": "add", "spec": spec})
+
+
+GOOD = {"id": "WT-9", "kind": "web_thickness", "feature": "P9", "x": -100, "y": 50, "z": 3, "nx": 0, "ny": 0,
+        "nz": 1, "nominal": 3, "lower": -0.127, "upper": 0.127, "datum": "A"}
+
+
+@pytest.mark.parametrize(("query", "says"), [
+    ("", "dir"), ("dir=/no/such/dir", "not a directory"), ("dir=" + "x" * 5000, "dir"),
+])
+def test_the_editor_opens_only_a_part_directory(site, query: str, says: str) -> None:
+    r = site["client"].get(f"/api/parts/specs?{query}")
+    assert r.status_code == 400 and says in _one_line_error(r)
+
+
+def test_the_editor_refuses_what_would_break_a_specs_file_and_writes_nothing(site, editor_part: Path) -> None:
+    before = (editor_part / "specs.csv").read_bytes()
+    client = site["client"]
+    assert _add(site, editor_part, GOOD, headers={}).status_code == 403                       # no X-ITA
+    for spec, says in [({**GOOD, "z": 9.5}, "from the part's surface"),                      # off the part
+                       ({**GOOD, "note": "a\nb"}, "one line"), ({**GOOD, "colour": 1}, "unknown field"),
+                       ({**GOOD, "nominal": [1]}, "text or a number"), ({"id": "X"}, "missing"),
+                       ({**GOOD, "id": "WT-1"}, "WT-1"),                                        # an id it has
+                       ({**GOOD, "kind": "hole_diameter", "feature": "Q"}, "not found")]:       # no hole there
+        r = _add(site, editor_part, spec)
+        assert r.status_code == 400 and says in _one_line_error(r), (spec, r.json())
+    for body, says in [({"action": "burn"}, "action"), ({"action": "remove", "id": 7}, "id"),
+                       ({"action": "add", "spec": "x"}, "spec"), ({"action": "undo", "x": 1}, "unknown field")]:
+        r = client.post(f"/api/parts/specs?dir={editor_part}", headers=X_ITA, json=body)
+        assert r.status_code == 400 and says in _one_line_error(r), body
+    r = client.get(f"/api/parts/pick?dir={editor_part}&at=1,2")
+    assert r.status_code == 400 and "three finite numbers" in _one_line_error(r)
+    r = client.get(f"/api/parts/pick?dir={editor_part}&at=-100,50,3&kind=depth")
+    assert r.status_code == 400 and "kind" in _one_line_error(r)
+    assert (editor_part / "specs.csv").read_bytes() == before
+
+
+def test_undo_puts_the_file_back_only_when_nobody_changed_it_since(site, editor_part: Path) -> None:
+    client = site["client"]
+    before = (editor_part / "specs.csv").read_bytes()
+    r = client.post(f"/api/parts/specs?dir={editor_part}", headers=X_ITA, json={"action": "undo"})
+    assert r.status_code == 400 and "nothing to undo" in _one_line_error(r)
+    assert _add(site, editor_part, GOOD).status_code == 200
+    assert b"WT-9" in (editor_part / "specs.csv").read_bytes()
+    r = client.post(f"/api/parts/specs?dir={editor_part}", headers=X_ITA, json={"action": "undo"})
+    assert r.status_code == 200 and (editor_part / "specs.csv").read_bytes() == before
+    assert _add(site, editor_part, GOOD).status_code == 200
+    changed = (editor_part / "specs.csv").read_bytes() + b"\n"                       # another program's edit
+    (editor_part / "specs.csv").write_bytes(changed)
+    r = client.post(f"/api/parts/specs?dir={editor_part}", headers=X_ITA, json={"action": "undo"})
+    assert r.status_code == 400 and "changed since" in _one_line_error(r)
+    assert (editor_part / "specs.csv").read_bytes() == changed

@@ -87,6 +87,7 @@ from ita.web.bodies import (
 )
 from ita.web.guard import LOG, Guard, printable
 from ita.web.runner import Processes
+from ita.web.parts import Editor
 
 ASSETS = {"plotly.min.js": "application/javascript", "ita.js": "application/javascript",
           "ita.css": "text/css", "web.js": "application/javascript"}
@@ -108,6 +109,7 @@ class State:
         self._lock = threading.Lock()
         self._scenes: dict[str, Any] = {}
         self._payloads: dict[str, tuple[str, Any]] = {}
+        self.editor = Editor()
 
     def stop(self) -> None:
         """The server is stopping: live streams end now (uvicorn waits for them)."""
@@ -211,6 +213,31 @@ async def page_run(request: Request) -> HTMLResponse:
 
 async def page_result(request: Request) -> HTMLResponse:
     return HTMLResponse(pages.result_page(_run_id(request), request.path_params["spec"]))
+
+
+async def page_part_specs(request: Request) -> HTMLResponse:
+    directory = await run_in_threadpool(Editor.part_dir, request.query_params.get("dir"))
+    return HTMLResponse(pages.part_specs_page(str(directory)))
+
+
+async def api_part_specs(request: Request) -> JSONResponse:
+    """The editor's part (GET) or a change to its specs (POST: add, edit, remove, undo)."""
+    state = _state(request)
+    directory = await run_in_threadpool(Editor.part_dir, request.query_params.get("dir"))
+    if request.method == "POST":
+        bad = _checked(request)
+        if bad:
+            return bad
+        body = await _body(request)
+        return _json(await run_in_threadpool(state.editor.change, directory, body))
+    return _json(await run_in_threadpool(state.editor.view, directory))
+
+
+async def api_part_pick(request: Request) -> JSONResponse:
+    """A spec proposed at the clicked point (ita.part.pick)."""
+    q = request.query_params
+    directory = await run_in_threadpool(Editor.part_dir, q.get("dir"))
+    return _json(await run_in_threadpool(Editor.pick, directory, q.get("at"), q.get("kind")))
 
 
 async def page_spc(request: Request) -> HTMLResponse:
@@ -506,6 +533,9 @@ def create_app(runs_dir: Path | str, host: str | None = None) -> Starlette:
         Route("/runs/{run}/results/{spec}", page_result),
         Route("/runs/{run}/scoring", page_scoring),
         Route("/spc", page_spc),
+        Route("/parts/specs", page_part_specs),
+        Route("/api/parts/specs", api_part_specs, methods=["GET", "POST"]),
+        Route("/api/parts/pick", api_part_pick),
         Route("/api/spc", api_spc),
         Route("/runs/{run}/{what:str}", export),
         Route("/assets/{name}", asset),

@@ -47,7 +47,10 @@ def runs_page() -> str:
             "</form><p class=\"note\">A run started here is `ita inspect` in a process of its own, on this server's "
             "runs directory; loading the system takes about a minute before the first measurement. Faults are "
             "simulated: a rate draws them at random, `inject` scripts them (the run's log says any that cannot "
-            "land).</p>")
+            "land).</p>"
+            "<h2>Enter a part's specs by pointing at it</h2><form action=\"/parts/specs\" method=\"get\" "
+            "class=\"filters\"><label>part directory <input name=\"dir\" size=\"40\" required></label>"
+            "<button type=\"submit\">open the spec editor</button></form>")
     return _page("ITA runs", body, "ITAWeb.runsPage();", plotly=False)
 
 
@@ -88,3 +91,31 @@ def spc_page() -> str:
             "<button type=\"submit\">chart</button> <span id=\"spc-msg\" class=\"note\"></span></form>"
             "<div id=\"report\">loading ...</div>")
     return _page("ITA SPC", body, "ITAWeb.spcPage();")
+
+
+def part_specs_page(directory: str) -> str:
+    """The Offline Measurement Entry: the part in 3-D, a spec proposed where one clicks, a
+    form for its kind, tolerance and datum, save and undo, the part's specs."""
+    body = (f"<h1>Specs of the part in {html.escape(directory)}</h1>"
+            "<p class=\"note\">Click the part where a measurement is to be made: the proposal below is read from "
+            "the mesh there (a hole from its wall or rim, a web or a wall with its back face, a rib's or a rim's "
+            "top). Choose the kind where several fit, set the tolerance and the datum, save. Every change is "
+            "checked as <code>ita spec add</code> checks it and written to specs.csv at once; undo takes back "
+            "the last change made here.</p>"
+            "<div class=\"editor\"><div id=\"part3d\" class=\"part3d\"></div>"
+            "<form id=\"proposal\" class=\"proposal\"><h2>Proposal</h2><p id=\"pick-what\" class=\"note\">"
+            "nothing picked yet</p>"
+            "<label>kind <select name=\"kind\" id=\"pick-kind\"></select></label>"
+            "<label>id <input name=\"id\" id=\"pick-id\" size=\"14\" maxlength=\"64\"></label>"
+            "<label>feature <input name=\"feature\" id=\"pick-feature\" size=\"10\" maxlength=\"64\"></label>"
+            "<label>nominal (mm) <input name=\"nominal\" id=\"pick-nominal\" size=\"10\"></label>"
+            "<label>lower (mm) <input name=\"lower\" id=\"pick-lower\" size=\"8\" value=\"-0.1\"></label>"
+            "<label>upper (mm) <input name=\"upper\" id=\"pick-upper\" size=\"8\" value=\"0.1\"></label>"
+            "<label>datum <input name=\"datum\" id=\"pick-datum\" size=\"8\" value=\"A\"></label>"
+            "<label>note <input name=\"note\" id=\"pick-note\" size=\"20\" maxlength=\"200\"></label>"
+            "<p id=\"pick-where\" class=\"note\"></p>"
+            "<button type=\"submit\" id=\"spec-save\" disabled>save</button> "
+            "<button type=\"button\" id=\"spec-undo\" disabled>undo the last change</button> "
+            "<span id=\"spec-msg\" class=\"note\" aria-live=\"polite\"></span></form></div>"
+            "<h2>The part's specs</h2><div id=\"spec-list\">loading ...</div>")
+    return _page(f"ITA specs {directory}", body, f"ITAWeb.specEditor({_arg(directory)});")

@@ -137,6 +137,113 @@
     source.onerror = () => serverGone(true);      // the browser tries again on its own; the next state clears it
   };
 
+  W.specEditor = async function (dir) {
+    const q = `dir=${enc(dir)}`;
+    const msg = document.getElementById("spec-msg");
+    const form = document.getElementById("proposal");
+    const kindSel = document.getElementById("pick-kind");
+    const save = document.getElementById("spec-save");
+    const undo = document.getElementById("spec-undo");
+    const say = (text, err) => { msg.textContent = text; msg.className = err ? "err" : "note"; };
+    let picked = null, specs = [];
+    const prefix = { hole_diameter: "HD", hole_position: "HP", edge_distance: "ED", web_thickness: "WT",
+                     flange_thickness: "FT", flange_height: "FH", flange_width: "FW", stiffener_height: "SH",
+                     stiffener_width: "SW" };
+    function freeId(kind, feature) {
+      const used = new Set(specs.map((s) => s.id));
+      for (let k = 1; ; k++) {
+        const id = `${prefix[kind] || "S"}-${feature}-${k}`;
+        if (!used.has(id)) return id;
+      }
+    }
+    function drawList() {
+      const root = document.getElementById("spec-list");
+      if (!specs.length) { root.innerHTML = "<p>No specs yet: click the part.</p>"; return; }
+      root.innerHTML = '<table class="results" id="spec-table"><thead><tr><th>id</th><th>kind</th><th>feature</th><th>point (mm)</th>' +
+        "<th>nominal (mm)</th><th>tolerance (mm)</th><th>datum</th><th></th></tr></thead><tbody>" +
+        specs.map((s) => `<tr data-spec="${ITA.esc(s.id)}"><td>${ITA.esc(s.id)}</td><td>${ITA.esc(s.kind)}</td><td>${ITA.esc(s.feature)}</td>` +
+          `<td class="num">${s.point.map((x) => ITA.num(x, 2)).join(", ")}</td><td class="num">${ITA.num(s.nominal, 4)}</td>` +
+          `<td class="num">${ITA.num(s.lower, 3)} / ${ITA.num(s.upper, 3)}</td><td>${ITA.esc(s.datum)}</td>` +
+          `<td><button type="button" class="spec-remove" data-id="${ITA.esc(s.id)}">delete</button></td></tr>`).join("") + "</tbody></table>";
+      root.querySelectorAll(".spec-remove").forEach((b) => b.addEventListener("click", () => change({ action: "remove", id: b.dataset.id })));
+    }
+    function drawPart(view) {
+      const m = view.mesh;
+      const traces = [{ type: "mesh3d", x: m.x, y: m.y, z: m.z, i: m.i, j: m.j, k: m.k, color: "#b8c4d0", opacity: 1,
+                        flatshading: true, name: "part", hoverinfo: "x+y+z" },
+                      { type: "scatter3d", mode: "markers", name: "specs", x: specs.map((s) => s.point[0]),
+                        y: specs.map((s) => s.point[1]), z: specs.map((s) => s.point[2]), text: specs.map((s) => s.id),
+                        hoverinfo: "text", marker: { size: 3, color: "#d62728" } }];
+      const div = document.getElementById("part3d");
+      const layout = { height: 520, margin: { l: 0, r: 0, t: 0, b: 0 }, showlegend: false,
+                       scene: { aspectmode: "data", camera: { eye: { x: 0.1, y: -1.4, z: 2.0 } } } };
+      if (!div.dataset.drawn) {
+        Plotly.newPlot(div, traces, layout, { displaylogo: false, responsive: true });
+        div.on("plotly_click", (ev) => {
+          const p = ev.points && ev.points[0];
+          if (p && p.data && p.data.type === "mesh3d") W.pickAt([p.x, p.y, p.z]);
+        });
+        div.dataset.drawn = "1";
+      } else {
+        Plotly.react(div, traces, layout);
+      }
+    }
+    function show(view) {
+      specs = view.specs;
+      undo.disabled = !view.can_undo;
+      drawList();
+      drawPart(view);
+    }
+    async function change(body) {
+      try {
+        const view = await post(`/api/parts/specs?${q}`, body);
+        show(view);
+        say(view.done);
+      } catch (err) { say(err.message, true); }
+    }
+    function fill(p) {
+      picked = p;
+      const what = document.getElementById("pick-what");
+      const where = document.getElementById("pick-where");
+      kindSel.innerHTML = (p.candidates || []).map((k) => `<option${k === p.kind ? " selected" : ""}>${ITA.esc(k)}</option>`).join("");
+      if (!p.kind) {
+        what.textContent = p.what ? `${p.what}: ${p.reason}` : p.reason;
+        what.className = "err";
+        where.textContent = "";
+        save.disabled = true;
+        return;
+      }
+      what.textContent = p.what;
+      what.className = "note";
+      form.elements.feature.value = p.feature;
+      form.elements.nominal.value = p.nominal;
+      form.elements.id.value = freeId(p.kind, p.feature);
+      if (p.kind === "hole_position") { form.elements.lower.value = "0"; form.elements.upper.value = "0.5"; }
+      where.textContent = `point ${p.point.join(", ")}; normal ${p.normal.join(", ")}` + (p.direction ? `; direction ${p.direction.join(", ")}` : "");
+      save.disabled = false;
+    }
+    W.pickAt = async function (at, kind) {
+      try {
+        fill(await getJSON(`/api/parts/pick?${q}&at=${enc(at.map((x) => Number(x).toFixed(4)).join(","))}` + (kind ? `&kind=${enc(kind)}` : "")));
+        document.body.dataset.picked = String(Number(document.body.dataset.picked || 0) + 1);
+      } catch (err) { say(err.message, true); }
+    };
+    kindSel.addEventListener("change", () => { if (picked && picked.point) W.pickAt(picked.point, kindSel.value); });
+    form.addEventListener("submit", (e) => {
+      e.preventDefault();
+      if (!picked || !picked.kind) return;
+      const f = form.elements;
+      const spec = { id: f.id.value, kind: picked.kind, feature: f.feature.value, x: picked.point[0], y: picked.point[1],
+                     z: picked.point[2], nx: picked.normal[0], ny: picked.normal[1], nz: picked.normal[2], nominal: f.nominal.value,
+                     lower: f.lower.value, upper: f.upper.value, datum: f.datum.value, note: f.note.value };
+      if (picked.direction) Object.assign(spec, { dx: picked.direction[0], dy: picked.direction[1], dz: picked.direction[2] });
+      change({ action: "add", spec });
+    });
+    undo.addEventListener("click", () => change({ action: "undo" }));
+    try { show(await getJSON(`/api/parts/specs?${q}`)); } catch (err) { say(err.message, true); }
+    document.body.dataset.ready = "1";
+  };
+
   W.resultPage = async function (run, spec) {
     const root = document.getElementById("result");
     try {
