@@ -86,8 +86,8 @@ from ita.web.bodies import (
     start_request,
 )
 from ita.web.guard import LOG, Guard, printable
-from ita.web.runner import Processes
 from ita.web.parts import Editor
+from ita.web.runner import Processes
 
 ASSETS = {"plotly.min.js": "application/javascript", "ita.js": "application/javascript",
           "ita.css": "text/css", "web.js": "application/javascript"}
