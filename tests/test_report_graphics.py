@@ -38,3 +38,15 @@ def test_while_the_run_goes_the_tours_show_what_is_left_and_the_next(tmp_path) -
     traces = {t["name"].split(":")[0].split(" (")[0]: t for t in sections["tours"]["figure"]["data"]}
     assert "still to measure" in traces and len(traces["still to measure"]["x"]) == 15
     assert traces["next"]["name"] == f"next: {order[25]}"
+
+
+def test_the_gantt_charts_marks_share_a_label_when_close_and_labels_never_lie_on_each_other() -> None:
+    from ita.report.figures import _mark_labels
+
+    marks = [Event("exception", "slra", 100.0 + 0.1 * k, {}) for k in range(10)] + \
+        [Event("recovery", "top", 400.0, {}), Event("exception", "gauge", 420.0, {}), Event("stop", "top", 900.0, {})]
+    labels = _mark_labels(marks, gap=30.0)
+    assert [a["text"] for a in labels] == ["EXCEPTION x10", "2 EVENTS", "STOP"]
+    assert "100.9 s exception" in labels[0]["hovertext"]
+    for a, b in zip(labels, labels[1:]):            # neighbours at two heights, or far apart
+        assert a["y"] != b["y"] or b["x"] - a["x"] >= 30.0

@@ -33,6 +33,34 @@ def _r(x: float | None, digits: int = 3) -> float | None:
 
 
 # --------------------------------------------------------------------------- Gantt
+#: marks of the Gantt chart closer than this share of its span share one label
+MARK_GAP_SHARE = 0.03
+
+
+def _mark_labels(marks: Sequence[Event], gap: float) -> list[dict[str, Any]]:
+    """One label per group of marks (interrupts, stops, resumptions, exceptions,
+    recoveries) closer than `gap` seconds to the one before: its kind, with a count when
+    several ("EXCEPTION x3"), the group's times and kinds on hover; labels of groups near
+    each other alternate between two heights, so none lies on another."""
+    groups: list[list[Event]] = []
+    for e in sorted(marks, key=lambda e: float(e.sim_time or 0.0)):
+        if groups and float(e.sim_time or 0.0) - float(groups[-1][-1].sim_time or 0.0) < gap:
+            groups[-1].append(e)
+        else:
+            groups.append([e])
+    out: list[dict[str, Any]] = []
+    for k, g in enumerate(groups):
+        kinds = sorted({e.kind for e in g})
+        head = g[0]
+        text = (kinds[0].upper() if len(kinds) == 1 else f"{len(g)} EVENTS") + (f" x{len(g)}" if len(kinds) == 1
+                                                                               and len(g) > 1 else "")
+        hover = "<br>".join(f"{e.sim_time:.1f} s {e.kind}" for e in g[:12]) + ("<br>..." if len(g) > 12 else "")
+        out.append({"x": head.sim_time, "yref": "paper", "y": 1.02 if k % 2 == 0 else 1.10, "text": text,
+                    "hovertext": hover, "showarrow": False, "xanchor": "left",
+                    "font": {"color": MARK_COLOURS[head.kind if len(kinds) == 1 else "exception"], "size": 10}})
+    return out
+
+
 def gantt_figure(events: Sequence[Event], results: Sequence[StoredResult] = ()) -> dict[str, Any]:
     """The command streams over simulated time: commands coloured by category, WAITs as
     dotted grey bars, the measurement plans on the top stream (hover: the spec), and
@@ -77,16 +105,15 @@ def gantt_figure(events: Sequence[Event], results: Sequence[StoredResult] = ()) 
                        "name": "WAIT (until CONTINUE)" if waiting else cat.replace("_", " "),
                        "line": {"color": CATEGORY_COLOURS[cat], "width": 6 if waiting else 14,
                                 "dash": "dot" if waiting else "solid"}})
-    shapes, annotations = [], []
-    for e in events:
-        if e.kind in ("interrupt", "stop", "resume", "exception", "recovery") and e.sim_time is not None:
-            colour = MARK_COLOURS[e.kind]
-            shapes.append({"type": "line", "x0": e.sim_time, "x1": e.sim_time, "yref": "paper", "y0": 0, "y1": 1,
-                           "line": {"color": colour, "width": 1.5, "dash": "dash" if e.kind != "exception" else "dot"}})
-            annotations.append({"x": e.sim_time, "yref": "paper", "y": 1.02, "text": e.kind.upper(),
-                                "showarrow": False, "font": {"color": colour, "size": 10}, "textangle": -30})
+    shapes: list[dict[str, Any]] = []
+    marks = [e for e in events if e.kind in MARK_COLOURS and e.sim_time is not None]
+    for e in marks:
+        colour = MARK_COLOURS[e.kind]
+        shapes.append({"type": "line", "x0": e.sim_time, "x1": e.sim_time, "yref": "paper", "y0": 0, "y1": 1,
+                       "line": {"color": colour, "width": 1.5, "dash": "dash" if e.kind != "exception" else "dot"}})
+    annotations = _mark_labels(marks, max(end - start, 1e-9) * MARK_GAP_SHARE)
     return {"data": traces, "layout": {
-        "font": FONT, "height": 130 + 55 * max(len(streams), 1), "margin": {"l": 60, "r": 20, "t": 40, "b": 50},
+        "font": FONT, "height": 130 + 55 * max(len(streams), 1), "margin": {"l": 60, "r": 20, "t": 50, "b": 50},
         "xaxis": {"title": {"text": "simulated time (s)"}, "range": [start, end if end > start else start + 1],
                   "zeroline": False},
         "yaxis": {"categoryorder": "array", "categoryarray": list(reversed(streams)), "type": "category"},
