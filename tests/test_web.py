@@ -341,8 +341,11 @@ def _fault_run(runs: Path) -> tuple[str, str]:
                  {"n": 2, "text": "squirt(us_probe_1, couplant)", "after": [1]},
                  {"n": 3, "text": "slra_prepare(slra_1)", "after": []},
                  {"n": 4, "text": "us_measure(us_probe_1, t3, plan-1)", "after": [2, 3]}]
+        path = [[1.2 + 0.01 * k, 0.1 * k, 1.5] for k in range(30)]
         a.record_result(rid, Result.measured(spec, 2.51, 0.002, tool="us_probe_1"),
-                        details={"tool": "us_probe_1", "plan": {"source": "macrop", "macrop": "m3", "steps": steps}})
+                        details={"tool": "us_probe_1", "plan": {"source": "macrop", "macrop": "m3", "steps": steps},
+                                 "arm_paths": [{"tcp": path, "tool": "us_probe_1", "name": "move", "cmd": "7.1"},
+                                               {"tcp": path[::-1], "tool": "us_probe_1", "name": "move", "cmd": "7.4"}]})
     return rid, "plan-1"
 
 
@@ -364,6 +367,9 @@ def test_the_components_graphics_are_drawn_for_a_fault_run(site) -> None:
     assert len(b.find_elements("css selector", "svg.plangraph g.pstep")) == 4
     assert len(b.find_elements("css selector", "svg.plangraph line")) == 3                    # 1->2, 2->4, 3->4
     assert "MACROP m3" in b.find_element("id", "result").text
+    b.get(f"{site['base']}/runs/{run_id}/paths")                   # the Path Planner's: every move of the run
+    _wait(b, "return document.body.dataset.ready && document.querySelector('#fig-paths canvas')")
+    assert "2 moves" in b.find_element("id", "paths").text
 
 
 def test_specs_are_entered_by_pointing_at_the_part(site, tmp_path) -> None:

@@ -70,6 +70,7 @@ from ita.report.data import (
     run_verdict,
 )
 from ita.report.live import live_state
+from ita.report.paths import run_paths_figure
 from ita.report.result import result_payload
 from ita.report.scene import PartScene
 from ita.report.sections import report_payload
@@ -238,6 +239,27 @@ async def api_part_pick(request: Request) -> JSONResponse:
     q = request.query_params
     directory = await run_in_threadpool(Editor.part_dir, q.get("dir"))
     return _json(await run_in_threadpool(Editor.pick, directory, q.get("at"), q.get("kind")))
+
+
+async def page_paths(request: Request) -> HTMLResponse:
+    return HTMLResponse(pages.paths_page(_run_id(request)))
+
+
+async def api_paths(request: Request) -> JSONResponse:
+    """Every arm move of the run in the workcell (ita.report.paths)."""
+    state, run_id = _state(request), _run_id(request)
+
+    def make(archive: Archive) -> Any:
+        rid = archive.resolve(run_id)
+        info = archive.run(rid)
+        last = archive.events(rid, last=1)
+        key = f"paths:{info.status.value}:{info.done}:{last[0].seq if last else 0}"
+        scene = state.scene(info.part_dir)
+        return state.payload(rid + ":paths", key, lambda: jsonable(run_paths_figure(archive, rid, scene) or {
+            "moves": 0, "note": "the run kept no arm path (a run from before they were kept, or none moved)"}))
+
+    out = await run_in_threadpool(_with_archive, state, make)
+    return _json(out) if out is not None else _error("no archive yet", 404)
 
 
 async def page_spc(request: Request) -> HTMLResponse:
@@ -532,6 +554,8 @@ def create_app(runs_dir: Path | str, host: str | None = None) -> Starlette:
         Route("/runs/{run}", page_run),
         Route("/runs/{run}/results/{spec}", page_result),
         Route("/runs/{run}/scoring", page_scoring),
+        Route("/runs/{run}/paths", page_paths),
+        Route("/api/runs/{run}/paths", api_paths),
         Route("/spc", page_spc),
         Route("/parts/specs", page_part_specs),
         Route("/api/parts/specs", api_part_specs, methods=["GET", "POST"]),

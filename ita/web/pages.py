@@ -119,3 +119,11 @@ def part_specs_page(directory: str) -> str:
             "<span id=\"spec-msg\" class=\"note\" aria-live=\"polite\"></span></form></div>"
             "<h2>The part's specs</h2><div id=\"spec-list\">loading ...</div>")
     return _page(f"ITA specs {directory}", body, f"ITAWeb.specEditor({_arg(directory)});")
+
+
+def paths_page(run_id: str) -> str:
+    body = (f"<p><a href=\"/runs/{html.escape(run_id)}\">run {html.escape(run_id)}</a></p>"
+            "<h1>The Path Planner's paths: every arm move of the run</h1><p class=\"note\">The tool point's path of "
+            "each move the arm made, one colour per tool, in the workcell with the part (world frame, m); hover: the "
+            "measurement and the command.</p><div id=\"paths\">loading ...</div>")
+    return _page(f"ITA paths {run_id}", body, f"ITAWeb.pathsPage({_arg(run_id)});")

@@ -57,7 +57,8 @@
       `exports: <a href="/runs/${enc(run)}/results.csv">results.csv</a> <a href="/runs/${enc(run)}/results.json">results.json</a> ` +
       `<a href="/runs/${enc(run)}/report.html">report.html</a> <a href="/runs/${enc(run)}/report.pdf">report.pdf</a> <span id="scoring-link"></span>` +
       ' · on this page: <a href="#sec-summary">verdict</a> <a href="#sec-results">results</a> <a href="#sec-part3d">3-D</a> ' +
-      '<a href="#sec-gantt">timeline</a> <a href="#sec-events">exceptions</a> <a href="#live-panel">live</a>';
+      '<a href="#sec-gantt">timeline</a> <a href="#sec-events">exceptions</a> <a href="#sec-diagnoses">test trees</a> ' +
+      `<a href="#sec-tours">tours</a> <a href="/runs/${enc(run)}/paths">every arm move in 3-D</a> <a href="#live-panel">live</a>`;
     for (const [command, id] of Object.entries(buttons)) {
       document.getElementById(id).addEventListener("click", async () => {
         msg.textContent = `${command}: sending ...`;       // said at once, before the server answers
@@ -241,6 +242,19 @@
     });
     undo.addEventListener("click", () => change({ action: "undo" }));
     try { show(await getJSON(`/api/parts/specs?${q}`)); } catch (err) { say(err.message, true); }
+    document.body.dataset.ready = "1";
+  };
+
+  W.pathsPage = async function (run) {
+    const root = document.getElementById("paths");
+    try {
+      const d = await getJSON(`/api/runs/${enc(run)}/paths`);
+      if (!d.moves) { root.innerHTML = `<p class="note">${ITA.esc(d.note || "no path")}</p>`; }
+      else {
+        root.innerHTML = `<p>${d.moves} moves</p><div id="fig-paths"></div>`;
+        await ITA.plot(document.getElementById("fig-paths"), d.figure);
+      }
+    } catch (err) { root.innerHTML = `<p class="err">${ITA.esc(err.message)}</p>`; }
     document.body.dataset.ready = "1";
   };
 
