@@ -402,7 +402,17 @@ def test_specs_are_entered_by_pointing_at_the_part(site, tmp_path) -> None:
     specs = read_specs(part / "specs.csv")
     assert [s.kind.value for s in specs] == ["hole_diameter", "web_thickness", "flange_height"]
     assert specs[0].nominal == pytest.approx(40.0, abs=0.01) and specs[1].nominal == pytest.approx(3.0, abs=0.01)
-    b.find_element("id", "spec-undo").click()                       # the rim's height taken back ...
+    b.execute_script("document.querySelector('#spec-table tbody tr[data-spec^=\"HD-\"]').click()")   # edited
+    upper = b.find_element("id", "pick-upper")
+    upper.clear()
+    upper.send_keys("0.2")
+    b.find_element("id", "spec-save").click()
+    _wait(b, "return document.getElementById('spec-msg').textContent.startsWith('changed')")
+    assert read_specs(part / "specs.csv")[0].upper == pytest.approx(0.2)
+    b.find_element("id", "spec-undo").click()                       # the edit taken back ...
+    _wait(b, "return document.getElementById('spec-msg').textContent === 'undone'")
+    assert read_specs(part / "specs.csv")[0].upper == pytest.approx(0.1)
+    b.find_element("id", "spec-undo").click()                       # ... and the rim's height
     _wait(b, "return document.querySelectorAll('#spec-table tbody tr').length === 2")
     assert len(read_specs(part / "specs.csv")) == 2
     b.execute_script("document.querySelector('.spec-remove[data-id^=\"WT-\"]').click()")   # ... and the web deleted

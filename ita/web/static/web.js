@@ -146,7 +146,7 @@
     const save = document.getElementById("spec-save");
     const undo = document.getElementById("spec-undo");
     const say = (text, err) => { msg.textContent = text; msg.className = err ? "err" : "note"; };
-    let picked = null, specs = [];
+    let picked = null, specs = [], editing = null;
     const prefix = { hole_diameter: "HD", hole_position: "HP", edge_distance: "ED", web_thickness: "WT",
                      flange_thickness: "FT", flange_height: "FH", flange_width: "FW", stiffener_height: "SH",
                      stiffener_width: "SW" };
@@ -166,7 +166,24 @@
           `<td class="num">${s.point.map((x) => ITA.num(x, 2)).join(", ")}</td><td class="num">${ITA.num(s.nominal, 4)}</td>` +
           `<td class="num">${ITA.num(s.lower, 3)} / ${ITA.num(s.upper, 3)}</td><td>${ITA.esc(s.datum)}</td>` +
           `<td><button type="button" class="spec-remove" data-id="${ITA.esc(s.id)}">delete</button></td></tr>`).join("") + "</tbody></table>";
-      root.querySelectorAll(".spec-remove").forEach((b) => b.addEventListener("click", () => change({ action: "remove", id: b.dataset.id })));
+      root.querySelectorAll(".spec-remove").forEach((b) => b.addEventListener("click", (e) => {
+        e.stopPropagation();
+        change({ action: "remove", id: b.dataset.id });
+      }));
+      root.querySelectorAll("#spec-table tbody tr").forEach((tr) => tr.addEventListener("click", () => edit(tr.dataset.spec)));
+    }
+    function edit(id) {          // a spec of the list into the form: its tolerance, datum, nominal, note changed
+      const s = specs.find((x) => x.id === id);
+      if (!s) return;
+      editing = id;
+      picked = { kind: s.kind, point: s.point, normal: s.normal, direction: s.direction, candidates: [s.kind] };
+      kindSel.innerHTML = `<option selected>${ITA.esc(s.kind)}</option>`;
+      const f = form.elements;
+      f.id.value = s.id; f.feature.value = s.feature; f.nominal.value = s.nominal; f.lower.value = s.lower;
+      f.upper.value = s.upper; f.datum.value = s.datum; f.note.value = s.note || "";
+      document.getElementById("pick-what").textContent = `editing ${s.id} (save changes it; click the part for a new one)`;
+      document.getElementById("pick-what").className = "note";
+      save.disabled = false;
     }
     function drawPart(view) {
       const m = view.mesh;
@@ -204,6 +221,7 @@
     }
     function fill(p) {
       picked = p;
+      editing = null;
       const what = document.getElementById("pick-what");
       const where = document.getElementById("pick-where");
       kindSel.innerHTML = (p.candidates || []).map((k) => `<option${k === p.kind ? " selected" : ""}>${ITA.esc(k)}</option>`).join("");
@@ -234,6 +252,14 @@
       e.preventDefault();
       if (!picked || !picked.kind) return;
       const f = form.elements;
+      if (editing) {
+        const id = editing;
+        editing = null;
+        change({ action: "edit", id, spec: { id: f.id.value, feature: f.feature.value, nominal: f.nominal.value,
+                                             lower: f.lower.value, upper: f.upper.value, datum: f.datum.value,
+                                             note: f.note.value } });
+        return;
+      }
       const spec = { id: f.id.value, kind: picked.kind, feature: f.feature.value, x: picked.point[0], y: picked.point[1],
                      z: picked.point[2], nx: picked.normal[0], ny: picked.normal[1], nz: picked.normal[2], nominal: f.nominal.value,
                      lower: f.lower.value, upper: f.upper.value, datum: f.datum.value, note: f.note.value };
