@@ -372,13 +372,10 @@ def test_the_components_graphics_are_drawn_for_a_fault_run(site) -> None:
     assert "2 moves" in b.find_element("id", "paths").text
 
 
-def test_specs_are_entered_by_pointing_at_the_part(site, tmp_path) -> None:
-    """The Offline Measurement Entry in the browser: a hole, a web and a rim picked on the
-    part (as a click on the 3-D view does), each saved with its tolerance to specs.csv
-    (checked as `ita spec add` checks it), one undone and put back, one deleted."""
+def _enter_three_specs(site, tmp_path) -> Path:
+    """A rim-walled plate with no specs; a hole, a web and a rim picked in the editor (as a
+    click on its 3-D view does) and each saved with its tolerance."""
     from user_parts import HEADER, RIM_TOP, RIM_Y, make_rim_plate
-
-    from ita.specs.io import read_specs
 
     part = make_rim_plate(tmp_path / "rim")
     (part / "specs.csv").write_text(HEADER + "\n")
@@ -399,6 +396,34 @@ def test_specs_are_entered_by_pointing_at_the_part(site, tmp_path) -> None:
             box.send_keys(value)
         b.find_element("id", "spec-save").click()
         _wait(b, f"return document.querySelectorAll('#spec-table tbody tr').length === {k}")
+    return part
+
+
+@pytest.mark.slow     # about 30 s: the part's calibration on its master, then the run
+def test_three_specs_entered_in_the_browser_are_prepared_and_measured(site, tmp_path) -> None:
+    import json
+
+    from click.testing import CliRunner
+
+    from ita.cli import main
+
+    part = _enter_three_specs(site, tmp_path)
+    run = CliRunner()
+    assert run.invoke(main, ["prepare", "--part", str(part)]).exit_code == 0
+    runs = tmp_path / "runs"
+    assert run.invoke(main, ["inspect", "--part", str(part), "--runs-dir", str(runs)]).exit_code == 0
+    rows = json.loads(run.invoke(main, ["results", "--runs-dir", str(runs), "last", "--json"]).output)["results"]
+    assert len(rows) == 3 and all(r["value"] is not None for r in rows), rows
+
+
+def test_specs_are_entered_by_pointing_at_the_part(site, tmp_path) -> None:
+    """The Offline Measurement Entry in the browser: a hole, a web and a rim picked on the
+    part (as a click on the 3-D view does), each saved with its tolerance to specs.csv
+    (checked as `ita spec add` checks it), one undone and put back, one deleted."""
+    from ita.specs.io import read_specs
+
+    part = _enter_three_specs(site, tmp_path)
+    b = site["browser"]
     specs = read_specs(part / "specs.csv")
     assert [s.kind.value for s in specs] == ["hole_diameter", "web_thickness", "flange_height"]
     assert specs[0].nominal == pytest.approx(40.0, abs=0.01) and specs[1].nominal == pytest.approx(3.0, abs=0.01)

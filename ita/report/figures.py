@@ -261,11 +261,11 @@ def part_figure(specs: Sequence[SpecPoint], results: Sequence[StoredResult], mes
                           {"label": "colour by deviation", "method": "restyle",
                            "args": [{"visible": by_deviation}]}]}] if measured else []
     return {"data": traces, "layout": {
-        "font": FONT, "height": 560, "margin": {"l": 0, "r": 0, "t": 40, "b": 0}, "updatemenus": menus,
+        "font": FONT, "height": 640, "margin": {"l": 0, "r": 0, "t": 40, "b": 0}, "updatemenus": menus,
         "legend": {"x": 0, "y": 0.95}, "uirevision": "part",
         "scene": {"aspectmode": "data", "xaxis": {"title": {"text": "x (mm)"}},
                   "yaxis": {"title": {"text": "y (mm)"}}, "zaxis": {"title": {"text": "z (mm)"}},
-                  "camera": {"eye": {"x": 0.1, "y": -1.4, "z": 2.4}}}}}
+                  "camera": {"eye": {"x": 0.15, "y": -2.0, "z": 3.4}}}}}
 
 
 def workcell_figure(boxes: Sequence[Any], part_mesh_world: Any, paths: Sequence[Mapping[str, Any]],
