@@ -38,7 +38,7 @@ from typing import Callable, Sequence
 
 import numpy as np
 
-from ita.sequence import fasttsp
+from ita.sequence import fasttsp, lkh
 from ita.sequence.construct import (
     cheapest_insertion,
     convex_hull_insertion,
@@ -295,7 +295,16 @@ def default(problem: OrderingProblem) -> list[int]:
     return list(order) if order is not None else classic(problem)
 
 
+def repeatable(problem: OrderingProblem) -> list[int]:
+    """LKH bounded by work with a fixed seed (ita.sequence.lkh): the same tour on every
+    machine at any load; the classic search in the never-seen case that its tour breaks
+    the reduction."""
+    order = lkh.order(problem.D, problem.start, problem.end)
+    return list(order) if order is not None else classic(problem)
+
+
 METHODS: dict[str, Callable[[OrderingProblem], list[int]]] = {
     "classic": classic,
     "default": default,
+    "repeatable": repeatable,
 }

@@ -1,0 +1,128 @@
+"""A repeatable ordering: LKH (Helsgaun's Lin-Kernighan-Helsgaun heuristic, through the
+elkai binding) bounded by work, not time, with a fixed seed.
+
+fast-tsp (ita.sequence.fasttsp) seeds from the clock and stops at a wall-clock deadline:
+two solves of one matrix can differ, and a busy machine finds worse tours.  LKH given a
+SEED and a number of trials (MAX_TRIALS) and of ascent iterations for its candidate sets
+(INITIAL_PERIOD) does the same work, and so returns the same tour, on any machine at any
+load.
+
+    order(cost, start, end)      # as ita.sequence.fasttsp.order: a closed tour or an open path
+
+The problem is put in LKH's form as fast-tsp's is: interchangeable stops merged
+(ita.sequence.fasttsp.merge_interchangeable), costs made integers on a fine scale
+(:data:`LEVELS`), an asymmetric matrix given as ATSP (LKH's own transformation), an open
+path closed through a dummy stop tied at no cost to its fixed end(s) and at a cost above
+every tour to the others.  The tour is read back, checked and put in canonical form.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ita.sequence.fasttsp import _leader, levels, merge_interchangeable
+
+__all__ = ["INITIAL_PERIOD", "LEVELS", "MAX_TRIALS", "SEED", "order"]
+
+#: LKH's work: trials (each a Lin-Kernighan descent from a kicked tour) ...
+MAX_TRIALS = 30
+#: ... and the subgradient ascent's initial period (its candidate sets)
+INITIAL_PERIOD = 100
+#: its random numbers' seed: the same tour on every machine
+SEED = 1
+#: integer levels the largest real cost takes: LKH multiplies each by its PRECISION (100)
+#: in a C int, and a tour's dummy ties cost twice the largest (kept far below 2**31)
+LEVELS = 100_000
+
+
+def order(cost: np.ndarray, start: int | None, end: int | None) -> tuple[int, ...] | None:
+    """Order the ``n`` stops of ``cost`` (``(n, n) float``, zero diagonal) with LKH; as
+    :func:`ita.sequence.fasttsp.order`.  None when the tour read back does not respect the
+    reduction (the caller then uses another method)."""
+    D = np.asarray(cost, dtype=np.float64)
+    symmetric = bool(np.array_equal(D, D.T))
+    classes = merge_interchangeable(D, symmetric, start, end)
+    keep = np.array([_leader(c, start, end) for c in classes], dtype=np.int64)
+    R = D[np.ix_(keep, keep)]
+    where = {int(v): k for k, v in enumerate(keep)}
+    s = None if start is None else where[start]
+    e = None if end is None else where[end]
+    reduced = _order_reduced(R, s, e, symmetric)
+    if reduced is None:
+        return None
+    return tuple(v for k in reduced for v in classes[k])
+
+
+def _order_reduced(R: np.ndarray, s: int | None, e: int | None, symmetric: bool) -> list[int] | None:
+    m = R.shape[0]
+    closed = s is None and e is None
+    if m <= 3:
+        return _small(R, s, e, closed)
+    W = levels(R, LEVELS)
+    if not closed:                        # a dummy stop m closes the path: m -> s and e -> m at no cost
+        big = 2 * int(W.max()) + 1        # above every real cost: a tour with the dummy elsewhere improves by 2-opt
+        X = np.full((m + 1, m + 1), big, dtype=np.int64)
+        X[:m, :m] = W
+        X[m, m] = 0
+        if symmetric:
+            for v in (s, e):
+                if v is not None:
+                    X[m, v] = X[v, m] = 0
+            if s is None or e is None:    # one end free: the dummy next to the fixed one and to any other
+                free = [v for v in range(m) if v not in (s, e)]
+                X[m, free] = X[free, m] = big // 2
+        else:
+            X[m, :m] = 0 if s is None else big
+            X[:m, m] = 0 if e is None else big
+            if s is not None:
+                X[m, s] = 0
+            if e is not None:
+                X[e, m] = 0
+        W = X
+    tour = _solve(W, symmetric)
+    if tour is None:
+        return None
+    if not closed:
+        k = tour.index(m)
+        path = tour[k + 1:] + tour[:k]
+        if symmetric and ((s is not None and path[0] != s) or (s is None and e is not None and path[-1] != e)):
+            path = path[::-1]
+        if (s is not None and path[0] != s) or (e is not None and path[-1] != e):
+            return None
+        return path
+    k = tour.index(0)
+    tour = tour[k:] + tour[:k]
+    if symmetric and len(tour) > 2 and tour[-1] < tour[1]:
+        tour = [tour[0]] + tour[:0:-1]
+    return tour
+
+
+def _small(R: np.ndarray, s: int | None, e: int | None, closed: bool) -> list[int]:
+    """Up to three stops: every order tried."""
+    from itertools import permutations
+
+    best, cost = None, np.inf
+    for p in permutations(range(R.shape[0])):
+        if (s is not None and p[0] != s) or (e is not None and p[-1] != e):
+            continue
+        c = sum(R[a, b] for a, b in zip(p, p[1:])) + (R[p[-1], p[0]] if closed else 0.0)
+        if c < cost:
+            best, cost = list(p), c
+    assert best is not None
+    return best
+
+
+def _solve(W: np.ndarray, symmetric: bool) -> list[int] | None:
+    """LKH's tour of integer matrix ``W`` (0-based, closed), or None when it is no tour."""
+    from elkai import _elkai  # the LKH binding's extension (its package imports nothing else)
+
+    n = W.shape[0]
+    params = (f"RUNS = 1\nSEED = {SEED}\nMAX_TRIALS = {MAX_TRIALS}\nINITIAL_PERIOD = {INITIAL_PERIOD}\n"
+              "PROBLEM_FILE = :stdin:\n")
+    problem = (f"TYPE : {'TSP' if symmetric else 'ATSP'}\nDIMENSION : {n}\nEDGE_WEIGHT_TYPE : EXPLICIT\n"
+               "EDGE_WEIGHT_FORMAT : FULL_MATRIX\nEDGE_WEIGHT_SECTION\n"
+               + "\n".join(" ".join(map(str, row)) for row in W.tolist()) + "\n")
+    tour = [int(i) - 1 for i in _elkai.solve_problem(params, problem)]
+    if sorted(tour) != list(range(n)):
+        return None
+    return tour
