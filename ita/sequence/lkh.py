@@ -114,7 +114,9 @@ def _small(R: np.ndarray, s: int | None, e: int | None, closed: bool) -> list[in
 
 def _solve(W: np.ndarray, symmetric: bool) -> list[int] | None:
     """LKH's tour of integer matrix ``W`` (0-based, closed), or None when it is no tour."""
-    from elkai import _elkai  # the LKH binding's extension (its package imports nothing else)
+    from elkai import (
+        _elkai,  # the LKH binding's extension (its package imports nothing else)
+    )
 
     n = W.shape[0]
     params = (f"RUNS = 1\nSEED = {SEED}\nMAX_TRIALS = {MAX_TRIALS}\nINITIAL_PERIOD = {INITIAL_PERIOD}\n"
