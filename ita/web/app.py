@@ -250,12 +250,9 @@ async def api_paths(request: Request) -> JSONResponse:
     state, run_id = _state(request), _run_id(request)
 
     def make(archive: Archive) -> Any:
-        rid = archive.resolve(run_id)
-        info = archive.run(rid)
-        last = archive.events(rid, last=1)
-        key = f"paths:{info.status.value}:{info.done}:{last[0].seq if last else 0}"
+        rid, info, key = _as_now(archive, run_id)
         scene = state.scene(info.part_dir)
-        return state.payload(rid + ":paths", key, lambda: jsonable(run_paths_figure(archive, rid, scene) or {
+        return state.payload(rid + ":paths", f"paths:{key}", lambda: jsonable(run_paths_figure(archive, rid, scene) or {
             "moves": 0, "note": "the run kept no arm path (a run from before they were kept, or none moved)"}))
 
     out = await run_in_threadpool(_with_archive, state, make)
@@ -382,12 +379,19 @@ REPORT_VIEWS = ("summary", "results", "part3d", "gantt", "breakdown", "events", 
 LIGHT_VIEWS = ("summary", "results", "events", "tours")
 
 
+def _as_now(archive: Archive, run_id: str) -> tuple[str, RunInfo, str]:
+    """The run's id, its info and a key that changes whenever anything of it does (a
+    cached view is good while the key stands)."""
+    rid = archive.resolve(run_id)
+    info = archive.run(rid)
+    last = archive.events(rid, last=1)
+    return rid, info, f"{info.status.value}:{info.done}:{last[0].seq if last else 0}"
+
+
 def _report(state: State, run_id: str, light: bool = False) -> Any:
     def make(archive: Archive) -> Any:
-        rid = archive.resolve(run_id)
-        info = archive.run(rid)
-        last = archive.events(rid, last=1)
-        key = f"{info.status.value}:{info.done}:{last[0].seq if last else 0}:{light}"
+        rid, info, now = _as_now(archive, run_id)
+        key = f"{now}:{light}"
         scene = state.scene(info.part_dir)
 
         def build() -> Any:

@@ -69,14 +69,19 @@ def run_page(run_id: str) -> str:
     return _page(f"ITA run {run_id}", body, f"ITAWeb.runPage({_arg(run_id)});")
 
 
+def _back(run_id: str) -> str:
+    """The link back to a run's page."""
+    return f"<p><a href=\"/runs/{html.escape(run_id)}\">run {html.escape(run_id)}</a></p>"
+
+
 def result_page(run_id: str, spec: str) -> str:
-    body = (f"<p><a href=\"/runs/{html.escape(run_id)}\">run {html.escape(run_id)}</a></p>"
+    body = (_back(run_id) +
             "<div id=\"result\">loading ...</div>")
     return _page(f"ITA {spec}", body, f"ITAWeb.resultPage({_arg(run_id)}, {_arg(spec)});")
 
 
 def scoring_page(run_id: str) -> str:
-    body = (f"<p><a href=\"/runs/{html.escape(run_id)}\">run {html.escape(run_id)}</a></p>"
+    body = (_back(run_id) +
             "<h1>Scoring against the as-built part</h1><p class=\"note\">Simulation only: this view compares the "
             "results with the simulated part's true dimensions, which the inspection never sees.</p>"
             "<div id=\"report\">loading ...</div>")
@@ -122,7 +127,7 @@ def part_specs_page(directory: str) -> str:
 
 
 def paths_page(run_id: str) -> str:
-    body = (f"<p><a href=\"/runs/{html.escape(run_id)}\">run {html.escape(run_id)}</a></p>"
+    body = (_back(run_id) +
             "<h1>The Path Planner's paths: every arm move of the run</h1><p class=\"note\">The tool point's path of "
             "each move the arm made, one colour per tool, in the workcell with the part (world frame, m); hover: the "
             "measurement and the command.</p><div id=\"paths\">loading ...</div>")
