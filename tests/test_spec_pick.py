@@ -76,6 +76,7 @@ def test_the_command_line_proposes_as_json_and_the_spec_it_proposes_validates(pa
     assert result.exit_code == 0, result.output
     got = json.loads(result.output)
     assert {"kind", "feature", "point", "normal", "nominal", "reason"} <= got.keys() and got["reason"] is None
+    assert got["reach"]["slra_tool"] == "reachable"                   # the arm's reach, per tool of the cell
     fmt = lambda v: ",".join(f"{x:g}" for x in v)                                              # noqa: E731
     added = run("spec", "add", "--part", str(part), "--id", "HP-NEW", "--kind", got["kind"], "--feature",
                 got["feature"], "--point", fmt(got["point"]), "--normal", fmt(got["normal"]), "--nominal",

@@ -392,6 +392,7 @@ def _enter_three_specs(site, tmp_path) -> Path:
         b.execute_script(f"ITAWeb.pickAt({list(at)})")
         _wait(b, f"return Number(document.body.dataset.picked) === {k}")
         assert b.find_element("id", "pick-kind").get_attribute("value") == kind
+        assert "the arm's reach: " in b.find_element("id", "pick-where").text
         for name, value in (("lower", lower), ("upper", upper)):
             box = b.find_element("id", f"pick-{name}")
             box.clear()

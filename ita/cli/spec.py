@@ -307,9 +307,15 @@ def pick_cmd(at: tuple[float, float, float], kind: str | None, as_json: bool, pa
     and in the JSON); 2 bad input."""
     from ita.part.pick import propose
 
-    proposal = propose(_load_part(part_dir), at, None if kind is None else MeasurementKind(kind))
+    from ita.offline.spec_reach import reach_at
+    from ita.workcell import workcell_for
+
+    part = _load_part(part_dir)
+    proposal = propose(part, at, None if kind is None else MeasurementKind(kind))
+    reach = {} if proposal.point is None or proposal.normal is None else \
+        reach_at(workcell_for(part.directory, part.mesh.bounds), proposal.point, proposal.normal)
     if as_json:
-        click.echo(json.dumps(proposal.to_dict(), indent=1))
+        click.echo(json.dumps({**proposal.to_dict(), "reach": reach}, indent=1))
     elif proposal.kind is None:
         click.echo(f"nothing to propose at {at}: {proposal.reason}"
                    + (f" (what fits: {', '.join(proposal.candidates)})" if proposal.candidates else ""))
@@ -318,6 +324,8 @@ def pick_cmd(at: tuple[float, float, float], kind: str | None, as_json: bool, pa
         click.echo(f"{proposal.what}: {proposal.kind} of {proposal.feature}, nominal {proposal.nominal:.4f} mm")
         click.echo(f"  point {d['point']}  normal {d['normal']}" + (f"  direction {d['direction']}"
                                                                    if d["direction"] else ""))
+        click.echo("  the arm's reach: " + ", ".join(f"{c} {v}" for c, v in reach.items())
+                   + ("" if "reachable" in reach.values() else "  (no tool reaches it: it would be cannot be done)"))
         if len(proposal.candidates) > 1:
             click.echo(f"  also fits: {', '.join(k for k in proposal.candidates if k != proposal.kind)} (--kind)")
         fmt = ",".join

@@ -36,3 +36,15 @@ def spec_reach(specs: Sequence[MeasurementSpec], workcell: Workcell, kb: Knowled
     points = np.array([s.point for s in specs], dtype=float).reshape(-1, 3)
     normals = np.array([s.normal for s in specs], dtype=float).reshape(-1, 3)
     return reach_report(workcell, points, normals, [tools[s.kind] for s in specs])
+
+
+def reach_at(workcell: Workcell, point_mm: Sequence[float], normal: Sequence[float]) -> dict[str, str]:
+    """Tool class -> the arm's reach verdict for a measurement at `point_mm` along `normal`
+    (part frame), for every tool class the cell has (a proposal shown before it is saved:
+    ita.part.pick; which class the kind takes is the tool rules', at `ita prepare`)."""
+    classes = sorted({t.tool_class.value for t in workcell.tools})
+    if not classes:
+        return {}
+    report = reach_report(workcell, np.tile(np.asarray(point_mm, dtype=float), (len(classes), 1)),
+                          np.tile(np.asarray(normal, dtype=float), (len(classes), 1)), classes)
+    return {c: v.value for c, v in zip(classes, report.verdicts)}

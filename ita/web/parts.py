@@ -28,12 +28,14 @@ import numpy as np
 
 from ita.errors import InputError
 from ita.files.atomic import locked, write_atomic
+from ita.offline.spec_reach import reach_at
 from ita.part import specfile
 from ita.part.pick import propose
 from ita.part.store import SPECS_FILE, load_part
 from ita.specs.io import COLUMNS
 from ita.specs.model import MeasurementKind
 from ita.web.bodies import BadRequest, part_field
+from ita.workcell import workcell_for
 
 __all__ = ["MAX_FACES", "Editor", "UNDO_DEPTH"]
 
@@ -99,7 +101,11 @@ class Editor:
                 wanted = MeasurementKind(kind)
             except ValueError:
                 raise BadRequest(f"kind: one of {', '.join(k.value for k in MeasurementKind)}") from None
-        return propose(load_part(directory), point, wanted).to_dict()
+        part = load_part(directory)
+        out = propose(part, point, wanted).to_dict()
+        if out["point"] is not None and out["normal"] is not None:
+            out["reach"] = reach_at(workcell_for(part.directory, part.mesh.bounds), out["point"], out["normal"])
+        return out
 
     def change(self, directory: Path, body: dict[str, Any]) -> dict[str, Any]:
         """Add, edit or remove a spec, or undo the last change made here; the specs after."""

@@ -238,7 +238,11 @@
       form.elements.nominal.value = p.nominal;
       form.elements.id.value = freeId(p.kind, p.feature);
       if (p.kind === "hole_position") { form.elements.lower.value = "0"; form.elements.upper.value = "0.5"; }
-      where.textContent = `point ${p.point.join(", ")}; normal ${p.normal.join(", ")}` + (p.direction ? `; direction ${p.direction.join(", ")}` : "");
+      const reach = Object.entries(p.reach || {}).map(([c, v]) => `${c} ${v}`).join(", ");
+      const none = p.reach && !Object.values(p.reach).includes("reachable");
+      where.textContent = `point ${p.point.join(", ")}; normal ${p.normal.join(", ")}` + (p.direction ? `; direction ${p.direction.join(", ")}` : "") +
+        (reach ? `; the arm's reach: ${reach}` : "") + (none ? " (no tool reaches it: a run would mark it cannot be done)" : "");
+      where.className = none ? "err" : "note";
       save.disabled = false;
     }
     W.pickAt = async function (at, kind) {
