@@ -305,9 +305,8 @@ def pick_cmd(at: tuple[float, float, float], kind: str | None, as_json: bool, pa
 
     Exit codes: 0 a proposal; 1 nothing of that kind measurable there (the reason is said,
     and in the JSON); 2 bad input."""
-    from ita.part.pick import propose
-
     from ita.offline.spec_reach import reach_at
+    from ita.part.pick import propose
     from ita.workcell import workcell_for
 
     part = _load_part(part_dir)
