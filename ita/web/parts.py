@@ -76,8 +76,10 @@ class Editor:
         part = load_part(directory)
         mesh = part.mesh
         if len(mesh.faces) > MAX_FACES:
-            mesh = mesh.simplify_quadric_decimation(face_count=MAX_FACES) if hasattr(
-                mesh, "simplify_quadric_decimation") else mesh
+            try:                          # a view of fewer faces; the proposals read the whole mesh
+                mesh = mesh.simplify_quadric_decimation(face_count=MAX_FACES)
+            except (ImportError, ValueError, RuntimeError):
+                mesh = part.mesh
         v, f = np.asarray(mesh.vertices), np.asarray(mesh.faces)
         specs = [_spec_row(s) for s in specfile.load(part)]
         return {"part": part.name, "dir": str(directory), "specs": specs,
