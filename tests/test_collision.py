@@ -151,7 +151,9 @@ def test_built_tree_is_sound(tree):
     assert np.array_equal(tree.first_hits(p0, p1, r) >= 0, tree.brute_force(p0, p1, r))
 
 
-@pytest.mark.parametrize("source", ["features", "mesh"])
+@pytest.mark.parametrize("source", ["features", pytest.param("mesh", marks=pytest.mark.slow)])
+# the mesh's cover of the whole bulkhead takes about 30 s: slow (a user part's run in the default
+# suite, tests/test_user_mesh_scaled.py, plans against a mesh cover)
 def test_part_cover_is_conservative(cell, part, source):
     """Every mesh vertex and 20,000 surface points lie inside some solid region of the part."""
     pts, _ = trimesh.sample.sample_surface(part.mesh, 20000, seed=7)

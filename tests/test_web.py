@@ -246,22 +246,28 @@ def test_stop_is_answered_within_a_second_with_a_whole_runs_page_open(site) -> N
     run_id = _running_run(site["runs"], 1076)
     b.get(f"{site['base']}/runs/{run_id}")
     _wait(b, "return !document.getElementById('btn-stop').disabled", 30)
-    # the page notes (wall clock, ms) when its message first changes and when it says STOP sent
-    b.execute_script("window.seen = {}; const m = document.getElementById('control-msg');"
-                     "new MutationObserver(() => { const t = m.textContent;"
-                     "  if (t && !window.seen.first) window.seen.first = Date.now();"
-                     "  if (t === 'STOP sent' && !window.seen.sent) window.seen.sent = Date.now(); })"
+    # the page notes (wall clock, ms) the click's dispatch, when its message first changes, and
+    # every task that keeps it busy for long from now on (a click then would wait for it)
+    b.execute_script("window.seen = {}; window.longtasks = []; window.enabledAt = performance.now();"
+                     "new PerformanceObserver((l) => l.getEntries().forEach((e) => window.longtasks.push("
+                     "[e.startTime, e.duration]))).observe({type: 'longtask', buffered: true});"
+                     "document.getElementById('btn-stop').addEventListener('click', () => {"
+                     "  window.seen.click = Date.now(); }, true);"
+                     "const m = document.getElementById('control-msg');"
+                     "new MutationObserver(() => { if (m.textContent && !window.seen.first) window.seen.first = Date.now(); })"
                      ".observe(m, {childList: true, characterData: true, subtree: true});")
-    t0 = time.time()
     b.find_element("id", "btn-stop").click()
-    seen = _wait(b, "return window.seen.sent && window.seen", 10)
+    seen = _wait(b, "return window.seen.first && window.seen", 10)
+    _wait(b, "return document.getElementById('control-msg').textContent === 'STOP sent'", 10)
     with Archive.open(archive_path(site["runs"])) as a:
         pending = a.pending_control(run_id)
-    acknowledged = seen["first"] / 1000 - t0
     assert [getattr(p.command, "value", p.command) for p in pending] == ["STOP"]
-    reached = pending[0].issued - t0                   # when the run's control table had it (its clock)
+    acknowledged = (seen["first"] - seen["click"]) / 1000
+    reached = pending[0].issued - seen["click"] / 1000   # when the run's control table had it (what the run reads)
     assert acknowledged < 1.0 and reached < 1.0, (acknowledged, reached)
     _wait(b, "return document.querySelectorAll('#sec-results tbody tr').length === 1076", 60)
+    busy = b.execute_script("return window.longtasks.filter((t) => t[0] + t[1] > window.enabledAt && t[1] >= 1000)")
+    assert busy == [], busy                         # while it drew the whole run, nothing kept a click waiting 1 s
 
 
 def test_a_finished_runs_page_leads_with_its_verdict_and_fits_the_window(site) -> None:

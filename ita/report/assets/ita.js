@@ -115,6 +115,7 @@
     ["U", "U (mm)", "num"], ["U_over_tolerance", "U / tolerance", "pct"], ["decision", "decision", "dec"],
     ["reason", "reason", "reason"]];
 
+  const ROWS_PER_CHUNK = 120;
   ITA.resultsTable = function (root, sec, opts) {
     opts = opts || {};
     const rows = sec.rows.slice();
@@ -146,7 +147,7 @@
     const scroller = h("div", { class: "scroll" });
     scroller.appendChild(t);
     root.appendChild(scroller);
-    let sortKey = "seq", sortDir = 1;
+    let sortKey = "seq", sortDir = 1, drawing = 0;
     const state = { text: "", decision: "", kind: "", tool: "", failed: false };
     function cell(r, c) {
       const v = r[c[0]];
@@ -177,8 +178,21 @@
         if (y === null || y === undefined) return -1;
         return (x < y ? -1 : 1) * sortDir;
       });
-      t.tBodies[0].innerHTML = shown.map((r) => `<tr class="st-${r.decision}" data-spec="${esc(r.spec_id)}">` +
-        TABLE_COLUMNS.map((c) => cell(r, c)).join("") + "</tr>").join("");
+      // the rows a chunk at a time, the page given back between chunks (a whole run's table
+      // never keeps a click on STOP waiting); a newer draw stops an older one
+      const mine = ++drawing;
+      const body = t.tBodies[0];
+      body.innerHTML = "";
+      let at = 0;
+      const chunk = () => {
+        if (mine !== drawing) return;
+        body.insertAdjacentHTML("beforeend", shown.slice(at, at + ROWS_PER_CHUNK).map((r) =>
+          `<tr class="st-${r.decision}" data-spec="${esc(r.spec_id)}">` + TABLE_COLUMNS.map((c) => cell(r, c)).join("") +
+          "</tr>").join(""));
+        at += ROWS_PER_CHUNK;
+        if (at < shown.length) setTimeout(chunk, 0);
+      };
+      chunk();
       f.querySelector(".count").textContent = `${shown.length} of ${rows.length} results shown`;
       t.querySelectorAll("th").forEach((th) => {
         const on = th.dataset.key === sortKey;
