@@ -169,13 +169,14 @@ def _solve(fast_tsp, W: np.ndarray, time_budget: float | None) -> list[int]:
     return [int(v) for v in fast_tsp.find_tour(W.astype(np.uint16), budget, max_threads=1)]
 
 
-def _symmetric_matrix(R: np.ndarray, s: int | None, e: int | None) -> tuple[np.ndarray, bool]:
-    """The integer matrix of a symmetric problem, with a dummy (last) for an open path."""
+def _symmetric_matrix(R: np.ndarray, s: int | None, e: int | None, top: int = LEVELS) -> tuple[np.ndarray, bool]:
+    """The integer matrix (levels up to `top`) of a symmetric problem, with a dummy (last)
+    for an open path."""
     m = R.shape[0]
     if s is None and e is None:
-        return levels(R, LEVELS), False
-    W = np.full((m + 1, m + 1), LEVELS, dtype=np.int64)
-    W[:m, :m] = levels(R, LEVELS - 1)
+        return levels(R, top), False
+    W = np.full((m + 1, m + 1), top, dtype=np.int64)
+    W[:m, :m] = levels(R, top - 1)
     for v in (s, e):
         if v is not None:
             W[m, v] = W[v, m] = 0

@@ -20,7 +20,13 @@ from __future__ import annotations
 
 import numpy as np
 
-from ita.sequence.fasttsp import _leader, levels, merge_interchangeable
+from ita.sequence.fasttsp import (
+    _leader,
+    _read_symmetric,
+    _symmetric_matrix,
+    levels,
+    merge_interchangeable,
+)
 
 __all__ = ["INITIAL_PERIOD", "LEVELS", "MAX_TRIALS", "SEED", "order"]
 
@@ -58,43 +64,33 @@ def _order_reduced(R: np.ndarray, s: int | None, e: int | None, symmetric: bool)
     closed = s is None and e is None
     if m <= 3:
         return _small(R, s, e, closed)
+    if symmetric:                       # the same matrix and reading back as fast-tsp's, on LKH's scale
+        W, dummy = _symmetric_matrix(R, s, e, LEVELS)
+        tour = _solve(W, True)
+        return None if tour is None else _read_symmetric(tour, m, dummy, s, e)
     W = levels(R, LEVELS)
     if not closed:                        # a dummy stop m closes the path: m -> s and e -> m at no cost
-        big = 2 * int(W.max()) + 1        # above every real cost: a tour with the dummy elsewhere improves by 2-opt
+        big = 2 * int(W.max()) + 1        # above every real cost: a tour with the dummy elsewhere improves
         X = np.full((m + 1, m + 1), big, dtype=np.int64)
         X[:m, :m] = W
         X[m, m] = 0
-        if symmetric:
-            for v in (s, e):
-                if v is not None:
-                    X[m, v] = X[v, m] = 0
-            if s is None or e is None:    # one end free: the dummy next to the fixed one and to any other
-                free = [v for v in range(m) if v not in (s, e)]
-                X[m, free] = X[free, m] = big // 2
-        else:
-            X[m, :m] = 0 if s is None else big
-            X[:m, m] = 0 if e is None else big
-            if s is not None:
-                X[m, s] = 0
-            if e is not None:
-                X[e, m] = 0
+        X[m, :m] = 0 if s is None else big
+        X[:m, m] = 0 if e is None else big
+        if s is not None:
+            X[m, s] = 0
+        if e is not None:
+            X[e, m] = 0
         W = X
-    tour = _solve(W, symmetric)
+    tour = _solve(W, False)
     if tour is None:
         return None
-    if not closed:
-        k = tour.index(m)
-        path = tour[k + 1:] + tour[:k]
-        if symmetric and ((s is not None and path[0] != s) or (s is None and e is not None and path[-1] != e)):
-            path = path[::-1]
-        if (s is not None and path[0] != s) or (e is not None and path[-1] != e):
-            return None
-        return path
-    k = tour.index(0)
-    tour = tour[k:] + tour[:k]
-    if symmetric and len(tour) > 2 and tour[-1] < tour[1]:
-        tour = [tour[0]] + tour[:0:-1]
-    return tour
+    k = tour.index(0 if closed else m)    # LKH's ATSP tour runs in its own direction
+    if closed:
+        return tour[k:] + tour[:k]
+    path = tour[k + 1:] + tour[:k]
+    if (s is not None and path[0] != s) or (e is not None and path[-1] != e):
+        return None
+    return path
 
 
 def _small(R: np.ndarray, s: int | None, e: int | None, closed: bool) -> list[int]:
