@@ -3,8 +3,9 @@
     python bench/tsp.py [--tsplib DIR] [--out FILE] [--methods default,classic] [--no-peers]
 
 For every ``*.tsp`` in the TSPLIB directory (default ``../shared/tsplib`` beside the
-checkout) listed in its ``optima.csv``, runs ``default`` (fast-tsp through
-ita.sequence.fasttsp) and ``classic`` (the seed's method) and, as peers in the same run,
+checkout) listed in its ``optima.csv``, runs ``default`` (LKH bounded by work with a
+fixed seed, ita.sequence.lkh) and ``classic`` (the seed's method; ``--methods`` may add
+``fast``, fast-tsp through ita.sequence.fasttsp) and, as peers in the same run,
 fast-tsp called directly and, when importable (``pip install -e '.[bench]'``), OR-Tools
 guided local search, each peer given the wall time ``default`` took on that instance.
 Prints a table (length, gap to the optimum in %, seconds) with the means, and the

@@ -3,7 +3,7 @@
 numba caches compiled code beside the sources (`cache=True`); `setup.sh` runs this after
 installing.  Without it, a fresh checkout's first inspection spends half a minute or more
 compiling.  Each step runs the code a run runs, on small made-up inputs of the same types:
-the classic ordering (the `default` one is a library, fast-tsp), forward kinematics, path
+the classic ordering (the `default` and `fast` ones are libraries, LKH and fast-tsp), forward kinematics, path
 planning with its collision and motion checks, a range frame with a hole and mixed pixels
 (ray casting, phase noise, the edges' k-d tree), and a circle fit.  Run by hand:
 `python -m ita.warmup`.

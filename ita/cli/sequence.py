@@ -1,6 +1,6 @@
 """`ita sequence`: the Sequence Planner's commands.
 
-    ita sequence [--method classic|default|repeatable] [--json] [--render seq.png] [--restart]
+    ita sequence [--method classic|default|fast] [--json] [--render seq.png] [--restart]
         partition the part's measurements by tool (kb/tools.pl), order each group, store
         the plan (ita_home()/plans/<part>.json) and print the groups, costs, tool changes
     ita sequence show [--json]        print the stored plan
@@ -117,11 +117,11 @@ def format_plan(plan: SequencePlan) -> str:
 
 @click.group(invoke_without_command=True)
 @part_option
-@click.option("--method", type=click.Choice(["classic", "default", "repeatable"]), default="default",
+@click.option("--method", type=click.Choice(["classic", "default", "fast"]), default="default",
               show_default=True,
               help="Tour method per tool group: classic (the seed's convex hull + 2-opt + Or-opt), "
-                   "default (the fast-tsp library, near-optimal; clock-seeded, deadline-bound) or repeatable "
-                   "(LKH bounded by work with a fixed seed: the same plan on every machine).")
+                   "default (LKH bounded by work with a fixed seed: the same plan on every machine) or "
+                   "fast (the fast-tsp library; clock-seeded, deadline-bound: plans may differ).")
 @click.option("--json", "as_json", is_flag=True, help="Print the plan's figures as JSON.")
 @click.option("--render", "render_path", type=click.Path(path_type=Path, dir_okay=False), default=None,
               help="Also draw the tours over the part into this PNG file.")
@@ -336,13 +336,14 @@ def why(spec_id: str, part_dir: Path | None, tree: bool) -> None:
 
 @sequence.command("tsp")
 @click.argument("file", type=click.Path(path_type=Path, dir_okay=False))
-@click.option("--method", type=click.Choice(["classic", "default", "repeatable"]), default="default",
+@click.option("--method", type=click.Choice(["classic", "default", "fast"]), default="default",
               show_default=True,
               help="classic: the seed's convex hull insertion + 2-opt + Or-opt; "
-                   "default: the fast-tsp library, within about 0.1 % of the optimum; "
-                   "repeatable: LKH bounded by work with a fixed seed (the same tour everywhere).")
+                   "default: LKH bounded by work with a fixed seed (the same tour everywhere), "
+                   "within about 0.1 % of the optimum; "
+                   "fast: the fast-tsp library for a wall-clock budget.")
 @click.option("--time-budget", type=FiniteFloatRange(min=0), default=None,
-              help="Wall-clock seconds for the default method to search (default: 1 ms a node, "
+              help="Wall-clock seconds for the fast method to search (default: 1 ms a node, "
                    "0.05 to 0.9 s).  Above 20 nodes its tours may differ from run to run.")
 @click.option("--json", "as_json", is_flag=True, help="Print a JSON object instead of text.")
 @reports_errors

@@ -28,10 +28,14 @@ from ita.sequence.fasttsp import (
     merge_interchangeable,
 )
 
-__all__ = ["INITIAL_PERIOD", "LEVELS", "MAX_TRIALS", "SEED", "order"]
+__all__ = ["INITIAL_PERIOD", "LEVELS", "MAX_TRIALS", "MIN_TRIALS", "SEED", "TRIAL_WORK", "order", "trials"]
 
-#: LKH's work: trials (each a Lin-Kernighan descent from a kicked tour) ...
-MAX_TRIALS = 30
+#: LKH's work: trials (each a Lin-Kernighan descent from a new tour near the best), as
+#: many as TRIAL_WORK / nodes, between MIN_TRIALS and MAX_TRIALS (a trial costs about the
+#: same at any size here, while the problem's reading and ascent grow with its square) ...
+TRIAL_WORK = 45_000
+MIN_TRIALS = 40
+MAX_TRIALS = 100
 #: ... and the subgradient ascent's initial period (its candidate sets)
 INITIAL_PERIOD = 100
 #: its random numbers' seed: the same tour on every machine
@@ -39,6 +43,11 @@ SEED = 1
 #: integer levels the largest real cost takes: LKH multiplies each by its PRECISION (100)
 #: in a C int, and a tour's dummy ties cost twice the largest (kept far below 2**31)
 LEVELS = 100_000
+
+
+def trials(nodes: int) -> int:
+    """LKH's MAX_TRIALS for a problem of ``nodes`` nodes (the work, not the time, bounds it)."""
+    return max(MIN_TRIALS, min(MAX_TRIALS, TRIAL_WORK // max(nodes, 1)))
 
 
 def order(cost: np.ndarray, start: int | None, end: int | None) -> tuple[int, ...] | None:
@@ -65,10 +74,10 @@ def _order_reduced(R: np.ndarray, s: int | None, e: int | None, symmetric: bool)
     if m <= 3:
         return _small(R, s, e, closed)
     if symmetric:                       # the same matrix and reading back as fast-tsp's, on LKH's scale
-        W, dummy = _symmetric_matrix(R, s, e, LEVELS)
+        W, dummy = _symmetric_matrix(R, s, e, _top(R))
         tour = _solve(W, True)
         return None if tour is None else _read_symmetric(tour, m, dummy, s, e)
-    W = levels(R, LEVELS)
+    W = levels(R, _top(R))
     if not closed:                        # a dummy stop m closes the path: m -> s and e -> m at no cost
         big = 2 * int(W.max()) + 1        # above every real cost: a tour with the dummy elsewhere improves
         X = np.full((m + 1, m + 1), big, dtype=np.int64)
@@ -93,6 +102,15 @@ def _order_reduced(R: np.ndarray, s: int | None, e: int | None, symmetric: bool)
     return path
 
 
+def _top(R: np.ndarray) -> int:
+    """The level of the largest cost: integer costs as they are (one above them, for an open
+    path's barrier), any other scaled to :data:`LEVELS`."""
+    high = float(R.max()) if R.size else 0.0
+    if R.size and R.min() >= 0 and 0 < high < LEVELS and np.array_equal(R, np.rint(R)):
+        return int(high) + 1
+    return LEVELS
+
+
 def _small(R: np.ndarray, s: int | None, e: int | None, closed: bool) -> list[int]:
     """Up to three stops: every order tried."""
     from itertools import permutations
@@ -115,11 +133,13 @@ def _solve(W: np.ndarray, symmetric: bool) -> list[int] | None:
     )
 
     n = W.shape[0]
-    params = (f"RUNS = 1\nSEED = {SEED}\nMAX_TRIALS = {MAX_TRIALS}\nINITIAL_PERIOD = {INITIAL_PERIOD}\n"
+    params = (f"RUNS = 1\nSEED = {SEED}\nMAX_TRIALS = {trials(n)}\nINITIAL_PERIOD = {INITIAL_PERIOD}\n"
               "PROBLEM_FILE = :stdin:\n")
+    # the matrix as text (elkai's LKH reads only FULL_MATRIX): each level's digits made once
+    digits = np.array([str(v) for v in range(int(W.max()) + 1)], dtype=object)
     problem = (f"TYPE : {'TSP' if symmetric else 'ATSP'}\nDIMENSION : {n}\nEDGE_WEIGHT_TYPE : EXPLICIT\n"
                "EDGE_WEIGHT_FORMAT : FULL_MATRIX\nEDGE_WEIGHT_SECTION\n"
-               + "\n".join(" ".join(map(str, row)) for row in W.tolist()) + "\n")
+               + "\n".join(map(" ".join, digits[W].tolist())) + "\n")
     tour = [int(i) - 1 for i in _elkai.solve_problem(params, problem)]
     if sorted(tour) != list(range(n)):
         return None
