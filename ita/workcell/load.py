@@ -183,6 +183,7 @@ def _read_workcell(r: _Reader, data: dict[str, Any], path: Path) -> Workcell | N
     if not fixture:
         r.fail("fixture", "at least one [[fixture]] box is needed")
     reach = _read_reach(r, r.table(data, "reach", "reach"))
+    second, second_pedestal = _read_second_arm(r, data, robot, path.parent)
     cell = Workcell(
         source=path,
         arm=arm,  # type: ignore[arg-type]
@@ -197,21 +198,42 @@ def _read_workcell(r: _Reader, data: dict[str, Any], path: Path) -> Workcell | N
         stands=r.boxes(data, "stand"),
         fence=r.boxes(data, "fence"),
         reach=reach,
+        second_arm=second,
+        second_pedestal=second_pedestal,
     )
     _check_unique_names(r, cell)
+    if second is not None and second.name == cell.arm.name:
+        r.fail("robot_b.name", f"the second arm needs a name of its own (both are {second.name!r})")
     return cell
 
 
-def _read_arm(r: _Reader, robot: dict[str, Any], base_dir: Path) -> ArmSpec | None:
-    name = r.text(robot, "name", "robot.name")
-    urdf_name = r.text(robot, "urdf", "robot.urdf")
-    flange = r.text(robot, "flange_link", "robot.flange_link")
-    base = r.pose(robot, "robot", position_key="base_position", rpy_key="base_rpy_deg")
-    payload = r.number(robot, "payload_kg", "robot.payload_kg", low=0.0, strict_low=True)
-    repeat_mm = r.number(robot, "repeatability_mm", "robot.repeatability_mm", low=0.0, strict_low=True)
-    speed = r.number(robot, "max_tool_speed", "robot.max_tool_speed", low=0.0, strict_low=True, high=10.0)
-    accel = r.vector(robot, "acceleration", "robot.acceleration", n=len(ARM_JOINTS), positive=True)
-    home = r.vector(robot, "home_rad", "robot.home_rad", n=len(ARM_JOINTS)) if "home_rad" in robot else HOME_Q
+def _read_second_arm(r: _Reader, data: dict[str, Any], robot: dict[str, Any],
+                     base_dir: Path) -> tuple[ArmSpec | None, Box | None]:
+    """The optional second arm, ``[robot_b]``: its own name, base pose and pedestal
+    (``[robot_b.pedestal]``); any other key it does not give is the first arm's."""
+    if "robot_b" not in data:
+        return None, None
+    own = r.table(data, "robot_b", "robot_b")
+    for key in ("name", "base_position", "base_rpy_deg"):
+        if key not in own:
+            r.fail(f"robot_b.{key}", "the second arm needs its own name and base pose")
+    merged = {**{k: v for k, v in robot.items() if k not in ("name", "base_position", "base_rpy_deg")},
+              **{k: v for k, v in own.items() if k != "pedestal"}}
+    arm = _read_arm(r, merged, base_dir, table="robot_b")
+    pedestal = r.box(r.table(own, "pedestal", "robot_b.pedestal"), "robot_b.pedestal", f"pedestal_{own.get('name', 'b')}")
+    return arm, pedestal
+
+
+def _read_arm(r: _Reader, robot: dict[str, Any], base_dir: Path, table: str = "robot") -> ArmSpec | None:
+    name = r.text(robot, "name", f"{table}.name")
+    urdf_name = r.text(robot, "urdf", f"{table}.urdf")
+    flange = r.text(robot, "flange_link", f"{table}.flange_link")
+    base = r.pose(robot, table, position_key="base_position", rpy_key="base_rpy_deg")
+    payload = r.number(robot, "payload_kg", f"{table}.payload_kg", low=0.0, strict_low=True)
+    repeat_mm = r.number(robot, "repeatability_mm", f"{table}.repeatability_mm", low=0.0, strict_low=True)
+    speed = r.number(robot, "max_tool_speed", f"{table}.max_tool_speed", low=0.0, strict_low=True, high=10.0)
+    accel = r.vector(robot, "acceleration", f"{table}.acceleration", n=len(ARM_JOINTS), positive=True)
+    home = r.vector(robot, "home_rad", f"{table}.home_rad", n=len(ARM_JOINTS)) if "home_rad" in robot else HOME_Q
     if not urdf_name:
         return None
     urdf = (base_dir / urdf_name).resolve()

@@ -7,7 +7,7 @@ except where a name says otherwise (`_mm`, `_deg`, `_kg`).  Quaternions are (x, 
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -319,7 +319,9 @@ class Workcell:
     """Everything in the cell: arm, part placement, fixture, rack, tools, stations.
 
     stands: the tables the couplant station and calibration block sit on; fence: the
-    safety fence's walls; pedestal: the riser under the arm's base.
+    safety fence's walls; pedestal: the riser under the arm's base.  second_arm and
+    second_pedestal: a second arm (``[robot_b]``) that a two-arm plan may use; the one-arm
+    system leaves it out of the cell (it is not among :meth:`static_boxes`).
     """
 
     source: Path
@@ -335,6 +337,22 @@ class Workcell:
     stands: tuple[Box, ...]
     fence: tuple[Box, ...]
     reach: ReachParams
+    second_arm: ArmSpec | None = None
+    second_pedestal: Box | None = None
+
+    def arms(self) -> tuple[ArmSpec, ...]:
+        """The cell's arms: the first, then the second when there is one."""
+        return (self.arm,) if self.second_arm is None else (self.arm, self.second_arm)
+
+    def seen_by(self, arm_name: str) -> "Workcell":
+        """The cell as arm `arm_name` works it: that arm (and its pedestal) in the first
+        place, so reach, kinematics and paths apply to it; KeyError for no such arm."""
+        if arm_name == self.arm.name:
+            return self
+        if self.second_arm is None or self.second_pedestal is None or arm_name != self.second_arm.name:
+            raise KeyError(arm_name)
+        return replace(self, arm=self.second_arm, pedestal=self.second_pedestal,
+                       second_arm=self.arm, second_pedestal=self.pedestal)
 
     def tool(self, name: str) -> ToolSpec:
         """The tool named `name`; KeyError if there is none."""
