@@ -1,0 +1,99 @@
+"""Interference zones (ita.executive.zones): two arms never hold one zone at once, their
+bodies stay apart, and no pair of claims deadlocks: not with the arms sent across each
+other, not on random work."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from ita.executive.zones import (
+    RADIUS_M,
+    ArmJob,
+    Deadlock,
+    Move,
+    ZoneGrid,
+    coordinate,
+    min_separation,
+    segment_distance,
+)
+
+A, B = (0.0, 0.0), (0.0, -2.0)          # two bases 2 m apart, a wall of work at x = 1.7
+
+
+def job(name: str, base, targets, move_s: float = 1.0, dwell_s: float = 2.0) -> ArmJob:
+    return ArmJob(name, base, (base[0] + 0.5, base[1]),
+                  tuple(Move((float(x), float(y)), move_s, dwell_s, f"{name}{k}") for k, (x, y) in enumerate(targets)))
+
+
+def held_apart(schedule, grid: ZoneGrid, jobs) -> None:
+    """No zone is held by both arms in overlapping time (the table's own promise) ..."""
+    by = {j.name: j for j in jobs}
+    spans = {}
+    for name, steps in schedule.timeline.items():
+        rows, tool = [], by[name].start
+        for s, e, end, a, b, _ in steps:
+            rows.append((s, e, grid.swept(by[name].base, a, b)))
+            rows.append((e, end, grid.at_rest(by[name].base, b)))
+            tool = b
+        spans[name] = rows
+    (n1, r1), (n2, r2) = spans.items()
+    for s1, e1, z1 in r1:
+        for s2, e2, z2 in r2:
+            if s1 < e2 and s2 < e1 and e1 > s1 and e2 > s2:
+                assert not z1 & z2, (n1, s1, e1, n2, s2, e2)
+    # ... and, checked by geometry alone, the bodies keep twice the radius between them
+    assert min_separation(schedule, jobs) >= 2 * RADIUS_M - 1e-9
+
+
+def test_arms_sent_across_each_other_finish_without_deadlock_or_contact() -> None:
+    ta = [(1.7, y) for y in (-0.2, -0.6, -1.0, -1.4, -1.8, -2.2)]   # A works toward B's base
+    tb = [(1.7, y) for y in (-1.8, -1.4, -1.0, -0.6, -0.2, 0.2)]    # B toward A's
+    jobs = [job("a", A, ta), job("b", B, tb)]
+    grid = ZoneGrid.around([A, B, *ta, *tb])
+    s = coordinate(grid, jobs)
+    assert [len(s.timeline[n]) - s.retreats[n] for n in ("a", "b")] == [6, 6]      # every move made
+    assert s.retreats["b"] >= 1                   # the lower priority gave way ...
+    kinds = [e.kind for e in s.events if e.arm == "b"]
+    assert "wait" in kinds and "continue" in kinds          # ... waited, and went on when cleared
+    assert s.waiting_s["b"] > 0
+    held_apart(s, grid, jobs)
+
+
+def test_arms_working_apart_never_wait() -> None:
+    ta = [(1.7, y) for y in (0.6, 0.3, 0.0, 0.4)]
+    tb = [(1.7, y) for y in (-2.6, -2.3, -2.0, -2.4)]
+    jobs = [job("a", A, ta), job("b", B, tb)]
+    s = coordinate(ZoneGrid.around([A, B, *ta, *tb]), jobs)
+    assert s.waiting_s == {"a": 0.0, "b": 0.0} and s.retreats == {"a": 0, "b": 0}
+    assert s.makespan_s == pytest.approx(4 * 3.0)            # both at once: one arm's time
+
+
+@pytest.mark.parametrize("seed", range(12))
+def test_random_work_always_ends_with_the_arms_apart(seed: int) -> None:
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(3, 9))
+    ta = [(1.7, float(y)) for y in rng.uniform(-1.6, 0.8, n)]
+    tb = [(1.7, float(y)) for y in rng.uniform(-2.8, -0.4, n)]
+    jobs = [job("a", A, ta, float(rng.uniform(0.3, 2)), float(rng.uniform(0.5, 3))),
+            job("b", B, tb, float(rng.uniform(0.3, 2)), float(rng.uniform(0.5, 3)))]
+    grid = ZoneGrid.around([A, B, *ta, *tb])
+    s = coordinate(grid, jobs)
+    assert all(len(s.timeline[j.name]) - s.retreats[j.name] == len(j.moves) for j in jobs)
+    held_apart(s, grid, jobs)
+    # the makespan is no less than either arm's own work, no more than both in turn plus retreats
+    own = [sum(m.move_s + m.dwell_s for m in j.moves) for j in jobs]
+    assert max(own) - 1e-9 <= s.makespan_s <= sum(own) + 10.0
+
+
+def test_a_target_at_the_other_arms_base_is_refused_not_waited_for_ever() -> None:
+    jobs = [job("a", A, [(1.7, -0.5), (0.3, -1.9)]), job("b", B, [(1.7, -2.5)])]
+    with pytest.raises(Deadlock, match="base zone"):
+        coordinate(ZoneGrid.around([A, B, (1.7, -2.5), (1.7, -0.5)]), jobs)
+
+
+def test_segment_distance() -> None:
+    p = lambda x, y: np.array([x, y], dtype=float)  # noqa: E731
+    assert segment_distance(p(0, 0), p(2, 0), p(1, -1), p(1, 1)) == 0.0          # crossing
+    assert segment_distance(p(0, 0), p(2, 0), p(0, 1), p(2, 1)) == pytest.approx(1.0)
+    assert segment_distance(p(0, 0), p(1, 0), p(2, 1), p(3, 1)) == pytest.approx(np.sqrt(2))
