@@ -31,11 +31,10 @@ def held_apart(schedule, grid: ZoneGrid, jobs) -> None:
     by = {j.name: j for j in jobs}
     spans = {}
     for name, steps in schedule.timeline.items():
-        rows, tool = [], by[name].start
+        rows = []
         for s, e, end, a, b, _ in steps:
             rows.append((s, e, grid.swept(by[name].base, a, b)))
             rows.append((e, end, grid.at_rest(by[name].base, b)))
-            tool = b
         spans[name] = rows
     (n1, r1), (n2, r2) = spans.items()
     for s1, e1, z1 in r1:

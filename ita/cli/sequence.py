@@ -198,6 +198,39 @@ def show(part_dir: Path | None, as_json: bool) -> None:
         click.echo(line)
 
 
+@sequence.command()
+@part_option
+@click.option("--json", "as_json", is_flag=True, help="Print the allocation as JSON.")
+@reports_errors
+def allocate(part_dir: Path | None, as_json: bool) -> None:
+    """Split the part's measurements between the workcell's two arms (its [robot_b]).
+
+    Each measurement goes to an arm that reaches it and a tool of its class, a tool with
+    no twin to one arm; the split along the line between the arms' bases that makes the
+    larger arm time least.  Prints each arm's share and time (planned motion plus a dwell
+    per measurement), the makespan, a lower bound and the one-arm time.  A plan, not a
+    run: two-arm inspection runs are not built yet.
+    """
+    from ita.sequence.allocate import allocate as split
+    from ita.sequence.plan import build_plan
+
+    ctx = _context(part_dir)
+    plan = build_plan(ctx)
+    result = split(ctx, plan)
+    if as_json:
+        click.echo(json.dumps(result.as_dict(), indent=1))
+        return
+    for share in result.shares:
+        tools = ", ".join(f"{t} {len(o)} ({c:.0f} s of motion)" for t, o, c in share.groups)
+        click.echo(f"{share.arm:8s} {share.count:5d} measurements, {share.time_s:7.1f} s: {tools}")
+    click.echo(f"makespan {result.makespan_s:.1f} s; lower bound {result.bound_s:.1f} s (gap "
+               f"{result.gap_percent:.1f} %); one arm {result.one_arm_s:.1f} s "
+               f"(ratio {result.makespan_s / result.one_arm_s:.3f})")
+    if result.unassigned:
+        click.echo(f"neither arm: {len(result.unassigned)}: "
+                   + ", ".join(f"{i} ({w})" for i, w in result.unassigned[:10]))
+
+
 @sequence.command("next")
 @part_option
 @click.option("-n", "--count", type=click.IntRange(min=1), default=1, show_default=True,

@@ -1,0 +1,122 @@
+"""Zones of the cell's floor seen from above, and the arms' bodies in them: the geometry
+of two arms' interference zones (the claims are the Plan Executive's: ita.executive.zones).
+
+The floor is cut into square zones (:class:`ZoneGrid`).  An arm's body lies between its
+base and its tool: from above, the segment base -> tool thickened by the arm's
+half-width and a clearance (:attr:`ZoneGrid.radius`).  At rest it holds the zones that
+thick segment touches (:meth:`ZoneGrid.at_rest`); a move from tool point p to q sweeps
+the triangle (base, p, q) (the arm turns about its base axis and stretches or folds,
+:meth:`ZoneGrid.swept`).  A zone is taken when its centre is within the radius plus its
+half-diagonal, so two arms whose zone sets do not meet have no point within the radius
+of both: their bodies are at least twice the radius apart.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Iterable, Sequence
+
+import numpy as np
+
+__all__ = ["CELL_M", "RADIUS_M", "RETREAT_M", "ZoneGrid", "retreat_point", "segment_distance"]
+
+#: the arm's half-width plus clearance seen from above (m): a T3's forearm and wrist are
+#: about 0.2 m across, a tool 0.2 m; with 0.1 m to spare
+RADIUS_M = 0.25
+#: zone size (m)
+CELL_M = 0.1
+#: a retreating arm folds its tool back to this distance from its base axis (m)
+RETREAT_M = 0.5
+
+Point = tuple[float, float]  # world x, y (m)
+
+
+def segment_distance(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray) -> float:
+    """Least distance between segments ab and cd in the plane."""
+    def point_segment(p: np.ndarray, s: np.ndarray, e: np.ndarray) -> float:
+        v = e - s
+        t = 0.0 if not v.any() else float(np.clip(np.dot(p - s, v) / np.dot(v, v), 0.0, 1.0))
+        return float(np.linalg.norm(p - (s + t * v)))
+
+    def cross(o: np.ndarray, p: np.ndarray, q: np.ndarray) -> float:
+        return float((p[0] - o[0]) * (q[1] - o[1]) - (p[1] - o[1]) * (q[0] - o[0]))
+
+    d1, d2 = cross(c, d, a), cross(c, d, b)
+    d3, d4 = cross(a, b, c), cross(a, b, d)
+    if ((d1 > 0) != (d2 > 0)) and ((d3 > 0) != (d4 > 0)) and d1 * d2 < 0 and d3 * d4 < 0:
+        return 0.0
+    return min(point_segment(a, c, d), point_segment(b, c, d), point_segment(c, a, b), point_segment(d, a, b))
+
+
+@dataclass(frozen=True)
+class ZoneGrid:
+    """Square zones of side ``cell`` (m) over the rectangle ``low``..``high`` seen from above;
+    zone (i, j) is numbered ``i * ny + j`` (the order claims are listed in)."""
+
+    low: Point
+    high: Point
+    cell: float = CELL_M
+    radius: float = RADIUS_M
+
+    @classmethod
+    def around(cls, points: Iterable[Sequence[float]], margin: float = 0.5, cell: float = CELL_M,
+               radius: float = RADIUS_M) -> "ZoneGrid":
+        """A grid over the points (bases and targets, world x, y) with a margin."""
+        xy = np.asarray([(float(p[0]), float(p[1])) for p in points])
+        lo, hi = xy.min(axis=0) - margin - radius, xy.max(axis=0) + margin + radius
+        return cls((float(lo[0]), float(lo[1])), (float(hi[0]), float(hi[1])), cell, radius)
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return (max(1, math.ceil((self.high[0] - self.low[0]) / self.cell)),
+                max(1, math.ceil((self.high[1] - self.low[1]) / self.cell)))
+
+    def _centres(self) -> np.ndarray:
+        nx, ny = self.shape
+        i, j = np.meshgrid(np.arange(nx), np.arange(ny), indexing="ij")
+        return np.stack([self.low[0] + (i + 0.5) * self.cell, self.low[1] + (j + 0.5) * self.cell], -1).reshape(-1, 2)
+
+    def near_polygon(self, corners: Sequence[Sequence[float]]) -> frozenset[int]:
+        """Zones any point of which lies within ``radius`` of the polygon (a point, a
+        segment or a triangle, its corners from above): a zone is taken when its centre
+        is within ``radius`` plus its half-diagonal (so never too few)."""
+        P = np.asarray(corners, dtype=float)[:, :2]
+        c = self._centres()
+        reach = self.radius + self.cell * math.sqrt(0.5)
+        dist = np.full(len(c), np.inf)
+        k = len(P)
+        for a in range(k):
+            s, e = P[a], P[(a + 1) % k]
+            v = e - s
+            vv = float(np.dot(v, v))
+            t = np.zeros(len(c)) if vv == 0 else np.clip((c - s) @ v / vv, 0.0, 1.0)
+            dist = np.minimum(dist, np.linalg.norm(c - (s + t[:, None] * v), axis=1))
+        if k == 3:                                    # inside the triangle: distance 0
+            sign = [np.sign((P[(a + 1) % 3, 0] - P[a, 0]) * (c[:, 1] - P[a, 1])
+                            - (P[(a + 1) % 3, 1] - P[a, 1]) * (c[:, 0] - P[a, 0])) for a in range(3)]
+            inside = ((sign[0] >= 0) & (sign[1] >= 0) & (sign[2] >= 0)) | ((sign[0] <= 0) & (sign[1] <= 0) & (sign[2] <= 0))
+            dist[inside] = 0.0
+        return frozenset(int(z) for z in np.flatnonzero(dist <= reach))
+
+    def at_rest(self, base: Point, tool: Point) -> frozenset[int]:
+        """The zones an arm holds at rest with its tool at ``tool``."""
+        return self.near_polygon([base, tool])
+
+    def swept(self, base: Point, start: Point, end: Point) -> frozenset[int]:
+        """The zones an arm sweeps moving its tool from ``start`` to ``end``."""
+        return self.near_polygon([base, start, end])
+
+    def base_zone(self, base: Point, toward: Point, retreat_m: float = RETREAT_M) -> frozenset[int]:
+        """The zones an arm retreated toward ``toward`` holds (its base and a stub)."""
+        return self.at_rest(base, retreat_point(base, toward, retreat_m))
+
+
+def retreat_point(base: Point, tool: Point, retreat_m: float = RETREAT_M) -> Point:
+    """Where a retreating arm folds its tool back to: on its base ray, ``retreat_m`` out."""
+    v = np.asarray(tool, dtype=float) - np.asarray(base, dtype=float)
+    n = float(np.linalg.norm(v))
+    if n <= retreat_m:
+        return (float(tool[0]), float(tool[1]))
+    p = np.asarray(base, dtype=float) + v * (retreat_m / n)
+    return (float(p[0]), float(p[1]))

@@ -1,0 +1,238 @@
+"""Two arms on one part: which arm does which measurement (min-max), and how far that is
+from a bound.
+
+The allocation is the high-level planner's decision; this module makes it from the
+one-arm sequence plan's groups (which tool class each measurement takes):
+
+1. **What each arm can do.**  A measurement is an arm's when the arm's reach test passes
+   (ita.workcell.reach_report with the cell as that arm works it,
+   ``Workcell.seen_by``), the arm has a configuration for it (the cost model's inverse
+   kinematics), it reaches the rack slot of a tool of its class, and the measurement's
+   tool point lies outside the other arm's base zone (ita.collision.zones: where the
+   other arm retreats to; the rule that keeps the coordination free of deadlock).
+2. **Tools.**  Each arm has its own tool of a class when the rack holds two (the first
+   arm the plan's, the second the other); a class with one tool (the bent probe) is
+   shared: all its measurements go to one arm (the one that can do them all, the first
+   when both can), so a tool is in one hand at a time and the arms never queue for it.
+3. **Min-max split.**  The measurements both arms can do are ordered along the line from
+   the first arm's base to the second's (seen from above); a split point sends those
+   before it to the first arm, the rest to the second.  Each arm's time is its tours
+   (the default ordering on the cost model's motion-time matrices, per tool) plus a
+   dwell per measurement; the split that minimises the larger of the two is found by
+   bisection (the first arm's time grows with the split, the second's shrinks), then its
+   neighbours are tried.
+4. **The bound.**  Every measurement costs at least its dwell plus the cheapest way into
+   it by an arm that can do it; the two arms' times add up to at least that sum, so the
+   makespan is at least half of it, and at least each arm's share of what only it can do.
+   The gap to this bound is reported; it leaves out the arms' tool changes and the
+   tours' closing, so it is a loose bound.
+
+    allocation = allocate(ctx, plan)
+    allocation.assigned, allocation.makespan_s, allocation.bound_s, allocation.gap_percent
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from ita.collision.zones import ZoneGrid
+from ita.sequence.cost import tool_points_world
+from ita.sequence.plan import PlanningContext, SequencePlan
+from ita.sequence.tour import solve_tour
+from ita.workcell import Workcell, reach_report
+from ita.workcell.reach import Reach
+
+__all__ = ["DWELL_S", "Allocation", "ArmShare", "allocate"]
+
+#: seconds an arm spends at a measurement besides moving to it: the one-arm whole-bulkhead
+#: run's 1,410 s for 1,076 measurements less its 330 s of planned motion, per measurement
+DWELL_S = 1.0
+
+
+@dataclass(frozen=True)
+class ArmShare:
+    """One arm's part of the work: its groups (tool, ordered spec ids, tour seconds), its
+    time (tours plus dwell) and what it could not do."""
+
+    arm: str
+    groups: tuple[tuple[str, tuple[str, ...], float], ...]
+    time_s: float
+    count: int
+
+
+@dataclass(frozen=True)
+class Allocation:
+    """The two-arm allocation: each arm's share, the makespan (the larger time), the
+    bound, and what neither arm can do (spec id, why)."""
+
+    shares: tuple[ArmShare, ...]
+    assigned: Mapping[str, str]
+    makespan_s: float
+    bound_s: float
+    one_arm_s: float
+    unassigned: tuple[tuple[str, str], ...]
+    split: int
+
+    @property
+    def gap_percent(self) -> float:
+        return 100.0 * (self.makespan_s - self.bound_s) / self.bound_s if self.bound_s > 0 else 0.0
+
+    def as_dict(self) -> dict:
+        return {"arms": [{"arm": s.arm, "measurements": s.count, "time_s": round(s.time_s, 1),
+                          "groups": [{"tool": t, "count": len(o), "tour_s": round(c, 1)} for t, o, c in s.groups]}
+                         for s in self.shares],
+                "makespan_s": round(self.makespan_s, 1), "bound_s": round(self.bound_s, 1),
+                "gap_percent": round(self.gap_percent, 1), "one_arm_s": round(self.one_arm_s, 1),
+                "ratio_to_one_arm": round(self.makespan_s / self.one_arm_s, 3) if self.one_arm_s else None,
+                "unassigned": [{"spec": i, "why": w} for i, w in self.unassigned]}
+
+
+def _tools(cell: Workcell, plan_tool: str, arm_index: int) -> str | None:
+    """The tool of the plan tool's class the arm uses: the first arm the plan's, the second
+    the other of its class (None when the class has one tool, which is shared)."""
+    same = [t.name for t in cell.tools if t.tool_class is cell.tool(plan_tool).tool_class
+            and t.same_shape(cell.tool(plan_tool))]
+    if arm_index == 0:
+        return plan_tool
+    spare = [t for t in same if t != plan_tool]
+    return spare[0] if spare else None
+
+
+def allocate(ctx: PlanningContext, plan: SequencePlan, dwell_s: float = DWELL_S) -> Allocation:
+    """Split the one-arm `plan`'s measurements between the two arms of ``ctx.workcell``
+    (see the module docstring).  ValueError when the cell has one arm."""
+    cell = ctx.workcell
+    arms = cell.arms()
+    if len(arms) != 2:
+        raise ValueError(f"the workcell {cell.source} names one arm; a second is a [robot_b] table")
+    views = [cell.seen_by(a.name) for a in arms]
+    bases = [np.asarray(a.base.position[:2], dtype=float) for a in arms]
+    # the tool each arm uses per group, and which measurements it can do
+    groups = [(g.tool, list(g.order)) for g in plan.groups if g.order]
+    every = [i for _t, ids in groups for i in ids]
+    specs = {i: ctx.spec(i) for i in every}
+    tool_of = {i: t for t, ids in groups for i in ids}
+    points = {}
+    for t, ids in groups:
+        xyz = tool_points_world(cell, cell.tool(t), [specs[i] for i in ids])
+        points.update({i: xyz[k, :2] for k, i in enumerate(ids)})
+    grid = ZoneGrid.around([tuple(map(float, p)) for p in [*bases, *points.values()]])
+    retreat = [grid.base_zone(tuple(bases[a]), tuple(np.mean([points[i] for i in every], axis=0)))
+               for a in range(2)]
+    can = [dict[str, bool]() for _ in range(2)]
+    why: dict[str, str] = {}
+    matrices: list[dict[str, tuple[list[str], np.ndarray]]] = [{}, {}]
+    for a in range(2):
+        for t, ids in groups:
+            own = _tools(cell, t, a)
+            tool = cell.tool(own if own is not None else t)
+            report = reach_report(views[a], np.array([specs[i].point for i in ids]),
+                                  np.array([specs[i].normal for i in ids]), [tool.tool_class.value] * len(ids))
+            ok = [i for i, v in zip(ids, report.verdicts) if v is Reach.REACHABLE
+                  and not grid.at_rest(tuple(bases[a]), tuple(points[i])) & retreat[1 - a]]
+            matrix, kept = _matrix(ctx, views[a], tool.name, ok)
+            matrices[a][t] = (kept, matrix) if matrix is not None else ([], np.zeros((1, 1)))
+            for i in ids:
+                can[a][i] = i in set(matrices[a][t][0])
+                if not can[a][i]:
+                    why.setdefault(i, f"{arms[a].name}: {'out of reach' if i not in ok else 'no configuration'}")
+    # shared tools (one of their class): the whole group to one arm
+    forced: dict[str, int] = {}
+    for t, ids in groups:
+        if _tools(cell, t, 1) is None:
+            owner = 0 if all(can[0][i] for i in ids) or not all(can[1][i] for i in ids) else 1
+            forced.update({i: owner for i in ids})
+    unassigned = tuple((i, why.get(i, "neither arm")) for i in every
+                       if not (can[0][i] or can[1][i]) or (i in forced and not can[forced[i]][i]))
+    lost = {i for i, _ in unassigned}
+    only = {i: 0 if not can[1][i] else 1 for i in every if i not in lost and (can[0][i] != can[1][i])}
+    only.update({i: a for i, a in forced.items() if i not in lost})
+    both = [i for i in every if i not in lost and i not in only]
+    axis = bases[1] - bases[0]
+    both.sort(key=lambda i: (float(np.dot(points[i] - bases[0], axis)), i))
+
+    def shares(k: int) -> tuple[ArmShare, ArmShare]:
+        side = dict(only)
+        side.update({i: 0 for i in both[:k]})
+        side.update({i: 1 for i in both[k:]})
+        return _share(arms[0].name, 0, side, groups, matrices[0], dwell_s, cell), \
+            _share(arms[1].name, 1, side, groups, matrices[1], dwell_s, cell)
+
+    lo, hi = 0, len(both)
+    cache: dict[int, tuple[ArmShare, ArmShare]] = {}
+
+    def at(k: int) -> tuple[ArmShare, ArmShare]:
+        if k not in cache:
+            cache[k] = shares(k)
+        return cache[k]
+
+    while hi - lo > 1:                                   # first arm's time grows with k
+        mid = (lo + hi) // 2
+        s0, s1 = at(mid)
+        if s0.time_s < s1.time_s:
+            lo = mid
+        else:
+            hi = mid
+    best = min((k for k in {lo, hi, max(0, lo - 1), min(len(both), hi + 1)}),
+               key=lambda k: (max(s.time_s for s in at(k)), k))
+    chosen = at(best)
+    assigned = {i: chosen[0].arm for _t, o, _c in chosen[0].groups for i in o}
+    assigned.update({i: chosen[1].arm for _t, o, _c in chosen[1].groups for i in o})
+    # the bound: half the least total work, and each arm's own
+    least = {}
+    for i in every:
+        if i in lost:
+            continue
+        costs = []
+        for a in range(2):
+            if can[a][i]:
+                kept, M = matrices[a][tool_of[i]]
+                k = kept.index(i) + 1
+                costs.append(float(np.min(np.delete(M[:, k], k))))
+        least[i] = dwell_s + min(costs)
+    bound = max(sum(least.values()) / 2.0,
+                *(sum(least[i] for i, a in only.items() if a == arm) for arm in range(2)))
+    one = sum(g.cost_s for g in plan.groups) + plan.transfer_s + dwell_s * len(every)
+    return Allocation(chosen, assigned, max(s.time_s for s in chosen), bound, one, unassigned, best)
+
+
+def _matrix(ctx: PlanningContext, view: Workcell, tool: str, ids: Sequence[str]) -> tuple[np.ndarray | None, list[str]]:
+    """The cost model's matrix (rack slot first) of the measurements the arm has a
+    configuration for, and their ids; (None, []) when it cannot reach the tool's slot."""
+    spec = view.tool(tool)
+    ids = list(ids)
+    while True:
+        try:
+            return ctx.cost_model.tour(view, spec, [ctx.spec(i) for i in ids]), ids
+        except ValueError as e:
+            text = str(e)
+            if "rack slot" in text or not ids:
+                return None, []
+            bad = [i for i in ids if f"{i} (" in text]
+            if not bad:
+                return None, []
+            ids = [i for i in ids if i not in bad]
+
+
+def _share(arm: str, a: int, side: Mapping[str, int], groups: Sequence[tuple[str, list[str]]],
+           matrices: Mapping[str, tuple[list[str], np.ndarray]], dwell_s: float, cell: Workcell) -> ArmShare:
+    """The arm's tours (one per tool group it has work in, in the plan's group order), each
+    named by the tool the arm uses."""
+    out, total, count = [], 0.0, 0
+    for t, ids in groups:
+        mine = [i for i in ids if side.get(i) == a]
+        if not mine:
+            continue
+        kept, M = matrices[t]
+        pos = {i: k + 1 for k, i in enumerate(kept)}
+        idx = [0] + [pos[i] for i in mine]
+        tour = solve_tour(M[np.ix_(idx, idx)], start=0, end=0)
+        order = tuple(mine[k - 1] for k in tour.order if k != 0)
+        out.append((_tools(cell, t, a) or t, order, float(tour.cost)))
+        total += float(tour.cost) + dwell_s * len(mine)
+        count += len(mine)
+    return ArmShare(arm, tuple(out), total, count)
+

@@ -1,0 +1,54 @@
+"""The two-arm allocation (ita.sequence.allocate): each measurement to an arm that reaches
+it, a tool in one hand, the makespan between its bound and the one-arm time."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+
+import numpy as np
+import pytest
+
+from ita.sequence.allocate import allocate
+from ita.sequence.plan import build_plan, planning_context
+from ita.workcell import reach_report
+from ita.workcell.reach import Reach
+
+
+@pytest.fixture(scope="module")
+def allocated(builtin_part):
+    ctx = planning_context(None)
+    ctx = replace(ctx, specs=ctx.specs[::9], _facts_cache={})    # every ninth: the whole part, fewer
+    plan = build_plan(ctx)
+    return ctx, plan, allocate(ctx, plan)
+
+
+def test_each_measurement_goes_to_an_arm_that_reaches_it_with_a_tool_of_its_own(allocated) -> None:
+    ctx, plan, a = allocated
+    cell = ctx.workcell
+    assert {s.arm for s in a.shares} == {"t3", "t3_b"}
+    planned = {i for g in plan.groups for i in g.order}
+    assert set(a.assigned) | {i for i, _ in a.unassigned} == planned
+    assert all(s.count > 0.2 * len(planned) for s in a.shares)               # both arms work
+    for share in a.shares:
+        view = cell.seen_by(share.arm)
+        for tool, order, _cost in share.groups:
+            specs = [ctx.spec(i) for i in order]
+            report = reach_report(view, np.array([s.point for s in specs]), np.array([s.normal for s in specs]),
+                                  [cell.tool(tool).tool_class.value] * len(specs))
+            assert all(v is Reach.REACHABLE for v in report.verdicts), (share.arm, tool)
+    tools = [{t for t, _o, _c in s.groups} for s in a.shares]
+    assert not tools[0] & tools[1]                       # no tool in both hands
+
+
+def test_the_makespan_lies_between_its_bound_and_the_one_arm_time(allocated) -> None:
+    _ctx, _plan, a = allocated
+    assert a.bound_s <= a.makespan_s < a.one_arm_s
+    assert a.makespan_s == max(s.time_s for s in a.shares)
+    assert a.makespan_s <= 0.7 * a.one_arm_s             # the split is near even
+
+
+def test_one_arm_cell_is_refused(allocated) -> None:
+    ctx, plan, _a = allocated
+    one = replace(ctx, workcell=replace(ctx.workcell, second_arm=None, second_pedestal=None))
+    with pytest.raises(ValueError, match="one arm"):
+        allocate(one, plan)
