@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import pytest
 from click.testing import CliRunner
 
 from ita.cli import main
@@ -30,6 +31,7 @@ def test_prepare_builds_and_checks_everything(builtin_part) -> None:
     assert again["macrops"]["hits"] == again["macrops"]["lookups"]                 # the store is warm
 
 
+@pytest.mark.slow       # about 20 s: the plan and the MKB made again
 def test_two_prepares_make_the_same_sequence_plan(builtin_part) -> None:
     """The ordering is bounded by work with a fixed seed: a plan made again (here, at any
     load, on any machine) orders every measurement the same."""

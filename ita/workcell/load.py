@@ -183,7 +183,7 @@ def _read_workcell(r: _Reader, data: dict[str, Any], path: Path) -> Workcell | N
     if not fixture:
         r.fail("fixture", "at least one [[fixture]] box is needed")
     reach = _read_reach(r, r.table(data, "reach", "reach"))
-    second, second_pedestal = _read_second_arm(r, data, robot, path.parent)
+    second, second_pedestal = _read_second_arm(r, data, robot, path.parent, arm)
     cell = Workcell(
         source=path,
         arm=arm,  # type: ignore[arg-type]
@@ -207,10 +207,11 @@ def _read_workcell(r: _Reader, data: dict[str, Any], path: Path) -> Workcell | N
     return cell
 
 
-def _read_second_arm(r: _Reader, data: dict[str, Any], robot: dict[str, Any],
-                     base_dir: Path) -> tuple[ArmSpec | None, Box | None]:
+def _read_second_arm(r: _Reader, data: dict[str, Any], robot: dict[str, Any], base_dir: Path,
+                     first: ArmSpec | None) -> tuple[ArmSpec | None, Box | None]:
     """The optional second arm, ``[robot_b]``: its own name, base pose and pedestal
-    (``[robot_b.pedestal]``); any other key it does not give is the first arm's."""
+    (``[robot_b.pedestal]``); any other key it does not give is the first arm's (the same
+    model file is read once: its problems are the first arm's)."""
     if "robot_b" not in data:
         return None, None
     own = r.table(data, "robot_b", "robot_b")
@@ -219,7 +220,16 @@ def _read_second_arm(r: _Reader, data: dict[str, Any], robot: dict[str, Any],
             r.fail(f"robot_b.{key}", "the second arm needs its own name and base pose")
     merged = {**{k: v for k, v in robot.items() if k not in ("name", "base_position", "base_rpy_deg")},
               **{k: v for k, v in own.items() if k != "pedestal"}}
-    arm = _read_arm(r, merged, base_dir, table="robot_b")
+    same_model = set(own) <= {"name", "base_position", "base_rpy_deg", "home_rad", "pedestal"}   # the first's model
+    if same_model and first is None:
+        return None, None
+    if same_model and first is not None:
+        base = r.pose(own, "robot_b", position_key="base_position", rpy_key="base_rpy_deg")
+        home = (r.vector(merged, "home_rad", "robot_b.home_rad", n=len(ARM_JOINTS))
+                if "home_rad" in merged else first.home)
+        arm: ArmSpec | None = replace(first, name=r.text(own, "name", "robot_b.name"), base=base, home=tuple(home))
+    else:
+        arm = _read_arm(r, merged, base_dir, table="robot_b")
     pedestal = r.box(r.table(own, "pedestal", "robot_b.pedestal"), "robot_b.pedestal", f"pedestal_{own.get('name', 'b')}")
     return arm, pedestal
 
