@@ -151,9 +151,9 @@ def coordinate(grid: ZoneGrid, jobs: Sequence[ArmJob], max_steps: int = 1_000_00
     for j in jobs:
         table.reserve(j.name, 0.0, math.inf, grid.at_rest(j.base, j.start))
 
-    def go(name: str, target: Point, move_s: float, dwell_s: float, label: str, kind: str = "grant") -> None:
+    def go(name: str, target: Point, move_s: float, dwell_s: float, label: str, sweep: frozenset[int],
+           kind: str = "grant") -> None:
         job, t0 = by_name[name], clock[name]
-        sweep = grid.swept(job.base, tool[name], target)
         table.clear_from(name, t0)
         table.reserve(name, t0, t0 + move_s, sweep)
         table.reserve(name, t0 + move_s, math.inf, grid.at_rest(job.base, target))
@@ -179,7 +179,7 @@ def coordinate(grid: ZoneGrid, jobs: Sequence[ArmJob], max_steps: int = 1_000_00
         if found is None:                                   # request -> grant
             events.append(ZoneEvent(t0, name, "continue" if blocked[name] else "request", move.label, len(sweep)))
             blocked[name] = stuck[name] = False
-            go(name, move.target, move.move_s, move.dwell_s, move.label)
+            go(name, move.target, move.move_s, move.dwell_s, move.label, sweep)
             nxt[name] += 1
             continue
         if not blocked[name]:
@@ -206,7 +206,8 @@ def coordinate(grid: ZoneGrid, jobs: Sequence[ArmJob], max_steps: int = 1_000_00
                            f"a target lies in the other arm's base zone")
         dist = float(np.hypot(tool[loser][0] - back[0], tool[loser][1] - back[1]))
         clock[loser] = max(clock[loser], t0)
-        go(loser, back, dist / RETREAT_SPEED, 0.0, "retreat", kind="retreat")
+        go(loser, back, dist / RETREAT_SPEED, 0.0, "retreat", grid.swept(by_name[loser].base, tool[loser], back),
+           kind="retreat")
         busy[loser] -= dist / RETREAT_SPEED
         waiting[loser] += dist / RETREAT_SPEED
         retreats[loser] += 1

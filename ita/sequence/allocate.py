@@ -39,7 +39,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from ita.collision.zones import ZoneGrid
-from ita.sequence.cost import tool_points_world
+from ita.geometry.configurations import measurement_configurations
+from ita.kinematics import arm_model
+from ita.sequence.cost import rack_configurations, tool_points_world
 from ita.sequence.plan import PlanningContext, SequencePlan
 from ita.sequence.tour import solve_tour
 from ita.workcell import Workcell, reach_report
@@ -203,18 +205,14 @@ def _matrix(ctx: PlanningContext, view: Workcell, tool: str, ids: Sequence[str])
     """The cost model's matrix (rack slot first) of the measurements the arm has a
     configuration for, and their ids; (None, []) when it cannot reach the tool's slot."""
     spec = view.tool(tool)
-    ids = list(ids)
-    while True:
-        try:
-            return ctx.cost_model.tour(view, spec, [ctx.spec(i) for i in ids]), ids
-        except ValueError as e:
-            text = str(e)
-            if "rack slot" in text or not ids:
-                return None, []
-            bad = [i for i in ids if f"{i} (" in text]
-            if not bad:
-                return None, []
-            ids = [i for i in ids if i not in bad]
+    model = arm_model(view.arm)
+    try:
+        rack_configurations(view, model, tool)
+    except ValueError:
+        return None, []
+    found = measurement_configurations(view, model, spec, [ctx.spec(i) for i in ids]).found
+    kept = [i for i, ok in zip(ids, found) if ok]
+    return ctx.cost_model.tour(view, spec, [ctx.spec(i) for i in kept]), kept
 
 
 def _share(arm: str, a: int, side: Mapping[str, int], groups: Sequence[tuple[str, list[str]]],
