@@ -8,8 +8,11 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from ita.executive.two_arms import coordinated
+from ita.executive.zones import configurations_at
 from ita.sequence.allocate import allocate
 from ita.sequence.plan import build_plan, planning_context
+from ita.sim.arms import TwoArms
 from ita.workcell import reach_report
 from ita.workcell.reach import Reach
 
@@ -52,3 +55,18 @@ def test_one_arm_cell_is_refused(allocated) -> None:
     one = replace(ctx, workcell=replace(ctx.workcell, second_arm=None, second_pedestal=None))
     with pytest.raises(ValueError, match="one arm"):
         allocate(one, plan)
+
+
+def test_the_two_arms_moves_through_the_zones_never_touch_in_3d(allocated) -> None:
+    """The coordinated schedule of the allocation: every measurement made, and pybullet's
+    URDF arms at every half second of it never touch (nor come within 10 cm)."""
+    ctx, _plan, a = allocated
+    schedule, jobs, _how = coordinated(ctx, a)
+    made = {m.label for j in jobs for m in j.moves}
+    assert set(a.assigned) <= made
+    assert schedule.makespan_s < a.one_arm_s
+    times = np.arange(0.0, schedule.makespan_s, 0.5)
+    q = configurations_at(schedule, jobs, times)
+    with TwoArms(ctx.workcell) as arms:
+        gaps = arms.gaps(q["t3"], q["t3_b"])
+    assert gaps.min() > 0.1

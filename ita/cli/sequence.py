@@ -205,30 +205,55 @@ def show(part_dir: Path | None, as_json: bool) -> None:
 def allocate(part_dir: Path | None, as_json: bool) -> None:
     """Split the part's measurements between the workcell's two arms (its [robot_b]).
 
-    Each measurement goes to an arm that reaches it and a tool of its class, a tool with
-    no twin to one arm; the split along the line between the arms' bases that makes the
-    larger arm time least.  Prints each arm's share and time (planned motion plus a dwell
-    per measurement), the makespan, a lower bound and the one-arm time.  A plan, not a
-    run: two-arm inspection runs are not built yet.
+    Each measurement goes to an arm that reaches it and a tool of its class (a tool with
+    no twin to one arm), its body clear of the other arm folded on its base; the split
+    between the arms' bases that makes the larger arm time least.  Prints each arm's share and time (planned motion, the rack and
+    a dwell per measurement), the makespan, a lower bound and the one-arm time; then the
+    two arms' moves played through the interference zones (claims, waits, retreats): the
+    coordinated makespan and each arm's busy and waiting seconds.  A plan, not a run:
+    two-arm inspection runs are not built yet.
     """
+    from ita.executive.two_arms import coordinated
+    from ita.executive.zones import min_separation
     from ita.sequence.allocate import allocate as split
     from ita.sequence.plan import build_plan
 
     ctx = _context(part_dir)
+    click.echo("making the one-arm sequence plan ...", err=True)
     plan = build_plan(ctx)
+    click.echo("allocating the measurements between the arms ...", err=True)
     result = split(ctx, plan)
+    click.echo("playing the arms' moves through the interference zones (eight orders) ...", err=True)
+    schedule, jobs, how = coordinated(ctx, result)
+    apart = min_separation(schedule, jobs, step_s=0.5)
+    report = result.as_dict()
+    report["coordinated"] = {
+        "makespan_s": round(schedule.makespan_s, 1), "variant": how,
+        "ratio_to_one_arm": round(schedule.makespan_s / result.one_arm_s, 3),
+        "busy_s": {k: round(v, 1) for k, v in schedule.busy_s.items()},
+        "waiting_s": {k: round(v, 1) for k, v in schedule.waiting_s.items()},
+        "retreats": schedule.retreats, "min_separation_m": round(apart, 3),
+        "zone_events": len(schedule.events)}
     if as_json:
-        click.echo(json.dumps(result.as_dict(), indent=1))
+        click.echo(json.dumps(report, indent=1))
         return
     for share in result.shares:
         tools = ", ".join(f"{t} {len(o)} ({c:.0f} s of motion)" for t, o, c in share.groups)
-        click.echo(f"{share.arm:8s} {share.count:5d} measurements, {share.time_s:7.1f} s: {tools}")
+        click.echo(f"{share.arm:8s} {share.count:5d} measurements, {share.time_s:7.1f} s: {tools}; "
+                   f"{share.rack_s:.0f} s at the rack")
     click.echo(f"makespan {result.makespan_s:.1f} s; lower bound {result.bound_s:.1f} s (gap "
                f"{result.gap_percent:.1f} %); one arm {result.one_arm_s:.1f} s "
                f"(ratio {result.makespan_s / result.one_arm_s:.3f})")
     if result.unassigned:
         click.echo(f"neither arm: {len(result.unassigned)}: "
                    + ", ".join(f"{i} ({w})" for i, w in result.unassigned[:10]))
+    c = report["coordinated"]
+    click.echo(f"through the interference zones: makespan {schedule.makespan_s:.1f} s "
+               f"(ratio {c['ratio_to_one_arm']:.3f} to one arm; {how})")
+    for arm in schedule.arms:
+        click.echo(f"  {arm:8s} busy {schedule.busy_s[arm]:7.1f} s, waiting {schedule.waiting_s[arm]:6.1f} s, "
+                   f"{schedule.retreats[arm]} retreat(s)")
+    click.echo(f"  the arms' bodies (seen from above) at least {apart:.2f} m apart; {len(schedule.events)} zone events")
 
 
 @sequence.command("next")

@@ -7,16 +7,16 @@ one-arm sequence plan's groups (which tool class each measurement takes):
 1. **What each arm can do.**  A measurement is an arm's when the arm's reach test passes
    (ita.workcell.reach_report with the cell as that arm works it,
    ``Workcell.seen_by``), the arm has a configuration for it (the cost model's inverse
-   kinematics), it reaches the rack slot of a tool of its class, and the measurement's
-   tool point lies outside the other arm's base zone (ita.collision.zones: where the
-   other arm retreats to; the rule that keeps the coordination free of deadlock).
+   kinematics), it reaches the rack slot of a tool of its class, and its body there
+   keeps clear of the other arm folded on its base (ita.collision.zones: where the other
+   arm retreats to; the rule that keeps the coordination free of deadlock).
 2. **Tools.**  Each arm has its own tool of a class when the rack holds two (the first
    arm the plan's, the second the other); a class with one tool (the bent probe) is
    shared: all its measurements go to one arm (the one that can do them all, the first
    when both can), so a tool is in one hand at a time and the arms never queue for it.
-3. **Min-max split.**  The measurements both arms can do are ordered along the line from
-   the first arm's base to the second's (seen from above); a split point sends those
-   before it to the first arm, the rest to the second.  Each arm's time is its tours
+3. **Min-max split.**  The measurements both arms can do are ordered by how much nearer
+   (seen from above) they are to the first arm's base than to the second's; a split
+   point sends those before it to the first arm, the rest to the second.  Each arm's time is its tours
    (the default ordering on the cost model's motion-time matrices, per tool) plus a
    dwell per measurement; the split that minimises the larger of the two is found by
    bisection (the first arm's time grows with the split, the second's shrinks), then its
@@ -33,12 +33,12 @@ one-arm sequence plan's groups (which tool class each measurement takes):
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
 
-from ita.collision.zones import ZoneGrid
+from ita.collision.zones import ZoneGrid, arm_body, folded_configuration, path_distance
 from ita.geometry.configurations import measurement_configurations
 from ita.kinematics import arm_model
 from ita.sequence.cost import rack_configurations, tool_points_world
@@ -52,17 +52,21 @@ __all__ = ["DWELL_S", "Allocation", "ArmShare", "allocate"]
 #: seconds an arm spends at a measurement besides moving to it: the one-arm whole-bulkhead
 #: run's 1,410 s for 1,076 measurements less its 330 s of planned motion, per measurement
 DWELL_S = 1.0
+#: poses sampled on an arm's way from a measurement back to its fold
+FOLD_SAMPLES = 9
 
 
 @dataclass(frozen=True)
 class ArmShare:
     """One arm's part of the work: its groups (tool, ordered spec ids, tour seconds), its
-    time (tours plus dwell) and what it could not do."""
+    time (tours, dwell and rack) and how many measurements."""
 
     arm: str
     groups: tuple[tuple[str, tuple[str, ...], float], ...]
     time_s: float
     count: int
+    legs: tuple[tuple[float, ...], ...] = ()     # per group: seconds slot -> first, ..., last -> slot
+    rack_s: float = 0.0                          # seconds at the rack (tool pick-ups and put-downs)
 
 
 @dataclass(frozen=True)
@@ -77,13 +81,14 @@ class Allocation:
     one_arm_s: float
     unassigned: tuple[tuple[str, str], ...]
     split: int
+    dwell_s: float = DWELL_S
 
     @property
     def gap_percent(self) -> float:
         return 100.0 * (self.makespan_s - self.bound_s) / self.bound_s if self.bound_s > 0 else 0.0
 
     def as_dict(self) -> dict:
-        return {"arms": [{"arm": s.arm, "measurements": s.count, "time_s": round(s.time_s, 1),
+        return {"arms": [{"arm": s.arm, "measurements": s.count, "time_s": round(s.time_s, 1), "rack_s": round(s.rack_s, 1),
                           "groups": [{"tool": t, "count": len(o), "tour_s": round(c, 1)} for t, o, c in s.groups]}
                          for s in self.shares],
                 "makespan_s": round(self.makespan_s, 1), "bound_s": round(self.bound_s, 1),
@@ -122,8 +127,14 @@ def allocate(ctx: PlanningContext, plan: SequencePlan, dwell_s: float = DWELL_S)
         xyz = tool_points_world(cell, cell.tool(t), [specs[i] for i in ids])
         points.update({i: xyz[k, :2] for k, i in enumerate(ids)})
     grid = ZoneGrid.around([tuple(map(float, p)) for p in [*bases, *points.values()]])
-    retreat = [grid.base_zone(tuple(bases[a]), tuple(np.mean([points[i] for i in every], axis=0)))
-               for a in range(2)]
+    models = [arm_model(v.arm) for v in views]
+    bodies = [arm_body(m) for m in models]
+    # how near an arm's body may come to the other's base axis: the other folded (its
+    # retreat) reaches `extent`; the zones of both, each within radius and a half zone
+    # diagonal of its body, then never meet
+    folds = [folded_configuration(models[a], arms[a].joints.lower, arms[a].joints.upper, bodies[a])
+             for a in range(2)]
+    clear = [folds[a][1] + 2 * (grid.radius + grid.cell * np.sqrt(0.5)) for a in range(2)]
     can = [dict[str, bool]() for _ in range(2)]
     why: dict[str, str] = {}
     matrices: list[dict[str, tuple[list[str], np.ndarray]]] = [{}, {}]
@@ -133,14 +144,13 @@ def allocate(ctx: PlanningContext, plan: SequencePlan, dwell_s: float = DWELL_S)
             tool = cell.tool(own if own is not None else t)
             report = reach_report(views[a], np.array([specs[i].point for i in ids]),
                                   np.array([specs[i].normal for i in ids]), [tool.tool_class.value] * len(ids))
-            ok = [i for i, v in zip(ids, report.verdicts) if v is Reach.REACHABLE
-                  and not grid.at_rest(tuple(bases[a]), tuple(points[i])) & retreat[1 - a]]
-            matrix, kept = _matrix(ctx, views[a], tool.name, ok)
+            ok = [i for i, v in zip(ids, report.verdicts) if v is Reach.REACHABLE]
+            matrix, kept = _matrix(ctx, views[a], tool.name, ok, bodies[a], folds[a][0], bases[1 - a], clear[1 - a])
             matrices[a][t] = (kept, matrix) if matrix is not None else ([], np.zeros((1, 1)))
             for i in ids:
                 can[a][i] = i in set(matrices[a][t][0])
                 if not can[a][i]:
-                    why.setdefault(i, f"{arms[a].name}: {'out of reach' if i not in ok else 'no configuration'}")
+                    why.setdefault(i, f"{arms[a].name}: {'out of reach' if i not in ok else 'no configuration clear of the other arm'}")
     # shared tools (one of their class): the whole group to one arm
     forced: dict[str, int] = {}
     for t, ids in groups:
@@ -153,15 +163,16 @@ def allocate(ctx: PlanningContext, plan: SequencePlan, dwell_s: float = DWELL_S)
     only = {i: 0 if not can[1][i] else 1 for i in every if i not in lost and (can[0][i] != can[1][i])}
     only.update({i: a for i, a in forced.items() if i not in lost})
     both = [i for i in every if i not in lost and i not in only]
-    axis = bases[1] - bases[0]
-    both.sort(key=lambda i: (float(np.dot(points[i] - bases[0], axis)), i))
+    # nearer the first arm's base than the second's (by how much) first: a split point
+    # leaves each arm the measurements on its own side of a hyperbola between the bases
+    both.sort(key=lambda i: (float(np.linalg.norm(points[i] - bases[0]) - np.linalg.norm(points[i] - bases[1])), i))
 
     def shares(k: int) -> tuple[ArmShare, ArmShare]:
         side = dict(only)
         side.update({i: 0 for i in both[:k]})
         side.update({i: 1 for i in both[k:]})
-        return _share(arms[0].name, 0, side, groups, matrices[0], dwell_s, cell), \
-            _share(arms[1].name, 1, side, groups, matrices[1], dwell_s, cell)
+        return _share(arms[0].name, 0, side, groups, matrices[0], dwell_s, views[0], ctx.cost_model.transfer), \
+            _share(arms[1].name, 1, side, groups, matrices[1], dwell_s, views[1], ctx.cost_model.transfer)
 
     lo, hi = 0, len(both)
     cache: dict[int, tuple[ArmShare, ArmShare]] = {}
@@ -198,28 +209,44 @@ def allocate(ctx: PlanningContext, plan: SequencePlan, dwell_s: float = DWELL_S)
     bound = max(sum(least.values()) / 2.0,
                 *(sum(least[i] for i, a in only.items() if a == arm) for arm in range(2)))
     one = sum(g.cost_s for g in plan.groups) + plan.transfer_s + dwell_s * len(every)
-    return Allocation(chosen, assigned, max(s.time_s for s in chosen), bound, one, unassigned, best)
+    return Allocation(chosen, assigned, max(s.time_s for s in chosen), bound, one, unassigned, best, dwell_s)
 
 
-def _matrix(ctx: PlanningContext, view: Workcell, tool: str, ids: Sequence[str]) -> tuple[np.ndarray | None, list[str]]:
+def _matrix(ctx: PlanningContext, view: Workcell, tool: str, ids: Sequence[str],
+            body: Callable[[np.ndarray], np.ndarray], fold: np.ndarray, other_base: np.ndarray,
+            clear: float) -> tuple[np.ndarray | None, list[str]]:
     """The cost model's matrix (rack slot first) of the measurements the arm has a
-    configuration for, and their ids; (None, []) when it cannot reach the tool's slot."""
+    configuration for whose body, there and folding back from there to ``fold`` (its base
+    joint kept), keeps ``clear`` (m) from the other arm's base axis, and their ids;
+    (None, []) when it cannot reach the tool's slot."""
     spec = view.tool(tool)
     model = arm_model(view.arm)
     try:
         rack_configurations(view, model, tool)
     except ValueError:
         return None, []
-    found = measurement_configurations(view, model, spec, [ctx.spec(i) for i in ids]).found
-    kept = [i for i, ok in zip(ids, found) if ok]
+    conf = measurement_configurations(view, model, spec, [ctx.spec(i) for i in ids])
+    apart = np.zeros(len(ids), dtype=bool)
+    if conf.found.any():
+        q = conf.q[conf.found]
+        folded = np.broadcast_to(fold, q.shape).copy()
+        folded[:, 0] = q[:, 0]
+        # the body there and all the way folding back (base joint kept): its way back is clear too
+        near = np.full(len(q), np.inf)
+        for s in np.linspace(0.0, 1.0, FOLD_SAMPLES):
+            near = np.minimum(near, path_distance(other_base, body(q + s * (folded - q))))
+        apart[conf.found] = near > clear
+    kept = [i for i, ok in zip(ids, apart) if ok]
     return ctx.cost_model.tour(view, spec, [ctx.spec(i) for i in kept]), kept
 
 
 def _share(arm: str, a: int, side: Mapping[str, int], groups: Sequence[tuple[str, list[str]]],
-           matrices: Mapping[str, tuple[list[str], np.ndarray]], dwell_s: float, cell: Workcell) -> ArmShare:
+           matrices: Mapping[str, tuple[list[str], np.ndarray]], dwell_s: float, view: Workcell,
+           transfer: Callable[[Workcell, str | None, str | None], float]) -> ArmShare:
     """The arm's tours (one per tool group it has work in, in the plan's group order), each
-    named by the tool the arm uses."""
-    out, total, count = [], 0.0, 0
+    named by the tool the arm uses, with the seconds of each leg and at the rack."""
+    out, legs, total, count, rack = [], [], 0.0, 0, 0.0
+    held: str | None = None
     for t, ids in groups:
         mine = [i for i in ids if side.get(i) == a]
         if not mine:
@@ -229,8 +256,14 @@ def _share(arm: str, a: int, side: Mapping[str, int], groups: Sequence[tuple[str
         idx = [0] + [pos[i] for i in mine]
         tour = solve_tour(M[np.ix_(idx, idx)], start=0, end=0)
         order = tuple(mine[k - 1] for k in tour.order if k != 0)
-        out.append((_tools(cell, t, a) or t, order, float(tour.cost)))
+        stops = [idx[k] for k in tour.order] + [0]
+        tool = _tools(view, t, a) or t
+        rack += transfer(view, held, tool)
+        held = tool
+        out.append((tool, order, float(tour.cost)))
+        legs.append(tuple(float(M[u, v]) for u, v in zip(stops, stops[1:])))
         total += float(tour.cost) + dwell_s * len(mine)
         count += len(mine)
-    return ArmShare(arm, tuple(out), total, count)
-
+    if held is not None:
+        rack += transfer(view, held, None)
+    return ArmShare(arm, tuple(out), total + rack, count, tuple(legs), rack)
