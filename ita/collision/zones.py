@@ -174,9 +174,6 @@ class ZoneGrid:
         """The zones an arm sweeps moving its tool from ``start`` to ``end``."""
         return self.near_polygon([base, start, end])
 
-    def base_zone(self, base: Point, toward: Point, retreat_m: float = RETREAT_M) -> frozenset[int]:
-        """The zones an arm retreated toward ``toward`` holds (its base and a stub)."""
-        return self.at_rest(base, retreat_point(base, toward, retreat_m))
 
 
 def retreat_point(base: Point, tool: Point, retreat_m: float = RETREAT_M) -> Point:
