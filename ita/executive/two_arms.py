@@ -19,7 +19,15 @@ from dataclasses import replace
 import numpy as np
 
 from ita.collision.zones import ZoneGrid, arm_body, folded_configuration
-from ita.executive.zones import ArmJob, Deadlock, Move, Schedule, coordinate
+from ita.executive.zones import (
+    RETREAT_MIN_S,
+    RETREAT_SPEED,
+    ArmJob,
+    Deadlock,
+    Move,
+    Schedule,
+    coordinate,
+)
 from ita.geometry.configurations import measurement_configurations
 from ita.kinematics import arm_model
 from ita.sequence.allocate import Allocation, ArmShare
@@ -31,7 +39,7 @@ __all__ = ["arm_jobs", "coordinated"]
 
 def arm_jobs(ctx: PlanningContext, allocation: Allocation) -> list[ArmJob]:
     """Each arm's moves, the cell's first arm first (it has priority)."""
-    jobs = []
+    jobs: list[ArmJob] = []
     for share in allocation.shares:
         view = ctx.workcell.seen_by(share.arm)
         base = (float(view.arm.base.position[0]), float(view.arm.base.position[1]))
@@ -59,6 +67,15 @@ def arm_jobs(ctx: PlanningContext, allocation: Allocation) -> list[ArmJob]:
         if held is not None:
             moves.append(Move(moves[-1].target, ctx.cost_model.transfer(view, held, None), 0.0, f"put down {held}",
                               moves[-1].q))
+            # done: the arm folds on its base, out of the other's way (a move like any other;
+            # the first arm by way of its home, turned away from the other, the others on
+            # their own base ray: their way back is theirs)
+            parked = fold.copy()
+            parked[0] = home[0] if not jobs else moves[-1].q[0]
+            tip = body(parked[None])[0, -1]
+            away = float(np.hypot(tip[0] - moves[-1].target[0], tip[1] - moves[-1].target[1]))
+            moves.append(Move((float(tip[0]), float(tip[1])), max(away / RETREAT_SPEED, RETREAT_MIN_S), 0.0, "park",
+                              tuple(map(float, parked)), tuple(map(float, home)) if not jobs else ()))
         jobs.append(ArmJob(share.arm, base, start, tuple(moves), body, tuple(map(float, home)),
                            tuple(map(float, fold))))
     return jobs

@@ -75,6 +75,7 @@ class Move:
     dwell_s: float
     label: str = ""
     q: tuple[float, ...] = ()        # the arm's configuration there (rad), when known
+    via: tuple[float, ...] = ()      # a configuration to pass through, tried before the other ways
 
 
 @dataclass(frozen=True)
@@ -296,12 +297,16 @@ def coordinate(grid: ZoneGrid, jobs: Sequence[ArmJob], max_steps: int = 1_000_00
         ways: list[Way] = [] if folded[name] else [straight]
         turned = np.asarray(job.fold, dtype=float).copy() if job.fold else q0.copy()
         turned[0] = q1[0]
-        for via in (turned, np.concatenate([q1[:3], q0[3:]]), np.concatenate([q0[:3], q1[3:]])):
+        stops = [turned, np.concatenate([q1[:3], q0[3:]]), np.concatenate([q0[:3], q1[3:]])]
+        if move.via:
+            stops.insert(0, np.asarray(move.via, dtype=float))
+            ways = []
+        for via in stops:
             tip = job.body(via[None])[0, -1]
             mid = (float(tip[0]), float(tip[1]))
             sweep = feet.sweep(job, tool[name], q0, mid, via) | feet.sweep(job, mid, via, move.target, q1)
             ways.append((sweep, rest, move.move_s + RETREAT_MIN_S, via))
-        return ways if not folded[name] else ways + [straight]
+        return ways if not folded[name] and not move.via else ways + [straight]
 
     for j in jobs:
         table.reserve(j.name, 0.0, math.inf, held_at(j.name, j.start, conf[j.name]))

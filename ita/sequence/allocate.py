@@ -12,8 +12,9 @@ one-arm sequence plan's groups (which tool class each measurement takes):
    arm retreats to; the rule that keeps the coordination free of deadlock).
 2. **Tools.**  Each arm has its own tool of a class when the rack holds two (the first
    arm the plan's, the second the other); a class with one tool (the bent probe) is
-   shared: all its measurements go to one arm (the one that can do them all, the first
-   when both can), so a tool is in one hand at a time and the arms never queue for it.
+   shared: all its measurements go to one arm (the one that can do them all, the one
+   nearer the tool's rack slot when both can), so a tool is in one hand at a time and
+   the arms never queue for it.
 3. **Min-max split.**  The measurements both arms can do are ordered by how much nearer
    (seen from above) they are to the first arm's base than to the second's; a split
    point sends those before it to the first arm, the rest to the second.  Each arm's time is its tours
@@ -41,7 +42,7 @@ import numpy as np
 from ita.collision.zones import ZoneGrid, arm_body, folded_configuration, path_distance
 from ita.geometry.configurations import measurement_configurations
 from ita.kinematics import arm_model
-from ita.sequence.cost import rack_configurations, tool_points_world
+from ita.sequence.cost import rack_configurations, slot_position, tool_points_world
 from ita.sequence.plan import PlanningContext, SequencePlan
 from ita.sequence.tour import solve_tour
 from ita.workcell import Workcell, reach_report
@@ -155,7 +156,11 @@ def allocate(ctx: PlanningContext, plan: SequencePlan, dwell_s: float = DWELL_S)
     forced: dict[str, int] = {}
     for t, ids in groups:
         if _tools(cell, t, 1) is None:
-            owner = 0 if all(can[0][i] for i in ids) or not all(can[1][i] for i in ids) else 1
+            # the arm nearer the tool's slot, when it can do them all (its trips are short
+            # and the other arm never reaches in beside its base), else the other
+            slot = slot_position(cell, t)[:2]
+            near, far = sorted((0, 1), key=lambda a: (float(np.linalg.norm(slot - bases[a])), a))
+            owner = near if all(can[near][i] for i in ids) or not all(can[far][i] for i in ids) else far
             forced.update({i: owner for i in ids})
     unassigned = tuple((i, why.get(i, "neither arm")) for i in every
                        if not (can[0][i] or can[1][i]) or (i in forced and not can[forced[i]][i]))
