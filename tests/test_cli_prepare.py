@@ -56,3 +56,37 @@ def test_prepare_rejects_a_part_with_bad_specs(builtin_part, tmp_path: Path) -> 
     result = CliRunner().invoke(main, ["prepare", "--part", str(part), "--quiet"])
     assert result.exit_code == 2
     assert f"{specs}:2 [kind]: unknown kind 'web_thicknes'" in result.stderr
+
+
+def test_an_arm_the_cell_does_not_have_is_named_with_the_cells_arms(builtin_part) -> None:
+    for command in (["prepare", "--quiet"], ["inspect", "--limit", "1"]):
+        result = CliRunner().invoke(main, [*command, "--arm", "t9"])
+        assert result.exit_code == 2, result.output
+        assert "[arm]: the workcell has no arm 't9' (its arms: t3, t3_b)" in result.stderr
+
+
+@pytest.mark.slow       # about 100 s: the second arm's plan, MKB and MACROPs made, then a short run
+def test_the_second_arm_prepares_and_inspects_alone_without_touching_the_first_arms_plan(builtin_part) -> None:
+    def prepared(*arm: str) -> dict:
+        result = CliRunner().invoke(main, ["prepare", "--json", "--quiet", *arm])
+        assert result.exit_code == 0, result.output
+        return json.loads(result.stdout)["inspection"]
+
+    first = prepared()
+    before = Path(first["plan"]["path"]).read_bytes()
+    second = prepared("--arm", "t3_b")
+    assert second["plan"]["path"] != first["plan"]["path"] and "t3_b" in Path(second["plan"]["path"]).name
+    done_by_b = sum(second["plan"]["groups"].values())
+    # the second arm, at the part's left end, reaches part of it; what it cannot do is said
+    assert 0 < done_by_b < 1076
+    assert done_by_b + second["cannot_be_done"]["count"] == 1076
+    assert Path(first["plan"]["path"]).read_bytes() == before          # the first arm's plan untouched
+    result = CliRunner().invoke(main, ["inspect", "--arm", "t3_b", "--limit", "3", "--json"])
+    assert result.exit_code == 0, result.output
+    summary = json.loads(result.stdout[result.stdout.index("{"):])
+    assert summary["measured"] >= 1
+    from ita.archive import Archive, archive_path
+
+    with Archive.open(archive_path(None), create=False) as archive:
+        run = archive.run(archive.resolve("last"))
+        assert run.settings["arm"] == "t3_b"        # `ita continue` works the run with the same arm

@@ -25,6 +25,14 @@ part_option = click.option(
     help="Part directory (a mesh and specs.csv). Default: the built-in bulkhead.",
 )
 
+arm_option = click.option(
+    "--arm",
+    default=None,
+    metavar="NAME",
+    help="The arm of the cell that works, alone (default: its first; a cell's second arm is its [robot_b] "
+         "table). The second has its own sequence plan, MKB and MACROPs, prepared on first use.",
+)
+
 
 def reports_errors(func: Callable[P, R]) -> Callable[P, R]:
     """Turn the project's own errors into a message on stderr and their exit code."""

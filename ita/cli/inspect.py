@@ -27,6 +27,7 @@ import click
 
 from ita.cli.common import (
     FiniteFloatRange,
+    arm_option,
     check_job,
     part_option,
     reports_errors,
@@ -241,11 +242,12 @@ def _closing(session: Any) -> Iterator[Any]:
                    "fixture's error (a few tenths of a millimetre and of a degree, from --seed), as a real "
                    "cell does; 'exact', at its nominal placement.  Either way the run registers the part on "
                    "its datums (tooling holes B and C) before it measures.")
+@arm_option
 @reports_errors
 def inspect(part_dir: Path | None, limit: int | None, seed: int, runs_dir: Path | None, as_json: bool,
             fault_rate: float, fault_kinds: str | None, scripts: tuple[str, ...], run_id: str | None,
             alarm_after: int | None, network: bool, job: str, serial: str | None, operator: str | None,
-            shift_texts: tuple[str, ...], from_run: str | None, placement: str) -> None:
+            shift_texts: tuple[str, ...], from_run: str | None, placement: str, arm: str | None) -> None:
     """Inspect the part (in the simulated workcell): every measurement of the sequence
     plan, planned, executed, measured and recorded in the runs archive as it is made.
 
@@ -291,7 +293,7 @@ def inspect(part_dir: Path | None, limit: int | None, seed: int, runs_dir: Path 
             click.echo(f"run {source}: every result is proven to conform; nothing to measure again")
             return
     session = open_session(part_dir, seed=seed, progress=lambda m: view.note(f"{m} ..."), serial=serial,
-                           shifts=shifts, placement_error=placement == "fixture")
+                           shifts=shifts, placement_error=placement == "fixture", arm=arm)
     with _closing(session):
         tools = session.ctx.workcell.tools
         injection.check_targets([t.name for t in tools if t.tool_class.ultrasonic],
@@ -305,6 +307,8 @@ def inspect(part_dir: Path | None, limit: int | None, seed: int, runs_dir: Path 
                                    "(give its part with --part)")
         with Archive.open(archive_path(runs_dir)) as archive:
             settings: dict[str, Any] = {"network": network, "task": job, "placement": placement}
+            if arm is not None:
+                settings["arm"] = session.ctx.workcell.arm.name
             if source is not None:
                 settings["from"] = source
                 settings["earlier"] = earlier_results(archive, source, session)
@@ -349,7 +353,8 @@ def continue_(run: str, runs_dir: Path | None, as_json: bool) -> None:
                                serial=None if info.settings.get("asbuilt") is None else str(serial),
                                shifts={str(k): float(str(v)) for k, v in shifts.items()}
                                if isinstance(shifts, dict) else None,
-                               placement_error=info.settings.get("placement") == "fixture")
+                               placement_error=info.settings.get("placement") == "fixture",
+                               arm=None if info.settings.get("arm") is None else str(info.settings["arm"]))
         with _closing(session):
             view.note(f"continuing run {run_id}: {info.done}/{info.total} done")
             _run(session, archive, run_id, as_json, view)

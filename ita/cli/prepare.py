@@ -8,7 +8,7 @@ from pathlib import Path
 
 import click
 
-from ita.cli.common import part_option, reports_errors
+from ita.cli.common import arm_option, part_option, reports_errors
 
 
 @click.command()
@@ -16,8 +16,9 @@ from ita.cli.common import part_option, reports_errors
 @click.option("--json", "as_json", is_flag=True, help="Print the report as JSON.")
 @click.option("-q", "--quiet", is_flag=True, help="No progress lines.")
 @click.option("--force", is_flag=True, help="Remake the sequence plan and the MKB even when current.")
+@arm_option
 @reports_errors
-def prepare(part_dir: Path | None, as_json: bool, quiet: bool, force: bool) -> None:
+def prepare(part_dir: Path | None, as_json: bool, quiet: bool, force: bool, arm: str | None) -> None:
     """Prepare a part for inspection, offline.
 
     Builds the part (the built-in bulkhead is generated on first use), validates its
@@ -35,7 +36,7 @@ def prepare(part_dir: Path | None, as_json: bool, quiet: bool, force: bool) -> N
         if not quiet:
             click.echo(f"[{time.perf_counter() - t0:6.1f} s] {message} ...", err=True)
 
-    report = run(part_dir, progress, force=force)
+    report = run(part_dir, progress, force=force, arm=arm)
     if as_json:
         click.echo(json.dumps(report.to_dict(), indent=1))
     else:

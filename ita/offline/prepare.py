@@ -37,7 +37,6 @@ from ita.sequence.store import (
     plan_path,
     save_plan,
 )
-from ita.workcell import workcell_for
 
 #: times the plan and the MKB are made again with what the MKB could not place
 PLACEMENT_ROUNDS = 2
@@ -257,8 +256,9 @@ def warm_macrops(ctx: Any, plan: Any, mkb: Any) -> tuple[dict[str, int], list[st
 
 
 def prepare(part_dir: Path | None, progress: Callable[[str], None] = lambda _msg: None,
-            *, inspection: bool = True, force: bool = False) -> PrepareReport:
-    """Prepare the part in `part_dir` (None: the built-in bulkhead) for inspection.
+            *, inspection: bool = True, force: bool = False, arm: str | None = None) -> PrepareReport:
+    """Prepare the part in `part_dir` (None: the built-in bulkhead) for inspection; by the
+    cell's arm `arm` (default its first: ita.sequence.plan.planning_context).
 
     Raises InputError (with file, line, field) when the part or its specs are bad.
     """
@@ -278,13 +278,14 @@ def prepare(part_dir: Path | None, progress: Callable[[str], None] = lambda _msg
     kb = step("knowledge_bases", "loading the knowledge bases", KnowledgeBase)
     diagnostics = step("kb_check", "checking the knowledge bases", kb.check)
     predicates = kb.list_predicates()
-    cell = step("workcell", "loading the workcell", lambda: workcell_for(part.directory, part.mesh.bounds))
+    cell = step("workcell", "loading the workcell",
+                lambda: planning_context(part_dir, kb=kb, part=part, use_mkb=False, arm=arm).workcell)
     reach = step("reach", "testing the arm's reach for every spec", lambda: spec_reach(specs, cell, kb))
     summary = summarize(part, specs, unreachable=reach.n_unreachable)
     prep = None
     if inspection and not diagnostics:
         apply_tool_marks(kb, load_tool_marks())
-        ctx = planning_context(part_dir, kb=kb, part=part)
+        ctx = planning_context(part_dir, kb=kb, part=part, arm=arm)
         _, _, prep = step("inspection", "preparing the inspection (sequence plan, MKB, MACROPs)",
                           lambda: prepare_inspection(ctx, part, progress=progress, force=force))
     return PrepareReport(

@@ -34,6 +34,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ita.errors import InputError, Location
 from ita.geometry import load_mkb, mkb_digest
 from ita.logic.bridge import KnowledgeBase
 from ita.logic.terms import Term
@@ -212,19 +213,31 @@ def specs_digest(path: Path) -> str:
 def planning_context(
     part_dir: Path | None = None, kb: KnowledgeBase | None = None, method: str = "default",
     cost_model: CostModel = MOTION_TIME_COST, part: Part | None = None, use_mkb: bool = True,
+    arm: str | None = None,
 ) -> PlanningContext:
     """A context for the part in `part_dir` (default: the built-in bulkhead) and its
     workcell (the part's own workcell.toml when it has one).  With `use_mkb`, the facts
     add what the part's stored MKB, when current, says about placing each measurement for
-    each tool class (:func:`with_mkb`)."""
+    each tool class (:func:`with_mkb`).  arm: the cell as that arm works it (its second
+    arm, `Workcell.seen_by`); its plan, MKB and MACROPs are stored apart (the part's key
+    and ``@arm``).  InputError for an arm the cell does not have."""
     if kb is None:
         kb = KnowledgeBase()
     loaded = part if part is not None else load_part(part_dir)
     specs = tuple(read_specs(loaded.specs_path))
+    cell, key = workcell_for(loaded.directory, loaded.mesh.bounds), part_key(loaded)
+    if arm is not None and arm != cell.arm.name:
+        try:
+            cell = cell.seen_by(arm)
+        except KeyError:
+            raise InputError([(Location(str(cell.source), field="arm"),
+                               f"the workcell has no arm {arm!r} (its arms: "
+                               f"{', '.join(a.name for a in cell.arms())})")]) from None
+        key = f"{key}@{arm}"
     ctx = PlanningContext(
-        kb=kb, part_name=part_key(loaded), specs=specs, feature_kinds=feature_kinds_of(loaded.features),
+        kb=kb, part_name=key, specs=specs, feature_kinds=feature_kinds_of(loaded.features),
         unmeasurable={n.spec_id: n.reason for n in loaded.unfound},
-        workcell=workcell_for(loaded.directory, loaded.mesh.bounds), specs_digest=specs_digest(loaded.specs_path), method=method,
+        workcell=cell, specs_digest=specs_digest(loaded.specs_path), method=method,
         cost_model=cost_model,
     )
     if not use_mkb:

@@ -130,13 +130,16 @@ class Session:
 
 def open_session(part_dir: Path | None = None, *, seed: int = 0,
                  progress: Callable[[str], None] = lambda _m: None, serial: str | None = None,
-                 shifts: Mapping[str, float] | None = None, placement_error: bool = False) -> Session:
+                 shifts: Mapping[str, float] | None = None, placement_error: bool = False,
+                 arm: str | None = None) -> Session:
     """Load everything a run needs; prepare the part first (sequence plan, MKB, MACROPs)
     when what is stored is missing or stale.  serial: the simulator holds that serial's own
     as-built part of a generated design (shifts: special causes asked, spec id -> mm;
     ita.part.serials); another part keeps its one as-built part.  placement_error: the
     simulator seats the part off its nominal placement as a fixture does (ita.sim.fixture,
-    a draw of `seed`; only a part with datum holes to register it on, ita.task.align)."""
+    a draw of `seed`; only a part with datum holes to register it on, ita.task.align).
+    arm: the cell's arm that works (default its first; the second works the cell alone,
+    with its own plan, MKB and MACROPs: ita.sequence.plan.planning_context)."""
 
     t0 = time.perf_counter()
     progress("loading the knowledge bases and the part")
@@ -151,7 +154,7 @@ def open_session(part_dir: Path | None = None, *, seed: int = 0,
         asbuilt_dir = str(made.directory.relative_to(part.directory))
     else:
         simulated = simulated_part(part.directory, part.mesh)  # a bad as-built mesh is named before preparing
-    ctx = planning_context(part_dir, kb=kb, part=part)
+    ctx = planning_context(part_dir, kb=kb, part=part, arm=arm)
     plan, mkb, _ = prepare_inspection(ctx, part, progress=progress, warm=False)
     ctx = with_mkb(ctx, mkb)              # a resequencing keeps what the MKB could not place
     specs = {s.id: s for s in ctx.specs}
@@ -167,19 +170,19 @@ def open_session(part_dir: Path | None = None, *, seed: int = 0,
         gauge_sim = UltrasonicSim(world)
         ut = UltrasonicGauge(gauge_sim)
         gauge = GaugeCommands(ut, specs)
-        arm = ArmDevice(world, reasoner, planners_for(cell, part), extra=gauge.handlers)
-        arm.add_handlers(StationCommands(world, reasoner, arm.controller, gauge_sim, gauge=ut).handlers, "station_s")
+        arm_device = ArmDevice(world, reasoner, planners_for(cell, part), extra=gauge.handlers)
+        arm_device.add_handlers(StationCommands(world, reasoner, arm_device.controller, gauge_sim, gauge=ut).handlers, "station_s")
         slra_tools = [t for t in cell.tools if t.tool_class.value == "slra_tool"]
         vctx = vision_context(part, cell, tool=slra_tools[0].name if slra_tools else "slra_1",
                                        specs=list(ctx.specs))
         scene = SlraScene.from_simulated(simulated, cell, placement=world.part_placement)
         slra = SlraDevice(world, scene, reasoner, vctx, specs, np.random.default_rng([seed, 21]))
         person = PersonDevice(SimPerson(world), world.clock)
-        executive = PlanExecutive(kb, {"path_planner": arm, "vision": slra, "person": person}, clock=world.clock)
+        executive = PlanExecutive(kb, {"path_planner": arm_device, "vision": slra, "person": person}, clock=world.clock)
         op = OperationPlanner(kb, store_path(ctx.part_name))
     except BaseException:
         world.close()
         raise
     return Session(kb, part, None if part_dir is None else str(Path(part_dir).resolve()), ctx, plan, mkb,
-                   reasoner, world, arm, slra, person, executive, op, seed, time.perf_counter() - t0, simulated.source,
+                   reasoner, world, arm_device, slra, person, executive, op, seed, time.perf_counter() - t0, simulated.source,
                    asbuilt_dir)
