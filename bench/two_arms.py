@@ -4,8 +4,7 @@
 
 Builds the part's one-arm sequence plan, allocates its measurements between the
 workcell's two arms (ita.sequence.allocate), plays the two arms' moves through the
-interference zones (ita.executive.two_arms) and checks the schedule twice: seen from
-above (the bodies' segments, ita.executive.zones.min_separation) and in 3-D (both URDF
+interference zones (ita.executive.two_arms) and checks the schedule in 3-D (both URDF
 arms in pybullet at each sampled moment, ita.sim.arms; a gap of 0 or less is a contact).
 Prints the one-arm time, each arm's share, the makespan before and after coordination,
 its lower bound, the waits and retreats, the contacts, and the seconds each step took;
@@ -28,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from ita.executive.two_arms import coordinated
-from ita.executive.zones import configurations_at, min_separation
+from ita.executive.zones import configurations_at
 from ita.sequence.allocate import allocate
 from ita.sequence.plan import build_plan, planning_context
 from ita.sim.arms import TwoArms
@@ -51,7 +50,6 @@ def main() -> None:
     t2 = time.perf_counter()
     schedule, jobs, variant = coordinated(ctx, allocation)
     t3 = time.perf_counter()
-    apart = min_separation(schedule, jobs, step_s=args.step)
     times = np.arange(0.0, schedule.makespan_s + args.step, args.step)
     q = configurations_at(schedule, jobs, times)
     with TwoArms(ctx.workcell) as arms:
@@ -74,8 +72,7 @@ def main() -> None:
         print(f"  {arm:8s} busy {schedule.busy_s[arm]:7.1f} s  waiting {schedule.waiting_s[arm]:6.1f} s  "
               f"retreats {schedule.retreats[arm]}")
     contacts = int(np.count_nonzero(gaps <= 0.0))
-    print(f"arm-arm: {contacts} contacts in {len(times)} moments (3-D, pybullet), least gap {gaps.min():.3f} m; "
-          f"seen from above at least {apart:.3f} m apart")
+    print(f"arm-arm: {contacts} contacts in {len(times)} moments (3-D, pybullet), least gap {gaps.min():.3f} m")
     print(f"seconds: plan {t1 - t0:.1f}, allocation {t2 - t1:.1f}, coordination {t3 - t2:.1f}, checks {t4 - t3:.1f}")
     args.out.parent.mkdir(parents=True, exist_ok=True)
     result = {
@@ -85,7 +82,6 @@ def main() -> None:
                         "variant": variant, "busy_s": schedule.busy_s, "waiting_s": schedule.waiting_s,
                         "retreats": schedule.retreats, "zone_events": len(schedule.events)},
         "arm_arm_contacts": contacts, "moments": len(times), "least_gap_3d_m": float(gaps.min()),
-        "least_separation_above_m": apart,
         "seconds": {"plan": t1 - t0, "allocation": t2 - t1, "coordination": t3 - t2, "checks": t4 - t3},
     }
     args.out.write_text(json.dumps(result, indent=1))

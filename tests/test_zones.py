@@ -96,3 +96,75 @@ def test_segment_distance() -> None:
     assert segment_distance(p(0, 0), p(2, 0), p(1, -1), p(1, 1)) == 0.0          # crossing
     assert segment_distance(p(0, 0), p(2, 0), p(0, 1), p(2, 1)) == pytest.approx(1.0)
     assert segment_distance(p(0, 0), p(1, 0), p(2, 1), p(3, 1)) == pytest.approx(np.sqrt(2))
+
+
+def _tube_gap(A: np.ndarray, ra: np.ndarray, B: np.ndarray, rb: np.ndarray, samples: int = 15) -> float:
+    """The least distance between two sets of tubes' surfaces ((T, 2, 3) ends, radii),
+    their axes sampled (never less than the true distance)."""
+    t = np.linspace(0.0, 1.0, samples)[:, None]
+    pa = (A[:, None, 0] + t[None] * (A[:, None, 1] - A[:, None, 0])).reshape(-1, 3)
+    pb = (B[:, None, 0] + t[None] * (B[:, None, 1] - B[:, None, 0])).reshape(-1, 3)
+    d = np.linalg.norm(pa[:, None] - pb[None], axis=2) - np.repeat(ra, samples)[:, None] - np.repeat(rb, samples)[None]
+    return float(d.min())
+
+
+@pytest.fixture(scope="module")
+def two_bodies():
+    from ita.collision.zones import arm_body, folded_configuration
+    from ita.kinematics import arm_model
+    from ita.workcell import load_workcell
+
+    cell = load_workcell()
+    arms = [cell.seen_by(a.name).arm for a in cell.arms()]
+    bodies = [arm_body(arm_model(a), cell.tools) for a in arms]
+    fold = folded_configuration(bodies[1].model, arms[1].joints.lower, arms[1].joints.upper, bodies[1])[0]
+    return cell, arms, bodies, fold
+
+
+def test_zones_that_do_not_meet_keep_the_arms_tubes_the_margin_apart_in_3d(two_bodies) -> None:
+    """Random pairs of poses of the default cell's two arms: whenever their zones do not
+    meet, their collision tubes (and the tools') are at least MARGIN_M apart; and poses
+    whose tubes touch always share a zone."""
+    from ita.collision.zones import MARGIN_M
+
+    cell, arms, bodies, _fold = two_bodies
+    grid = ZoneGrid.around([a.base.position[:2] for a in arms], margin=2.0)
+    rng = np.random.default_rng(5)
+    apart = touching = 0
+    for _ in range(1500):
+        q = [rng.uniform(a.joints.lower, a.joints.upper) for a in arms]
+        tubes = [b.tubes(x[None])[0] for b, x in zip(bodies, q)]
+        radii = [np.asarray(b.model.tube_radii).tolist() + b.tool_radii.tolist() for b in bodies]
+        gap = _tube_gap(tubes[0], np.asarray(radii[0]), tubes[1], np.asarray(radii[1]))
+        meet = grid.near_tubes(tubes[0], bodies[0].radii) & grid.near_tubes(tubes[1], bodies[1].radii)
+        if not meet:
+            apart += 1
+            assert gap >= MARGIN_M - 1e-9, gap          # (sampled axes: never nearer than they are)
+        if gap <= 0:
+            touching += 1
+            assert meet
+    assert apart > 50 and touching > 5                # both cases were tried
+
+
+def test_the_folded_arm_turned_any_way_is_never_nearer_than_its_field_says(two_bodies) -> None:
+    """Revolved: the clearance of a point is a lower bound of its distance to the folded
+    arm's tubes, whatever that arm's base joint, and a tight one (within a few cm)."""
+    from ita.collision.zones import Revolved
+
+    cell, arms, bodies, fold = two_bodies
+    base = (float(arms[1].base.position[0]), float(arms[1].base.position[1]))
+    field = Revolved.of(bodies[1], fold, base)
+    rng = np.random.default_rng(2)
+    points = np.column_stack([base[0] + rng.uniform(-1.5, 1.5, 400), base[1] + rng.uniform(-1.5, 1.5, 400),
+                              rng.uniform(0.0, 3.5, 400)])
+    turned = np.array([fold] * 24)
+    turned[:, 0] = np.linspace(arms[1].joints.lower[0], arms[1].joints.upper[0], 24)
+    tubes = bodies[1].tubes(turned)                                  # (24, T, 2, 3)
+    t = np.linspace(0.0, 1.0, 61)[:, None, None, None]
+    axis = tubes[None, :, :, 0] + t * (tubes[None, :, :, 1] - tubes[None, :, :, 0])    # (61, 24, T, 3)
+    radii = bodies[1].radii
+    true = np.min(np.linalg.norm(points[:, None, None, None] - axis[None], axis=-1) - radii, axis=(1, 2, 3))
+    bound = field.clearance(points)
+    assert np.all(bound <= true + 1e-9)
+    near = true < 1.0
+    assert near.sum() > 20 and np.max(true[near] - bound[near]) < 0.15     # the turning sampled in 24 steps

@@ -24,6 +24,7 @@ from ita.executive.zones import (
     RETREAT_SPEED,
     ArmJob,
     Deadlock,
+    Footprints,
     Move,
     Schedule,
     coordinate,
@@ -44,7 +45,7 @@ def arm_jobs(ctx: PlanningContext, allocation: Allocation) -> list[ArmJob]:
         view = ctx.workcell.seen_by(share.arm)
         base = (float(view.arm.base.position[0]), float(view.arm.base.position[1]))
         model = arm_model(view.arm)
-        body = arm_body(model)
+        body = arm_body(model, view.tools)
         home = np.asarray(view.arm.home, dtype=float)
         fold, _reach = folded_configuration(model, view.arm.joints.lower, view.arm.joints.upper, body)
         tip = body(home[None])[0, -1]
@@ -89,11 +90,14 @@ def coordinated(ctx: PlanningContext, allocation: Allocation) -> tuple[Schedule,
     :class:`Deadlock` when none can."""
     best: tuple[Schedule, list[ArmJob], str] | None = None
     stuck: list[str] = []
+    feet: Footprints | None = None             # the same moves' zones, for every order
     for name, variant in _variants(allocation):
         jobs = arm_jobs(ctx, variant)
         points = [j.base for j in jobs] + [m.target for j in jobs for m in j.moves]
+        grid = ZoneGrid.around(points)
+        feet = feet if feet is not None and feet.grid == grid else Footprints(grid)
         try:
-            schedule = coordinate(ZoneGrid.around(points), jobs)
+            schedule = coordinate(grid, jobs, feet=feet)
         except Deadlock as e:                 # this order of the work cannot be coordinated
             stuck.append(f"{name}: {e}")
             continue

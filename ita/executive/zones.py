@@ -1,20 +1,20 @@
 """Interference zones for two arms on one part: claim before entering, clear after leaving.
 
-The zones and the arms' bodies in them are ita.collision.zones: a grid of the floor seen
-from above; with a body model (an arm's links' polyline from its kinematics) and the
-moves' configurations, an arm at rest holds the zones of its body, a move the zones of
-every pose along it (:class:`Footprints`); without, the segment base -> tool and the
-triangle a move sweeps.
+The zones and the arms' bodies in them are ita.collision.zones: cubic zones of the cell's
+space; with a body model (an arm's collision tubes and its tools' from its kinematics) and
+the moves' configurations, an arm at rest holds the zones of its tubes, a move the zones
+of every pose along it (:class:`Footprints`); without, the columns of the segment base ->
+tool seen from above and of the triangle a move sweeps.
 
 Claims are reservations in time (:class:`ZoneTable`): a claim is granted when none of its
 zones is held by the other arm in an overlapping interval (request -> grant), otherwise
 the arm WAITs until the other's holding ends and asks again (CONTINUE); after a move the
-arm keeps only its rest zones (clear).  Zone sets that do not meet mean no point lies
-within ``radius`` of both bodies, so granted claims keep the arms' bodies at least
-``2 * radius`` apart from above (checked by geometry alone in :func:`min_separation`,
-and in 3-D by the simulator's arms, ita.sim.arms).  A move may be made straight in joint
-space or by way of a stop (the arm folded and turned, or its wrist first or last): the
-first way whose claim is granted is taken.
+arm keeps only its rest zones (clear).  Zone sets that do not meet keep the arms' tubes
+at least ``MARGIN_M`` apart in 3-D (without body models, the segments ``2 * radius``
+apart from above: :func:`min_separation`); the simulator's arms check it in 3-D
+(ita.sim.arms).  A move may be made straight in joint space or by way of a stop (the arm
+folded and turned, or its wrist first or last): the first way whose claim is granted is
+taken.
 
 No deadlock (:func:`coordinate`), the arms in priority order:
 
@@ -42,14 +42,16 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import Callable, Sequence
+from typing import Sequence
 
 import numpy as np
 
 from ita.collision.zones import (
     RADIUS_M,
+    ArmBody,
     Point,
     ZoneGrid,
+    Zones,
     retreat_point,
     segment_distance,
 )
@@ -86,7 +88,7 @@ class ArmJob:
     base: Point
     start: Point
     moves: tuple[Move, ...]
-    body: Callable[[np.ndarray], np.ndarray] | None = None   # configurations -> polylines from above
+    body: ArmBody | None = None                              # its tubes and its polyline from above
     home: tuple[float, ...] = ()                             # its configuration at the start
     fold: tuple[float, ...] = ()                             # where a retreat folds it (base joint kept)
 
@@ -100,25 +102,25 @@ class Footprints:
 
     def __init__(self, grid: ZoneGrid) -> None:
         self.grid = grid
-        self._sweeps: dict[tuple[str, bytes, bytes], frozenset[int]] = {}
+        self._sweeps: dict[tuple[str, bytes, bytes], Zones] = {}
 
-    def rest(self, job: ArmJob, xy: Point, q: np.ndarray | None) -> frozenset[int]:
+    def rest(self, job: ArmJob, xy: Point, q: np.ndarray | None) -> Zones:
         if job.body is None or q is None:
             return self.grid.at_rest(job.base, xy)
-        return self.grid.near_paths(job.body(q[None]))
+        return self.grid.near_tubes(job.body.tubes(q[None]), job.body.radii)
 
-    def sweep(self, job: ArmJob, xy0: Point, q0: np.ndarray | None, xy1: Point, q1: np.ndarray | None) -> frozenset[int]:
+    def sweep(self, job: ArmJob, xy0: Point, q0: np.ndarray | None, xy1: Point, q1: np.ndarray | None) -> Zones:
         if job.body is None or q0 is None or q1 is None:
             return self.grid.swept(job.base, xy0, xy1)
         a, b = sorted((q0.tobytes(), q1.tobytes()))
         key = (job.name, a, b)
         if key not in self._sweeps:
-            ends = job.body(np.stack([q0, q1]))
-            far = float(np.max(np.linalg.norm(ends - ends[:, :1], axis=2)))     # longest link point from the base
-            n = max(2, math.ceil(float(np.max(np.abs(q1 - q0))) * far / SAMPLE_M) + 1)
-            path = job.body(q0 + np.linspace(0.0, 1.0, n)[:, None] * (q1 - q0))
-            step = float(np.max(np.linalg.norm(np.diff(path, axis=0), axis=2))) if n > 1 else 0.0
-            self._sweeps[key] = self.grid.near_paths(path, self.grid.radius + step / 2)
+            ends = job.body.tubes(np.stack([q0, q1]))                            # (2, T, 2, 3)
+            far = float(np.max(np.linalg.norm(ends[..., :2] - np.asarray(job.base), axis=-1)))   # farthest point
+            n = max(2, math.ceil(float(np.max(np.abs(q1 - q0))) * (far + 1.0) / SAMPLE_M) + 1)
+            tubes = job.body.tubes(q0 + np.linspace(0.0, 1.0, n)[:, None] * (q1 - q0))
+            step = float(np.max(np.linalg.norm(np.diff(tubes, axis=0), axis=-1))) if n > 1 else 0.0
+            self._sweeps[key] = self.grid.near_tubes(tubes, job.body.radii + step / 2)
         return self._sweeps[key]
 
 
@@ -138,9 +140,9 @@ class ZoneTable:
     """Who holds which zones when: each arm's reservations (start, end, zones), end
     ``inf`` for a rest pose held until the arm moves again."""
 
-    holdings: dict[str, list[tuple[float, float, frozenset[int]]]] = field(default_factory=dict)
+    holdings: dict[str, list[tuple[float, float, Zones]]] = field(default_factory=dict)
 
-    def conflict(self, arm: str, start: float, end: float, zones: frozenset[int]) -> tuple[float, str] | None:
+    def conflict(self, arm: str, start: float, end: float, zones: Zones) -> tuple[float, str] | None:
         """The earliest end (inf: held until that arm moves) of another arm's reservation
         that meets the claim, and that arm; None when the claim can be granted."""
         worst: tuple[float, str] | None = None
@@ -152,7 +154,7 @@ class ZoneTable:
                     worst = (e, other)
         return worst
 
-    def reserve(self, arm: str, start: float, end: float, zones: frozenset[int]) -> None:
+    def reserve(self, arm: str, start: float, end: float, zones: Zones) -> None:
         self.holdings.setdefault(arm, []).append((start, end, zones))
 
     def clear_from(self, arm: str, t: float) -> None:
@@ -184,13 +186,16 @@ class Deadlock(RuntimeError):
     """The coordination could not go on (never expected: see the module docstring)."""
 
 
-def coordinate(grid: ZoneGrid, jobs: Sequence[ArmJob], max_steps: int = 1_000_000) -> Schedule:
+def coordinate(grid: ZoneGrid, jobs: Sequence[ArmJob], max_steps: int = 1_000_000,
+               feet: Footprints | None = None) -> Schedule:
     """Play the arms' moves in simulated time through the zone table: each move's swept
     zones claimed before it starts, the rest zones kept after; a refused claim waits for
     the holder's release; a mutual wait makes the arm later in ``jobs`` retreat.  Raises
-    :class:`Deadlock` if no arm can go on (the targets break the allocation's rule)."""
+    :class:`Deadlock` if no arm can go on (the targets break the allocation's rule).
+    feet: the zones of moves already computed on ``grid`` (kept between calls)."""
     table = ZoneTable()
-    feet = Footprints(grid)
+    if feet is None or feet.grid != grid:
+        feet = Footprints(grid)
     clock = {j.name: 0.0 for j in jobs}
     tool = {j.name: j.start for j in jobs}
     conf: dict[str, np.ndarray | None] = {j.name: (np.asarray(j.home, dtype=float) if j.home else None) for j in jobs}
@@ -205,13 +210,13 @@ def coordinate(grid: ZoneGrid, jobs: Sequence[ArmJob], max_steps: int = 1_000_00
     priority = [j.name for j in jobs]
 
     def go(name: str, target: Point, q: np.ndarray | None, move_s: float, dwell_s: float, label: str,
-           sweep: frozenset[int], rest: frozenset[int], kind: str = "grant") -> None:
+           sweep: Zones, rest: Zones, kind: str = "grant") -> None:
         t0 = clock[name]
         table.clear_from(name, t0)
         table.reserve(name, t0, t0 + move_s, sweep)
         table.reserve(name, t0 + move_s, math.inf, rest)
-        events.append(ZoneEvent(t0, name, kind, label, len(sweep)))
-        events.append(ZoneEvent(t0 + move_s, name, "clear", label, len(sweep)))
+        events.append(ZoneEvent(t0, name, kind, label, sweep.bit_count()))
+        events.append(ZoneEvent(t0 + move_s, name, "clear", label, sweep.bit_count()))
         timeline[name].append((t0, t0 + move_s, t0 + move_s + dwell_s, tool[name], target, label))
         tool[name], conf[name] = target, q
         clock[name] = t0 + move_s + dwell_s
@@ -220,7 +225,7 @@ def coordinate(grid: ZoneGrid, jobs: Sequence[ArmJob], max_steps: int = 1_000_00
     def moved_q(move: Move) -> np.ndarray | None:
         return np.asarray(move.q, dtype=float) if move.q else None
 
-    def fold_of(arm: str, t0: float) -> tuple[Point, np.ndarray | None, frozenset[int], frozenset[int]] | None:
+    def fold_of(arm: str, t0: float) -> tuple[Point, np.ndarray | None, Zones, Zones] | None:
         """Where `arm` folds back to from now on, if that claim can be granted: its fold
         (base joint kept) with a body model, else along its base ray; None if it is
         folded already or the fold meets the other's zones."""
@@ -264,7 +269,7 @@ def coordinate(grid: ZoneGrid, jobs: Sequence[ArmJob], max_steps: int = 1_000_00
         folded[arm] = True
         return True
 
-    def held_at(name: str, xy: Point, q: np.ndarray | None) -> frozenset[int]:
+    def held_at(name: str, xy: Point, q: np.ndarray | None) -> Zones:
         """The zones an arm holds at rest there: its body's, and for an arm that may have to
         give way (not the first), its way back too: the fold from there (base joint kept)
         and the folded arm.  With its way back held, a retreat is always granted."""
@@ -280,7 +285,7 @@ def coordinate(grid: ZoneGrid, jobs: Sequence[ArmJob], max_steps: int = 1_000_00
             return rest | feet.sweep(job, xy, q, back, q_back) | feet.rest(job, back, q_back)
         return rest | feet.rest(job, retreat_point(job.base, xy), None)
 
-    def claims(name: str, move: Move) -> list[tuple[frozenset[int], frozenset[int], float, np.ndarray | None]]:
+    def claims(name: str, move: Move) -> list[tuple[Zones, Zones, float, np.ndarray | None]]:
         """The ways to make a move, each as the zones it sweeps and holds after, its seconds
         and the configuration it passes through (None: straight in joint space).  With a
         body model: straight (not for a folded arm), then by way of the arm folded and
@@ -290,7 +295,7 @@ def coordinate(grid: ZoneGrid, jobs: Sequence[ArmJob], max_steps: int = 1_000_00
         modelled)."""
         job, q0, q1 = by_name[name], conf[name], moved_q(move)
         rest = held_at(name, move.target, q1)
-        Way = tuple[frozenset[int], frozenset[int], float, np.ndarray | None]
+        Way = tuple[Zones, Zones, float, np.ndarray | None]
         straight: Way = (feet.sweep(job, tool[name], q0, move.target, q1), rest, move.move_s, None)
         if q0 is None or q1 is None or job.body is None:
             return [straight]
@@ -323,7 +328,7 @@ def coordinate(grid: ZoneGrid, jobs: Sequence[ArmJob], max_steps: int = 1_000_00
                 continue
         move = job.moves[nxt[name]]
         # the next moves of the arms of higher priority: no way may leave this arm in them
-        ahead: frozenset[int] = frozenset()
+        ahead: Zones = 0
         for h in priority[:priority.index(name)]:
             if nxt[h] < len(by_name[h].moves):
                 h_sweep, h_rest, _s, _v = claims(h, by_name[h].moves[nxt[h]])[0]
@@ -345,7 +350,7 @@ def coordinate(grid: ZoneGrid, jobs: Sequence[ArmJob], max_steps: int = 1_000_00
                 h = next(h for h in priority[:priority.index(name)] if nxt[h] < len(by_name[h].moves))
                 found = (math.inf, h)
         if found is None:                                   # request -> grant
-            events.append(ZoneEvent(t0, name, "continue" if blocked[name] else "request", move.label, len(sweep)))
+            events.append(ZoneEvent(t0, name, "continue" if blocked[name] else "request", move.label, sweep.bit_count()))
             blocked[name], stuck[name], folded[name] = False, None, False
             if via is not None:
                 vias[name][len(timeline[name])] = tuple(map(float, via))

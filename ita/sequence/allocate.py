@@ -7,9 +7,11 @@ one-arm sequence plan's groups (which tool class each measurement takes):
 1. **What each arm can do.**  A measurement is an arm's when the arm's reach test passes
    (ita.workcell.reach_report with the cell as that arm works it,
    ``Workcell.seen_by``), the arm has a configuration for it (the cost model's inverse
-   kinematics), it reaches the rack slot of a tool of its class, and its body there
-   keeps clear of the other arm folded on its base (ita.collision.zones: where the other
-   arm retreats to; the rule that keeps the coordination free of deadlock).
+   kinematics), it reaches the rack slot of a tool of its class, and its body there, and
+   all the way as it folds back, keeps clear of the other arm folded on its base,
+   whatever that arm's base joint (ita.collision.zones.Revolved: where the other arm
+   retreats to; its zones and the arm's never meet, the rule that keeps the coordination
+   free of deadlock).
 2. **Tools.**  Each arm has its own tool of a class when the rack holds two (the first
    arm the plan's, the second the other); a class with one tool (the bent probe) is
    shared: all its measurements go to one arm (the one that can do them all, the one
@@ -39,7 +41,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ita.collision.zones import ZoneGrid, arm_body, folded_configuration, path_distance
+from ita.collision.zones import (
+    ArmBody,
+    Revolved,
+    ZoneGrid,
+    arm_body,
+    folded_configuration,
+)
 from ita.geometry.configurations import measurement_configurations
 from ita.kinematics import arm_model
 from ita.sequence.cost import rack_configurations, slot_position, tool_points_world
@@ -129,13 +137,15 @@ def allocate(ctx: PlanningContext, plan: SequencePlan, dwell_s: float = DWELL_S)
         points.update({i: xyz[k, :2] for k, i in enumerate(ids)})
     grid = ZoneGrid.around([tuple(map(float, p)) for p in [*bases, *points.values()]])
     models = [arm_model(v.arm) for v in views]
-    bodies = [arm_body(m) for m in models]
-    # how near an arm's body may come to the other's base axis: the other folded (its
-    # retreat) reaches `extent`; the zones of both, each within radius and a half zone
-    # diagonal of its body, then never meet
+    bodies = [arm_body(m, cell.tools) for m in models]
+    # the ground each arm folded on its base holds, whatever its base joint: the other's
+    # tubes keep clear of it by more than the zones' half-diagonal on each side, so their
+    # zones never meet
     folds = [folded_configuration(models[a], arms[a].joints.lower, arms[a].joints.upper, bodies[a])
              for a in range(2)]
-    clear = [folds[a][1] + 2 * (grid.radius + grid.cell * np.sqrt(0.5)) for a in range(2)]
+    revolved = [Revolved.of(bodies[a], folds[a][0], (float(bases[a][0]), float(bases[a][1])), grid.z_high)
+                for a in range(2)]
+    gap = 2 * grid.cell * np.sqrt(0.75)
     can = [dict[str, bool]() for _ in range(2)]
     why: dict[str, str] = {}
     matrices: list[dict[str, tuple[list[str], np.ndarray]]] = [{}, {}]
@@ -146,7 +156,7 @@ def allocate(ctx: PlanningContext, plan: SequencePlan, dwell_s: float = DWELL_S)
             report = reach_report(views[a], np.array([specs[i].point for i in ids]),
                                   np.array([specs[i].normal for i in ids]), [tool.tool_class.value] * len(ids))
             ok = [i for i, v in zip(ids, report.verdicts) if v is Reach.REACHABLE]
-            matrix, kept = _matrix(ctx, views[a], tool.name, ok, bodies[a], folds[a][0], bases[1 - a], clear[1 - a])
+            matrix, kept = _matrix(ctx, views[a], tool.name, ok, bodies[a], folds[a][0], revolved[1 - a], gap)
             matrices[a][t] = (kept, matrix) if matrix is not None else ([], np.zeros((1, 1)))
             for i in ids:
                 can[a][i] = i in set(matrices[a][t][0])
@@ -218,11 +228,11 @@ def allocate(ctx: PlanningContext, plan: SequencePlan, dwell_s: float = DWELL_S)
 
 
 def _matrix(ctx: PlanningContext, view: Workcell, tool: str, ids: Sequence[str],
-            body: Callable[[np.ndarray], np.ndarray], fold: np.ndarray, other_base: np.ndarray,
-            clear: float) -> tuple[np.ndarray | None, list[str]]:
+            body: ArmBody, fold: np.ndarray, other: Revolved, gap: float) -> tuple[np.ndarray | None, list[str]]:
     """The cost model's matrix (rack slot first) of the measurements the arm has a
-    configuration for whose body, there and folding back from there to ``fold`` (its base
-    joint kept), keeps ``clear`` (m) from the other arm's base axis, and their ids;
+    configuration for whose tubes, there and folding back from there to ``fold`` (its base
+    joint kept), keep more than ``gap`` (m) beyond their radii from ``other``, the other
+    arm folded, and their ids;
     (None, []) when it cannot reach the tool's slot."""
     spec = view.tool(tool)
     model = arm_model(view.arm)
@@ -237,10 +247,10 @@ def _matrix(ctx: PlanningContext, view: Workcell, tool: str, ids: Sequence[str],
         folded = np.broadcast_to(fold, q.shape).copy()
         folded[:, 0] = q[:, 0]
         # the body there and all the way folding back (base joint kept): its way back is clear too
-        near = np.full(len(q), np.inf)
+        clear = np.ones(len(q), dtype=bool)
         for s in np.linspace(0.0, 1.0, FOLD_SAMPLES):
-            near = np.minimum(near, path_distance(other_base, body(q + s * (folded - q))))
-        apart[conf.found] = near > clear
+            clear &= other.clear_of(body, q + s * (folded - q), gap)
+        apart[conf.found] = clear
     kept = [i for i, ok in zip(ids, apart) if ok]
     return ctx.cost_model.tour(view, spec, [ctx.spec(i) for i in kept]), kept
 
