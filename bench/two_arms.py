@@ -2,8 +2,9 @@
 
     python bench/two_arms.py [--part DIR] [--step 0.5] [--out FILE]
 
-Builds the part's one-arm sequence plan, allocates its measurements between the
-workcell's two arms (ita.sequence.allocate), plays the two arms' moves through the
+Prepares the part as each arm works it (its sequence plan and MKB; reused when current),
+allocates the first arm's plan's measurements between the workcell's two arms
+(ita.sequence.allocate, each arm's MKB saying what it can place), plays the two arms' moves through the
 interference zones (ita.executive.two_arms) and checks the schedule in 3-D (both URDF
 arms in pybullet at each sampled moment, ita.sim.arms; a gap of 0 or less is a contact).
 Prints the one-arm time, each arm's share, the makespan before and after coordination,
@@ -28,8 +29,10 @@ import numpy as np
 
 from ita.executive.two_arms import coordinated
 from ita.executive.zones import configurations_at
+from ita.logic.bridge import KnowledgeBase
+from ita.offline.prepare import prepared_arms
+from ita.part.store import load_part
 from ita.sequence.allocate import allocate
-from ita.sequence.plan import build_plan, planning_context
 from ita.sim.arms import TwoArms
 
 DEFAULT_OUT = Path(__file__).resolve().parent / "results" / "two_arms.json"
@@ -43,10 +46,11 @@ def main() -> None:
     args = parser.parse_args()
 
     t0 = time.perf_counter()
-    ctx = planning_context(args.part)
-    plan = build_plan(ctx)
+    kb = KnowledgeBase()
+    part = load_part(args.part)
+    ctx, plan, mkbs = prepared_arms(args.part, kb, part, progress=lambda m: print(f"({m} ...)", flush=True))
     t1 = time.perf_counter()
-    allocation = allocate(ctx, plan)
+    allocation = allocate(ctx, plan, mkbs=mkbs)
     t2 = time.perf_counter()
     schedule, jobs, variant = coordinated(ctx, allocation)
     t3 = time.perf_counter()
@@ -73,7 +77,7 @@ def main() -> None:
               f"retreats {schedule.retreats[arm]}")
     contacts = int(np.count_nonzero(gaps <= 0.0))
     print(f"arm-arm: {contacts} contacts in {len(times)} moments (3-D, pybullet), least gap {gaps.min():.3f} m")
-    print(f"seconds: plan {t1 - t0:.1f}, allocation {t2 - t1:.1f}, coordination {t3 - t2:.1f}, checks {t4 - t3:.1f}")
+    print(f"seconds: prepared plans and MKBs {t1 - t0:.1f}, allocation {t2 - t1:.1f}, coordination {t3 - t2:.1f}, checks {t4 - t3:.1f}")
     args.out.parent.mkdir(parents=True, exist_ok=True)
     result = {
         "machine": platform.platform(), "part": ctx.part_name, "one_arm_s": one,

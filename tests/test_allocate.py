@@ -50,6 +50,27 @@ def test_the_makespan_lies_between_its_bound_and_the_one_arm_time(allocated) -> 
     assert a.makespan_s <= 0.7 * a.one_arm_s             # the split is near even
 
 
+def test_a_measurement_an_arms_mkb_does_not_place_is_never_that_arms(allocated) -> None:
+    """The reach test does not know that ribs block an SLRA view from one side; the arm's
+    MKB does: what it cannot place goes to the other arm (or to neither, saying why)."""
+    from ita.geometry.mkb import MeasurementKB, MkbEntry
+
+    ctx, plan, a = allocated
+    cell = ctx.workcell
+    second = [i for i, arm in a.assigned.items() if arm == "t3_b"]
+    blocked = set(second[::2])
+    tool_of = {i: g.tool for g in plan.groups for i in g.order}
+    entries = {i: MkbEntry(i, tool_of[i], cell.tool(tool_of[i]).tool_class.value,
+                           status="view_blocked" if i in blocked else "ok") for i in tool_of}
+    fake = MeasurementKB("p", "d", entries)
+    b = allocate(ctx, plan, mkbs={"t3_b": fake})
+    assert blocked and not {i for i, arm in b.assigned.items() if arm == "t3_b"} & blocked
+    why = dict(b.unassigned)
+    for i in blocked:
+        assert b.assigned.get(i) == "t3" or "t3_b: its MKB does not place it (view_blocked)" in why[i], i
+    assert set(b.assigned) | set(why) == set(a.assigned) | {i for i, _ in a.unassigned}   # none lost
+
+
 def test_one_arm_cell_is_refused(allocated) -> None:
     ctx, plan, _a = allocated
     one = replace(ctx, workcell=replace(ctx.workcell, second_arm=None, second_pedestal=None))

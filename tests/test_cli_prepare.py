@@ -90,3 +90,16 @@ def test_the_second_arm_prepares_and_inspects_alone_without_touching_the_first_a
     with Archive.open(archive_path(None), create=False) as archive:
         run = archive.run(archive.resolve("last"))
         assert run.settings["arm"] == "t3_b"        # `ita continue` works the run with the same arm
+
+
+@pytest.mark.slow       # about 3 min: both arms' plans and MKBs, the allocation, the coordination, the 3-D check
+def test_sequence_allocate_splits_by_what_each_arms_mkb_places_and_the_arms_never_touch(builtin_part) -> None:
+    result = CliRunner().invoke(main, ["sequence", "allocate", "--json"])
+    assert result.exit_code == 0, result.output
+    report = json.loads(result.stdout)
+    counts = {a["arm"]: a["measurements"] for a in report["arms"]}
+    assert set(counts) == {"t3", "t3_b"} and min(counts.values()) > 100
+    assert sum(counts.values()) + len(report["unassigned"]) <= 1076
+    coordinated = report["coordinated"]
+    assert coordinated["arm_arm_contacts"] == 0 and coordinated["moments"] > 1000
+    assert report["makespan_s"] <= coordinated["makespan_s"] < report["one_arm_s"]

@@ -256,7 +256,7 @@ def _write_variant(tmp_path: Path, old: str, new: str) -> Path:
         ("margin = 0.97", "margin = 1.5", "reach.margin"),
         ("repeatability_mm = 0.25", 'repeatability_mm = "tight"', "robot.repeatability_mm"),
         ('name = "t3_b"', 'name = "t3"', "robot_b.name"),
-        ("base_position = [1.6, 2.35, 0.6]\n", "", "robot_b.base_position"),
+        ("base_position = [1.4, 2.35, 0.6]\n", "", "robot_b.base_position"),
         ("size = [0.8, 0.8, 0.6]", "size = [0.8, -0.8, 0.6]", "robot_b.pedestal.size"),
     ],
 )
@@ -321,7 +321,7 @@ def test_a_part_s_envelope_comes_from_its_mesh_unless_its_cell_states_one(tmp_pa
 def test_the_second_arm_is_the_first_seen_from_its_own_base(cell: Workcell) -> None:
     assert [a.name for a in cell.arms()] == ["t3", "t3_b"]
     b = cell.seen_by("t3_b")
-    assert b.arm.base.position == (1.6, 2.35, 0.6) and b.pedestal.name == "pedestal_t3_b"
+    assert b.arm.base.position == (1.4, 2.35, 0.6) and b.pedestal.name == "pedestal_t3_b"
     assert b.second_arm == cell.arm and b.seen_by("t3") == cell.seen_by("t3")
     assert b.arm.joints == cell.arm.joints and b.arm.kinematics == cell.arm.kinematics
     assert cell.second_pedestal not in cell.static_boxes()           # one-arm runs leave it out

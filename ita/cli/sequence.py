@@ -205,35 +205,52 @@ def show(part_dir: Path | None, as_json: bool) -> None:
 def allocate(part_dir: Path | None, as_json: bool) -> None:
     """Split the part's measurements between the workcell's two arms (its [robot_b]).
 
-    Each measurement goes to an arm that reaches it and a tool of its class (a tool with
-    no twin to one arm), its body clear of the other arm folded on its base; the split
+    Prepares the part as each arm works it first (its sequence plan and MKB, reused when
+    current).  Each measurement goes to an arm that reaches it, whose MKB places it, with a
+    tool of its class (a tool with no twin to one arm), its body clear of the other arm
+    folded on its base; the split
     between the arms' bases that makes the larger arm time least.  Prints each arm's share and time (planned motion, the rack and
     a dwell per measurement), the makespan, a lower bound and the one-arm time; then the
     two arms' moves played through the interference zones (claims, waits, retreats): the
-    coordinated makespan and each arm's busy and waiting seconds.  A plan, not a run:
-    two-arm inspection runs are not built yet.
+    coordinated makespan and each arm's busy and waiting seconds, and both arms checked for
+    contact in 3-D.  A plan, not a run: two-arm inspection runs are not built yet.
     """
-    from ita.executive.two_arms import coordinated
-    from ita.executive.zones import min_separation
-    from ita.sequence.allocate import allocate as split
-    from ita.sequence.plan import build_plan
+    import numpy as np
 
-    ctx = _context(part_dir)
-    click.echo("making the one-arm sequence plan ...", err=True)
-    plan = build_plan(ctx)
+    from ita.executive.two_arms import coordinated
+    from ita.executive.zones import configurations_at
+    from ita.logic.bridge import KnowledgeBase
+    from ita.offline.prepare import prepared_arms
+    from ita.part.store import load_part
+    from ita.sequence.allocate import allocate as split
+    from ita.sequence.plan import planning_context
+    from ita.sequence.store import apply_tool_marks, load_tool_marks
+    from ita.sim.arms import TwoArms
+
+    kb = KnowledgeBase()
+    apply_tool_marks(kb, load_tool_marks())
+    part = load_part(part_dir)
+    if len(planning_context(part_dir, kb=kb, part=part, use_mkb=False).workcell.arms()) != 2:
+        raise click.UsageError("the workcell names one arm; a second is a [robot_b] table in its workcell.toml")
+    ctx, plan, mkbs = prepared_arms(part_dir, kb, part, progress=lambda m: click.echo(f"{m} ...", err=True))
     click.echo("allocating the measurements between the arms ...", err=True)
-    result = split(ctx, plan)
+    result = split(ctx, plan, mkbs=mkbs)
     click.echo("playing the arms' moves through the interference zones (eight orders) ...", err=True)
     schedule, jobs, how = coordinated(ctx, result)
-    apart = min_separation(schedule, jobs, step_s=0.5)
+    click.echo("checking the two arms for contact in 3-D, every half second ...", err=True)
+    times = np.arange(0.0, schedule.makespan_s + 0.5, 0.5)
+    q = configurations_at(schedule, jobs, times)
+    with TwoArms(ctx.workcell) as arms:
+        gaps = arms.gaps(q[jobs[0].name], q[jobs[1].name])
     report = result.as_dict()
     report["coordinated"] = {
         "makespan_s": round(schedule.makespan_s, 1), "variant": how,
         "ratio_to_one_arm": round(schedule.makespan_s / result.one_arm_s, 3),
         "busy_s": {k: round(v, 1) for k, v in schedule.busy_s.items()},
         "waiting_s": {k: round(v, 1) for k, v in schedule.waiting_s.items()},
-        "retreats": schedule.retreats, "min_separation_m": round(apart, 3),
-        "zone_events": len(schedule.events)}
+        "retreats": schedule.retreats, "zone_events": len(schedule.events),
+        "arm_arm_contacts": int(np.count_nonzero(gaps <= 0.0)), "moments": len(times),
+        "least_gap_m": round(float(gaps.min()), 3)}
     if as_json:
         click.echo(json.dumps(report, indent=1))
         return
@@ -253,7 +270,8 @@ def allocate(part_dir: Path | None, as_json: bool) -> None:
     for arm in schedule.arms:
         click.echo(f"  {arm:8s} busy {schedule.busy_s[arm]:7.1f} s, waiting {schedule.waiting_s[arm]:6.1f} s, "
                    f"{schedule.retreats[arm]} retreat(s)")
-    click.echo(f"  the arms' bodies (seen from above) at least {apart:.2f} m apart; {len(schedule.events)} zone events")
+    click.echo(f"  {c['arm_arm_contacts']} arm-arm contacts in {len(times)} moments (both arms in pybullet), least "
+               f"gap {c['least_gap_m']:.2f} m; {len(schedule.events)} zone events")
 
 
 @sequence.command("next")

@@ -33,6 +33,7 @@ import hashlib
 import math
 import time
 from collections.abc import Mapping, Sequence
+from dataclasses import replace
 from types import ModuleType
 from typing import TYPE_CHECKING, Any, TypedDict
 
@@ -107,13 +108,15 @@ def mkb_digest(specs_digest: str, cell: Workcell) -> str:
     Vision's rules for a frame's window and pixels (the source of ita.vision.scan and of
     the context it asks, ita.vision.context) and the part's collision model's rules
     (ita.collision.build and its mesh cover, ita.collision.mesh_cover), so a changed rule never meets a stored MKB made with the old one.
-    (The part's mesh is in the store's key, ita.part.store.part_key.)"""
+    (The part's mesh is in the store's key, ita.part.store.part_key.)  The cell's other
+    arm is not: the MKB is the working arm's, and the other stands outside its world."""
     from pathlib import Path
 
     raster = f"{MIN_HOLE_PIXELS},{RASTER_STEP},{MAX_RASTER},{SHORT_APPROACH_M},{COUPLANT_OFFSET_M},{APPROACH_MARGIN_M}"
     rules = hashlib.sha256(b"".join(Path(_source_file(m)).read_bytes()
                                     for m in (scan_rules, context_rules, collision_rules, cover_rules))).hexdigest()
-    text = f"{MKB_VERSION}|{PRESS_M}|{GROUP_GROWTH}|{raster}|{rules}|{specs_digest}|{cell!r}"
+    alone = replace(cell, second_arm=None, second_pedestal=None)
+    text = f"{MKB_VERSION}|{PRESS_M}|{GROUP_GROWTH}|{raster}|{rules}|{specs_digest}|{alone!r}"
     return hashlib.sha256(text.encode()).hexdigest()
 
 

@@ -298,3 +298,22 @@ def prepare(part_dir: Path | None, progress: Callable[[str], None] = lambda _msg
         seconds=tuple(seconds),
         inspection=prep,
     )
+
+
+def prepared_arms(part_dir: Path | None, kb: KnowledgeBase, part: Any,
+                  progress: Callable[[str], None] = lambda _m: None) -> tuple[Any, Any, dict[str, Any]]:
+    """For a cell with two arms: the first arm's planning context (with its MKB) and
+    sequence plan, and each arm's MKB (arm name -> MKB), each made as that arm works the
+    cell (prepared, or reused when current; ita.sequence.plan.planning_context's ``arm``):
+    what ita.sequence.allocate needs to know which arm can place which measurement."""
+    first: tuple[Any, Any] | None = None
+    mkbs: dict[str, Any] = {}
+    for arm in planning_context(part_dir, kb=kb, part=part, use_mkb=False).workcell.arms():
+        ctx = planning_context(part_dir, kb=kb, part=part, arm=arm.name)
+        progress(f"preparing the cell as {arm.name} works it (sequence plan, MKB)")
+        plan, mkb, _ = prepare_inspection(ctx, part, progress=progress, warm=False)
+        mkbs[arm.name] = mkb
+        if first is None:
+            first = (with_mkb(ctx, mkb), plan)
+    assert first is not None
+    return first[0], first[1], mkbs

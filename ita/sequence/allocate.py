@@ -6,8 +6,9 @@ one-arm sequence plan's groups (which tool class each measurement takes):
 
 1. **What each arm can do.**  A measurement is an arm's when the arm's reach test passes
    (ita.workcell.reach_report with the cell as that arm works it,
-   ``Workcell.seen_by``), the arm has a configuration for it (the cost model's inverse
-   kinematics), it reaches the rack slot of a tool of its class, and its body there, and
+   ``Workcell.seen_by``), its MKB places it when it has one (an SLRA view the part does
+   not block from that side: the reach test alone does not know), the arm has a
+   configuration for it (the cost model's inverse kinematics), it reaches the rack slot of a tool of its class, and its body there, and
    all the way as it folds back, keeps clear of the other arm folded on its base,
    whatever that arm's base joint (ita.collision.zones.Revolved: where the other arm
    retreats to; its zones and the arm's never meet, the rule that keeps the coordination
@@ -49,6 +50,7 @@ from ita.collision.zones import (
     folded_configuration,
 )
 from ita.geometry.configurations import measurement_configurations
+from ita.geometry.mkb import MeasurementKB
 from ita.kinematics import arm_model
 from ita.sequence.cost import rack_configurations, slot_position, tool_points_world
 from ita.sequence.plan import PlanningContext, SequencePlan
@@ -117,9 +119,13 @@ def _tools(cell: Workcell, plan_tool: str, arm_index: int) -> str | None:
     return spare[0] if spare else None
 
 
-def allocate(ctx: PlanningContext, plan: SequencePlan, dwell_s: float = DWELL_S) -> Allocation:
+def allocate(ctx: PlanningContext, plan: SequencePlan, dwell_s: float = DWELL_S,
+             mkbs: Mapping[str, MeasurementKB] | None = None) -> Allocation:
     """Split the one-arm `plan`'s measurements between the two arms of ``ctx.workcell``
-    (see the module docstring).  ValueError when the cell has one arm."""
+    (see the module docstring).  mkbs: arm name -> the MKB made for the cell as that arm
+    works it (ita.sequence.plan.planning_context's ``arm``): a measurement is an arm's only
+    when its MKB places it for the tool's class (an SLRA view the part does not block from
+    that side, a probe pose and approach).  ValueError when the cell has one arm."""
     cell = ctx.workcell
     arms = cell.arms()
     if len(arms) != 2:
@@ -156,6 +162,14 @@ def allocate(ctx: PlanningContext, plan: SequencePlan, dwell_s: float = DWELL_S)
             report = reach_report(views[a], np.array([specs[i].point for i in ids]),
                                   np.array([specs[i].normal for i in ids]), [tool.tool_class.value] * len(ids))
             ok = [i for i, v in zip(ids, report.verdicts) if v is Reach.REACHABLE]
+            mkb = None if mkbs is None else mkbs.get(arms[a].name)
+            if mkb is not None:
+                placed = {i: mkb.entry_for(i, tool.tool_class.value) for i in ok}
+                for i, e in placed.items():
+                    if e is None or not e.ok:
+                        why.setdefault(i, f"{arms[a].name}: its MKB does not place it "
+                                          f"({'not tried' if e is None else e.status})")
+                ok = [i for i in ok if (e := placed[i]) is not None and e.ok]
             matrix, kept = _matrix(ctx, views[a], tool.name, ok, bodies[a], folds[a][0], revolved[1 - a], gap)
             matrices[a][t] = (kept, matrix) if matrix is not None else ([], np.zeros((1, 1)))
             for i in ids:
