@@ -25,6 +25,14 @@ def allocated(builtin_part):
     return ctx, plan, allocate(ctx, plan)
 
 
+@pytest.fixture(scope="module")
+def played(allocated):
+    """The allocation's coordinated schedule (the best of its eight orders) and the moves."""
+    ctx, _plan, a = allocated
+    schedule, jobs, _how = coordinated(ctx, a)
+    return schedule, jobs
+
+
 def test_each_measurement_goes_to_an_arm_that_reaches_it_with_a_tool_of_its_own(allocated) -> None:
     ctx, plan, a = allocated
     cell = ctx.workcell
@@ -78,11 +86,11 @@ def test_one_arm_cell_is_refused(allocated) -> None:
         allocate(one, plan)
 
 
-def test_the_two_arms_moves_through_the_zones_never_touch_in_3d(allocated) -> None:
+def test_the_two_arms_moves_through_the_zones_never_touch_in_3d(allocated, played) -> None:
     """The coordinated schedule of the allocation: every measurement made, and pybullet's
     URDF arms at every half second of it never touch (nor come within 10 cm)."""
     ctx, _plan, a = allocated
-    schedule, jobs, _how = coordinated(ctx, a)
+    schedule, jobs = played
     made = {m.label for j in jobs for m in j.moves}
     assert set(a.assigned) <= made
     assert schedule.makespan_s < a.one_arm_s
@@ -91,3 +99,32 @@ def test_the_two_arms_moves_through_the_zones_never_touch_in_3d(allocated) -> No
     with TwoArms(ctx.workcell) as arms:
         gaps = arms.gaps(q["t3"], q["t3_b"])
     assert gaps.min() > 0.1
+
+
+@pytest.mark.parametrize("down", ["t3_b", "t3"])
+def test_an_arm_down_mid_plan_hands_its_remaining_work_to_the_other(allocated, played, down: str) -> None:
+    """The downed arm stops where it is; the other finishes its own work and makes the
+    downed arm's remaining measurements it can, never touching the stopped arm (3-D);
+    every measurement is made before, handed over, or lost with a reason."""
+    from ita.executive.two_arms import hand_over
+
+    ctx, plan, a = allocated
+    schedule, jobs = played
+    at = 0.4 * schedule.makespan_s
+    h = hand_over(ctx, plan, a, schedule, jobs, down, at)
+    survivor = next(j.name for j in jobs if j.name != down)
+    theirs = {i for i, arm in a.assigned.items() if arm == down}
+    made_after = {lab for *_t, lab in h.schedule.timeline[survivor] if lab in a.assigned}
+    lost = dict(h.lost)
+    assert set(h.handed) <= made_after and set(h.handed) <= theirs
+    if down == "t3_b":                                    # the first arm reaches the whole part
+        assert h.handed and all("out of reach" not in w for w in lost.values())
+    for i in a.assigned:                                  # nothing is dropped silently
+        assert i in h.done or i in made_after or (i in lost and lost[i]), i
+    assert not set(h.done) & made_after                   # nothing made twice
+    assert h.makespan_s > at
+    times = np.arange(0.0, h.schedule.makespan_s + 0.5, 0.5)
+    q = configurations_at(h.schedule, list(h.jobs), times)
+    with TwoArms(ctx.workcell) as arms:
+        gaps = arms.gaps(q[jobs[0].name], q[jobs[1].name])
+    assert gaps.min() > 0.0                               # the moving arm never touches the stopped one

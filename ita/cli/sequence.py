@@ -20,6 +20,7 @@ load.
 from __future__ import annotations
 
 import json
+import math
 import sys
 import time
 from dataclasses import replace
@@ -198,11 +199,28 @@ def show(part_dir: Path | None, as_json: bool) -> None:
         click.echo(line)
 
 
+def _down(_ctx: click.Context, _param: click.Parameter, value: str | None) -> tuple[str, float] | None:
+    """ARM@SECONDS -> (arm, seconds)."""
+    if value is None:
+        return None
+    arm, at, seconds = value.partition("@")
+    try:
+        t = float(seconds)
+    except ValueError:
+        t = math.nan
+    if not arm or not at or not math.isfinite(t) or t < 0:
+        raise click.BadParameter(f"{value!r}: give ARM@SECONDS, e.g. t3_b@300", param_hint="--down")
+    return arm, t
+
+
 @sequence.command()
 @part_option
 @click.option("--json", "as_json", is_flag=True, help="Print the allocation as JSON.")
+@click.option("--down", default=None, metavar="ARM@SECONDS", callback=_down,
+              help="Also re-allocate as if ARM stopped for good SECONDS into the coordinated plan: the other "
+                   "arm takes over what the stopped one had not made and it can make.")
 @reports_errors
-def allocate(part_dir: Path | None, as_json: bool) -> None:
+def allocate(part_dir: Path | None, as_json: bool, down: tuple[str, float] | None) -> None:
     """Split the part's measurements between the workcell's two arms (its [robot_b]).
 
     Prepares the part as each arm works it first (its sequence plan and MKB, reused when
@@ -213,7 +231,9 @@ def allocate(part_dir: Path | None, as_json: bool) -> None:
     a dwell per measurement), the makespan, a lower bound and the one-arm time; then the
     two arms' moves played through the interference zones (claims, waits, retreats): the
     coordinated makespan and each arm's busy and waiting seconds, and both arms checked for
-    contact in 3-D.  A plan, not a run: two-arm inspection runs are not built yet.
+    contact in 3-D.  With --down, the hand-over: what was made by then, what the other arm
+    takes over, what is lost and why, the new makespan.  A plan, not a run: two-arm
+    inspection runs are not built yet.
     """
     import numpy as np
 
@@ -230,8 +250,11 @@ def allocate(part_dir: Path | None, as_json: bool) -> None:
     kb = KnowledgeBase()
     apply_tool_marks(kb, load_tool_marks())
     part = load_part(part_dir)
-    if len(planning_context(part_dir, kb=kb, part=part, use_mkb=False).workcell.arms()) != 2:
+    arm_names = [a.name for a in planning_context(part_dir, kb=kb, part=part, use_mkb=False).workcell.arms()]
+    if len(arm_names) != 2:
         raise click.UsageError("the workcell names one arm; a second is a [robot_b] table in its workcell.toml")
+    if down is not None and down[0] not in arm_names:
+        raise click.BadParameter(f"no arm {down[0]!r} (the cell's arms: {', '.join(arm_names)})", param_hint="--down")
     ctx, plan, mkbs = prepared_arms(part_dir, kb, part, progress=lambda m: click.echo(f"{m} ...", err=True))
     click.echo("allocating the measurements between the arms ...", err=True)
     result = split(ctx, plan, mkbs=mkbs)
@@ -242,7 +265,18 @@ def allocate(part_dir: Path | None, as_json: bool) -> None:
     q = configurations_at(schedule, jobs, times)
     with TwoArms(ctx.workcell) as arms:
         gaps = arms.gaps(q[jobs[0].name], q[jobs[1].name])
+    handover = None
+    if down is not None:
+        from ita.executive.two_arms import hand_over
+
+        click.echo(f"re-allocating with {down[0]} down at {down[1]:.1f} s ...", err=True)
+        handover = hand_over(ctx, plan, result, schedule, jobs, down[0], down[1], mkbs)
     report = result.as_dict()
+    if handover is not None:
+        report["down"] = {"arm": handover.down, "at_s": handover.at_s, "made_before": len(handover.done),
+                          "handed_over": len(handover.handed),
+                          "lost": [{"spec": i, "why": w} for i, w in handover.lost],
+                          "makespan_s": round(handover.makespan_s, 1)}
     report["coordinated"] = {
         "makespan_s": round(schedule.makespan_s, 1), "variant": how,
         "ratio_to_one_arm": round(schedule.makespan_s / result.one_arm_s, 3),
@@ -272,6 +306,12 @@ def allocate(part_dir: Path | None, as_json: bool) -> None:
                    f"{schedule.retreats[arm]} retreat(s)")
     click.echo(f"  {c['arm_arm_contacts']} arm-arm contacts in {len(times)} moments (both arms in pybullet), least "
                f"gap {c['least_gap_m']:.2f} m; {len(schedule.events)} zone events")
+    if handover is not None:
+        click.echo(f"{handover.down} down at {handover.at_s:.1f} s: {len(handover.done)} made by then, "
+                   f"{len(handover.handed)} of its own handed over, {len(handover.lost)} lost; makespan "
+                   f"{handover.makespan_s:.1f} s")
+        for i, w in handover.lost[:10]:
+            click.echo(f"  lost {i}: {w}")
 
 
 @sequence.command("next")

@@ -14,7 +14,8 @@ retreats and its makespan), not a run.
 
 from __future__ import annotations
 
-from dataclasses import replace
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -27,15 +28,17 @@ from ita.executive.zones import (
     Footprints,
     Move,
     Schedule,
+    configurations_at,
     coordinate,
 )
 from ita.geometry.configurations import measurement_configurations
+from ita.geometry.mkb import MeasurementKB
 from ita.kinematics import arm_model
-from ita.sequence.allocate import Allocation, ArmShare
+from ita.sequence.allocate import Allocation, ArmShare, alone
 from ita.sequence.cost import rack_configurations, slot_position, tool_points_world
-from ita.sequence.plan import PlanningContext
+from ita.sequence.plan import PlanningContext, SequencePlan
 
-__all__ = ["arm_jobs", "coordinated"]
+__all__ = ["Handover", "arm_jobs", "coordinated", "hand_over"]
 
 
 def arm_jobs(ctx: PlanningContext, allocation: Allocation) -> list[ArmJob]:
@@ -129,3 +132,104 @@ def _variants(allocation: Allocation) -> list[tuple[str, Allocation]]:
                 out.append((name, replace(allocation, shares=(turned(first, tours_a, False),
                                                               turned(second, tours_b, groups_b)))))
     return out
+
+
+@dataclass(frozen=True)
+class Handover:
+    """An arm down for good at ``at_s`` of a coordinated plan, and what the other does then:
+    ``done`` the measurements made by then (the other's current one finished, at
+    ``resume_s``), ``handed`` the downed arm's still to do that the other now makes,
+    ``lost`` those nobody can make now (with why), the other's new ``schedule`` from
+    ``resume_s`` (the downed arm frozen where it stopped, ``q_down``) and the makespan."""
+
+    down: str
+    at_s: float
+    resume_s: float
+    done: tuple[str, ...]
+    handed: tuple[str, ...]
+    lost: tuple[tuple[str, str], ...]
+    schedule: Schedule
+    jobs: tuple[ArmJob, ...]
+    q_down: tuple[float, ...]
+
+    @property
+    def makespan_s(self) -> float:
+        return self.resume_s + self.schedule.makespan_s
+
+
+def hand_over(ctx: PlanningContext, plan: SequencePlan, allocation: Allocation, schedule: Schedule,
+              jobs: Sequence[ArmJob], down: str, at_s: float,
+              mkbs: Mapping[str, MeasurementKB] | None = None) -> Handover:
+    """Re-allocate when arm ``down`` stops for good at ``at_s`` of ``schedule`` (its
+    controller failed): it stays where it is, holding what it held; the other finishes
+    the move it is making, then makes the rest of its own work and what the downed arm
+    had not made that it can (ita.sequence.allocate.alone: its reach, its MKB, its own
+    tools, a twinless tool unless in the downed hand, its body clear of the downed arm's
+    zones), from its rack (the tool it holds put back first), played through the zones
+    with the downed arm frozen (a move its body bars is skipped, and lost)."""
+    names = [j.name for j in jobs]
+    if down not in names:
+        raise ValueError(f"no arm {down!r} in the plan (its arms: {', '.join(names)})")
+    other = next(n for n in names if n != down)
+    by = {j.name: j for j in jobs}
+    assigned = set(allocation.assigned)
+    # the survivor finishes its current step
+    resume = at_s
+    for start, _moved, end, _a, _b, _label in schedule.timeline[other]:
+        if start <= at_s < end:
+            resume = end
+    done = [lab for n, until in ((down, at_s), (other, resume))
+            for _s, _m, end, _a, _b, lab in schedule.timeline[n] if end <= until and lab in assigned]
+    held = held_by(schedule, down, at_s)
+    q = configurations_at(schedule, jobs, np.array([at_s, resume]))
+    q_down, q_other = q[down][0], q[other][1]
+    # the survivor's work now, its body clear of the downed arm's zones
+    points = [j.base for j in jobs] + [m.target for j in jobs for m in j.moves]
+    grid = ZoneGrid.around(points)
+    body_down, body_other = by[down].body, by[other].body
+    if body_down is None or body_other is None:
+        raise ValueError("a hand-over needs both arms' body models")
+    frozen = grid.near_tubes(body_down.tubes(q_down[None]), body_down.radii)
+
+    def keep_clear(Q: np.ndarray) -> np.ndarray:
+        return np.array([not grid.near_tubes(body_other.tubes(x[None]), body_other.radii) & frozen for x in Q])
+
+    done_set = set(done)
+    todo = [i for i in allocation.assigned if i not in done_set]
+    share, lost = alone(ctx, plan, other, todo, keep_clear, allocation.dwell_s, mkbs,
+                        unavailable=() if held is None else (held,))
+    empty = replace(next(s for s in allocation.shares if s.arm == down), groups=(), legs=(), count=0, time_s=0.0)
+    shares = tuple(share if s.arm == other else empty for s in allocation.shares)
+    again = {j.name: j for j in arm_jobs(ctx, replace(allocation, shares=shares))}
+    view = ctx.workcell.seen_by(other)
+    tip = body_other(q_other[None])[0, -1]
+    mine = again[other]
+    in_hand = held_by(schedule, other, resume)
+    if mine.moves and in_hand is not None:          # its tool back to the rack first (at the TCP's top speed)
+        first = mine.moves[0]
+        back = float(np.hypot(tip[0] - first.target[0], tip[1] - first.target[1])) / RETREAT_SPEED
+        tool = first.label[len("pick up "):]
+        mine = replace(mine, moves=(replace(first, move_s=back + ctx.cost_model.transfer(view, in_hand, tool)),
+                                    *mine.moves[1:]))
+    mine = replace(mine, start=(float(tip[0]), float(tip[1])), home=tuple(map(float, q_other)))
+    tip_down = body_down(q_down[None])[0, -1]
+    stopped = replace(by[down], start=(float(tip_down[0]), float(tip_down[1])), moves=(),
+                      home=tuple(map(float, q_down)), fold=(), down=True)
+    order = tuple(mine if j.name == other else stopped for j in jobs)
+    after = coordinate(grid, order)
+    barred = set(after.skipped.get(other, ()))
+    made = {i for _t, o, _c in share.groups for i in o} - barred
+    lost = lost + tuple((i, f"{down}, down where it stopped, bars the way there") for i in sorted(barred & assigned))
+    handed = tuple(i for i in todo if i in made and allocation.assigned[i] == down)
+    return Handover(down, at_s, resume, tuple(done), handed, lost, after, order, tuple(map(float, q_down)))
+
+
+def held_by(schedule: Schedule, arm: str, t: float) -> str | None:
+    """The tool ``arm`` holds at ``t`` of ``schedule`` (its moves' labels say)."""
+    held: str | None = None
+    for _s, moved, _e, _a, _b, lab in schedule.timeline[arm]:
+        if moved <= t and lab.startswith("pick up "):
+            held = lab[len("pick up "):]
+        if moved <= t and lab.startswith("put down "):
+            held = None
+    return held

@@ -91,6 +91,7 @@ class ArmJob:
     body: ArmBody | None = None                              # its tubes and its polyline from above
     home: tuple[float, ...] = ()                             # its configuration at the start
     fold: tuple[float, ...] = ()                             # where a retreat folds it (base joint kept)
+    down: bool = False                                       # stopped for good where it is: never moves
 
 
 class Footprints:
@@ -126,7 +127,8 @@ class Footprints:
 
 @dataclass(frozen=True)
 class ZoneEvent:
-    """request, grant, wait, continue, clear or retreat, of arm ``arm`` at ``t`` (s)."""
+    """request, grant, wait, continue, clear, retreat or skip (a move a downed arm bars),
+    of arm ``arm`` at ``t`` (s)."""
 
     t: float
     arm: str
@@ -180,6 +182,7 @@ class Schedule:
     events: tuple[ZoneEvent, ...]
     makespan_s: float
     vias: dict[str, dict[int, tuple[float, ...]]] = field(default_factory=dict)   # arm -> step -> via configuration
+    skipped: dict[str, tuple[str, ...]] = field(default_factory=dict)   # arm -> moves a downed arm's body barred
 
 
 class Deadlock(RuntimeError):
@@ -230,6 +233,8 @@ def coordinate(grid: ZoneGrid, jobs: Sequence[ArmJob], max_steps: int = 1_000_00
         (base joint kept) with a body model, else along its base ray; None if it is
         folded already or the fold meets the other's zones."""
         job, q_now = by_name[arm], conf[arm]
+        if job.down:
+            return None
         if job.body is not None and q_now is not None and job.fold:
             q_back: np.ndarray | None = np.asarray(job.fold, dtype=float).copy()
             assert q_back is not None
@@ -252,6 +257,7 @@ def coordinate(grid: ZoneGrid, jobs: Sequence[ArmJob], max_steps: int = 1_000_00
     stuck: dict[str, str | None] = {j.name: None for j in jobs}     # whose rest zones it waits for
     folded = {j.name: False for j in jobs}                            # retreated since its last move
     vias: dict[str, dict[int, tuple[float, ...]]] = {j.name: {} for j in jobs}
+    skipped: dict[str, list[str]] = {j.name: [] for j in jobs}
 
     def retreat(arm: str, t0: float) -> bool:
         """Fold `arm` back now if that claim can be granted (see fold_of)."""
@@ -275,7 +281,7 @@ def coordinate(grid: ZoneGrid, jobs: Sequence[ArmJob], max_steps: int = 1_000_00
         and the folded arm.  With its way back held, a retreat is always granted."""
         job = by_name[name]
         rest = feet.rest(job, xy, q)
-        if name == priority[0]:
+        if name == priority[0] or job.down:
             return rest
         if job.body is not None and q is not None and job.fold:
             q_back = np.asarray(job.fold, dtype=float).copy()
@@ -363,6 +369,12 @@ def coordinate(grid: ZoneGrid, jobs: Sequence[ArmJob], max_steps: int = 1_000_00
             events.append(ZoneEvent(t0, name, "wait", move.label))
             blocked[name] = True
         until, other = found
+        if math.isinf(until) and by_name[other].down:       # a downed arm's body in the way for good
+            events.append(ZoneEvent(t0, name, "skip", move.label))
+            skipped[name].append(move.label)
+            blocked[name] = False
+            nxt[name] += 1
+            continue
         if not math.isinf(until):                           # cleared at a known time: wait for it
             waiting[name] += until - t0
             clock[name] = until
@@ -386,7 +398,8 @@ def coordinate(grid: ZoneGrid, jobs: Sequence[ArmJob], max_steps: int = 1_000_00
     else:
         raise Deadlock(f"no end after {max_steps} steps")
     return Schedule(tuple(priority), {n: tuple(v) for n, v in timeline.items()}, busy, waiting, retreats,
-                    tuple(sorted(events, key=lambda e: (e.t, priority.index(e.arm)))), max(clock.values()), vias)
+                    tuple(sorted(events, key=lambda e: (e.t, priority.index(e.arm)))), max(clock.values()), vias,
+                    {n: tuple(v) for n, v in skipped.items()})
 
 
 def configurations_at(schedule: Schedule, jobs: Sequence[ArmJob], times: np.ndarray) -> dict[str, np.ndarray]:

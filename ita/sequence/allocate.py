@@ -37,7 +37,7 @@ one-arm sequence plan's groups (which tool class each measurement takes):
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Collection, Mapping, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -55,10 +55,10 @@ from ita.kinematics import arm_model
 from ita.sequence.cost import rack_configurations, slot_position, tool_points_world
 from ita.sequence.plan import PlanningContext, SequencePlan
 from ita.sequence.tour import solve_tour
-from ita.workcell import Workcell, reach_report
+from ita.workcell import ToolSpec, Workcell, reach_report
 from ita.workcell.reach import Reach
 
-__all__ = ["DWELL_S", "Allocation", "ArmShare", "allocate"]
+__all__ = ["DWELL_S", "Allocation", "ArmShare", "allocate", "alone"]
 
 #: seconds an arm spends at a measurement besides moving to it: the one-arm whole-bulkhead
 #: run's 1,410 s for 1,076 measurements less its 330 s of planned motion, per measurement
@@ -159,17 +159,7 @@ def allocate(ctx: PlanningContext, plan: SequencePlan, dwell_s: float = DWELL_S,
         for t, ids in groups:
             own = _tools(cell, t, a)
             tool = cell.tool(own if own is not None else t)
-            report = reach_report(views[a], np.array([specs[i].point for i in ids]),
-                                  np.array([specs[i].normal for i in ids]), [tool.tool_class.value] * len(ids))
-            ok = [i for i, v in zip(ids, report.verdicts) if v is Reach.REACHABLE]
-            mkb = None if mkbs is None else mkbs.get(arms[a].name)
-            if mkb is not None:
-                placed = {i: mkb.entry_for(i, tool.tool_class.value) for i in ok}
-                for i, e in placed.items():
-                    if e is None or not e.ok:
-                        why.setdefault(i, f"{arms[a].name}: its MKB does not place it "
-                                          f"({'not tried' if e is None else e.status})")
-                ok = [i for i in ok if (e := placed[i]) is not None and e.ok]
+            ok = _placeable(ctx, views[a], tool, ids, None if mkbs is None else mkbs.get(arms[a].name), why)
             matrix, kept = _matrix(ctx, views[a], tool.name, ok, bodies[a], folds[a][0], revolved[1 - a], gap)
             matrices[a][t] = (kept, matrix) if matrix is not None else ([], np.zeros((1, 1)))
             for i in ids:
@@ -239,6 +229,71 @@ def allocate(ctx: PlanningContext, plan: SequencePlan, dwell_s: float = DWELL_S,
                 *(sum(least[i] for i, a in only.items() if a == arm) for arm in range(2)))
     one = sum(g.cost_s for g in plan.groups) + plan.transfer_s + dwell_s * len(every)
     return Allocation(chosen, assigned, max(s.time_s for s in chosen), bound, one, unassigned, best, dwell_s)
+
+
+def _placeable(ctx: PlanningContext, view: Workcell, tool: ToolSpec, ids: Sequence[str],
+               mkb: MeasurementKB | None, why: dict[str, str]) -> list[str]:
+    """Those of ``ids`` the arm of ``view`` reaches with ``tool`` and its MKB (when given)
+    places for the tool's class; why not, in ``why``, for the others."""
+    report = reach_report(view, np.array([ctx.spec(i).point for i in ids]),
+                          np.array([ctx.spec(i).normal for i in ids]), [tool.tool_class.value] * len(ids))
+    ok = [i for i, v in zip(ids, report.verdicts) if v is Reach.REACHABLE]
+    why.update({i: f"{view.arm.name}: out of reach" for i in ids if i not in set(ok) and i not in why})
+    if mkb is None:
+        return ok
+    placed = {i: mkb.entry_for(i, tool.tool_class.value) for i in ok}
+    for i, e in placed.items():
+        if e is None or not e.ok:
+            why.setdefault(i, f"{view.arm.name}: its MKB does not place it ({'not tried' if e is None else e.status})")
+    return [i for i in ok if (e := placed[i]) is not None and e.ok]
+
+
+def alone(ctx: PlanningContext, plan: SequencePlan, arm: str, spec_ids: Collection[str],
+          keep_clear: Callable[[np.ndarray], np.ndarray], dwell_s: float = DWELL_S,
+          mkbs: Mapping[str, MeasurementKB] | None = None,
+          unavailable: Collection[str] = ()) -> tuple[ArmShare, tuple[tuple[str, str], ...]]:
+    """One arm of the cell working ``spec_ids`` (of the one-arm ``plan``'s groups) alone,
+    the other out of work (down): those it reaches, its MKB places, it has a tool for (its
+    own of the class; a tool with no twin unless ``unavailable``) and whose measuring
+    configurations ``keep_clear`` (``(n, 6)`` -> ``(n,)`` bool) accepts, as its tours;
+    and the rest, each with why."""
+    cell = ctx.workcell
+    a = [x.name for x in cell.arms()].index(arm)
+    view = cell.seen_by(arm)
+    model = arm_model(view.arm)
+    wanted = set(spec_ids)
+    groups = [(g.tool, [i for i in g.order if i in wanted]) for g in plan.groups]
+    groups = [(t, ids) for t, ids in groups if ids]
+    why: dict[str, str] = {}
+    matrices: dict[str, tuple[list[str], np.ndarray]] = {}
+    side: dict[str, int] = {}
+    for t, ids in groups:
+        own = _tools(cell, t, a) or t
+        if own in unavailable:
+            why.update({i: f"{own}, the one tool of its class, is in the other arm's hand" for i in ids})
+            continue
+        tool = view.tool(own)
+        ok = _placeable(ctx, view, tool, ids, None if mkbs is None else mkbs.get(arm), why)
+        try:
+            rack_configurations(view, model, own)
+        except ValueError:
+            why.update({i: f"{arm}: cannot reach {own}'s rack slot" for i in ok})
+            continue
+        conf = measurement_configurations(view, model, tool, [ctx.spec(i) for i in ok])
+        clear = np.zeros(len(ok), dtype=bool)
+        if conf.found.any():
+            clear[conf.found] = keep_clear(conf.q[conf.found])
+        for i, found, free in zip(ok, conf.found, clear):
+            if not found:
+                why.setdefault(i, f"{arm}: no configuration")
+            elif not free:
+                why.setdefault(i, f"{arm}: the other arm, down where it stopped, is in the way")
+        kept = [i for i, free in zip(ok, clear) if free]
+        matrices[t] = (kept, ctx.cost_model.tour(view, tool, [ctx.spec(i) for i in kept]))
+        side.update({i: a for i in kept})
+    share = _share(arm, a, side, groups, matrices, dwell_s, view, ctx.cost_model.transfer)
+    done = {i for _t, o, _c in share.groups for i in o}
+    return share, tuple((i, why.get(i, f"{arm}: cannot")) for _t, ids in groups for i in ids if i not in done)
 
 
 def _matrix(ctx: PlanningContext, view: Workcell, tool: str, ids: Sequence[str],
