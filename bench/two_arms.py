@@ -9,7 +9,9 @@ interference zones (ita.executive.two_arms) and checks the schedule in 3-D (both
 arms in pybullet at each sampled moment, ita.sim.arms; a gap of 0 or less is a contact).
 Prints the one-arm time, each arm's share, the makespan before and after coordination,
 its lower bound, the waits and retreats, the contacts, and the seconds each step took;
-writes JSON.
+then, for each arm stopped for good while it measures half way through the plan, the
+hand-over (ita.executive.two_arms.hand_over: what the other takes over, what is lost,
+the makespan); writes JSON.
 
 These are planned seconds (the cost model's motion times, a dwell per measurement, the
 rack), the same model for one arm and two: a ratio of plans.  Two-arm inspection runs
@@ -27,7 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ita.executive.two_arms import coordinated
+from ita.executive.two_arms import coordinated, hand_over
 from ita.executive.zones import configurations_at
 from ita.logic.bridge import KnowledgeBase
 from ita.offline.prepare import prepared_arms
@@ -78,6 +80,17 @@ def main() -> None:
     contacts = int(np.count_nonzero(gaps <= 0.0))
     print(f"arm-arm: {contacts} contacts in {len(times)} moments (3-D, pybullet), least gap {gaps.min():.3f} m")
     print(f"seconds: prepared plans and MKBs {t1 - t0:.1f}, allocation {t2 - t1:.1f}, coordination {t3 - t2:.1f}, checks {t4 - t3:.1f}")
+    downs = {}
+    for job in jobs:
+        at = next((moved for start, moved, _e, _a, _b, label in schedule.timeline[job.name]
+                   if start >= 0.5 * schedule.makespan_s and label in allocation.assigned), None)
+        if at is None:
+            continue
+        h = hand_over(ctx, plan, allocation, schedule, jobs, job.name, at, mkbs)
+        downs[job.name] = {"at_s": round(at, 1), "made_before": len(h.done), "handed_over": len(h.handed),
+                           "lost": len(h.lost), "makespan_s": round(h.makespan_s, 1)}
+        print(f"{job.name} down at {at:6.1f} s: {len(h.done)} made by then, {len(h.handed)} of its own handed "
+              f"over, {len(h.lost)} lost; makespan {h.makespan_s:.1f} s")
     args.out.parent.mkdir(parents=True, exist_ok=True)
     result = {
         "machine": platform.platform(), "part": ctx.part_name, "one_arm_s": one,
@@ -86,6 +99,7 @@ def main() -> None:
                         "variant": variant, "busy_s": schedule.busy_s, "waiting_s": schedule.waiting_s,
                         "retreats": schedule.retreats, "zone_events": len(schedule.events)},
         "arm_arm_contacts": contacts, "moments": len(times), "least_gap_3d_m": float(gaps.min()),
+        "down": downs,
         "seconds": {"plan": t1 - t0, "allocation": t2 - t1, "coordination": t3 - t2, "checks": t4 - t3},
     }
     args.out.write_text(json.dumps(result, indent=1))
