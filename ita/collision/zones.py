@@ -37,7 +37,7 @@ from ita.kinematics import ArmModel, frame_segments, link_frames
 from ita.workcell.model import ToolSpec
 
 __all__ = ["CELL_M", "MARGIN_M", "RADIUS_M", "RETREAT_M", "TOOL_REACH_M", "Z_HIGH_M", "ArmBody", "Revolved",
-           "ZoneGrid", "Zones", "arm_body", "folded_configuration", "path_distance", "retreat_point", "segment_distance", "zone_ids"]
+           "ZoneGrid", "Zones", "arm_body", "folded_configuration", "retreat_point", "segment_distance"]
 
 #: without a body model, the arm's half-width plus clearance seen from above (m): a T3's
 #: forearm and wrist are about 0.2 m across, a tool 0.2 m; with 0.1 m to spare
@@ -60,11 +60,6 @@ Point = tuple[float, float]  # world x, y (m)
 #: a set of zones: bit ``z`` set for zone ``z`` (a Python int: unions, meets and tests are
 #: a few machine words each, however many zones)
 Zones = int
-
-
-def zone_ids(zones: Zones) -> list[int]:
-    """The zones of a set, in order."""
-    return [k for k, c in enumerate(bin(zones)[:1:-1]) if c == "1"]
 
 
 def _bits(mask: np.ndarray) -> Zones:
@@ -204,19 +199,6 @@ def folded_configuration(model: ArmModel, lower: Sequence[float], upper: Sequenc
     return Q[k], float(extent[k])
 
 
-def path_distance(point: Sequence[float] | np.ndarray, paths: np.ndarray) -> np.ndarray:
-    """``(m,)``: the least distance from ``point`` (x, y) to each polyline of ``paths``
-    (``(m, k, 2)``)."""
-    P = np.asarray(paths, dtype=float)
-    a, b = P[:, :-1], P[:, 1:]
-    v = b - a
-    vv = np.maximum(np.einsum("mkj,mkj->mk", v, v), 1e-18)
-    c = np.asarray(point, dtype=float)[:2]
-    t = np.clip(np.einsum("mkj,mkj->mk", c - a, v) / vv, 0.0, 1.0)
-    d: np.ndarray = np.linalg.norm(c - (a + t[..., None] * v), axis=2).min(axis=1)
-    return d
-
-
 def segment_distance(a: np.ndarray, b: np.ndarray, c: np.ndarray, d: np.ndarray) -> float:
     """Least distance between segments ab and cd in the plane."""
     def point_segment(p: np.ndarray, s: np.ndarray, e: np.ndarray) -> float:
@@ -312,19 +294,6 @@ class ZoneGrid:
             dist[inside] = 0.0
         return self._columns(dist <= reach)
 
-    def near_paths(self, paths: np.ndarray, radius: float | None = None) -> Zones:
-        """Zones any point of which lies, seen from above, within ``radius`` (default the
-        grid's) of a segment of the polylines ``paths`` (``(m, k, 2)``: m polylines of k
-        points): whole columns."""
-        P = np.asarray(paths, dtype=np.float64).reshape(-1, np.shape(paths)[-2], 2)
-        a = np.ascontiguousarray(P[:, :-1].reshape(-1, 2))
-        b = np.ascontiguousarray(P[:, 1:].reshape(-1, 2))
-        reach = (self.radius if radius is None else radius) + self.cell * math.sqrt(0.5)
-        nx, ny = self.shape
-        out = np.zeros(nx * ny, dtype=np.bool_)
-        _mark_near(a, b, self.low[0], self.low[1], self.cell, nx, ny, reach, out)
-        return self._columns(out)
-
     def at_rest(self, base: Point, tool: Point) -> Zones:
         """The zones an arm holds at rest with its tool at ``tool``."""
         return self.near_polygon([base, tool])
@@ -343,29 +312,6 @@ def retreat_point(base: Point, tool: Point, retreat_m: float = RETREAT_M) -> Poi
         return (float(tool[0]), float(tool[1]))
     p = np.asarray(base, dtype=float) + v * (retreat_m / n)
     return (float(p[0]), float(p[1]))
-
-
-@njit(cache=True)
-def _mark_near(a, b, low_x, low_y, cell, nx, ny, reach, out):  # pragma: no cover - compiled
-    """Mark the zones whose centre lies within ``reach`` of a segment a[s] -> b[s]."""
-    r2 = reach * reach
-    for s in range(a.shape[0]):
-        ax, ay, bx, by = a[s, 0], a[s, 1], b[s, 0], b[s, 1]
-        i0 = max(0, int(math.floor((min(ax, bx) - reach - low_x) / cell)))
-        i1 = min(nx - 1, int(math.floor((max(ax, bx) + reach - low_x) / cell)))
-        j0 = max(0, int(math.floor((min(ay, by) - reach - low_y) / cell)))
-        j1 = min(ny - 1, int(math.floor((max(ay, by) + reach - low_y) / cell)))
-        vx, vy = bx - ax, by - ay
-        vv = vx * vx + vy * vy
-        for i in range(i0, i1 + 1):
-            cx = low_x + (i + 0.5) * cell
-            for j in range(j0, j1 + 1):
-                cy = low_y + (j + 0.5) * cell
-                t = 0.0 if vv == 0.0 else ((cx - ax) * vx + (cy - ay) * vy) / vv
-                t = min(1.0, max(0.0, t))
-                dx, dy = cx - (ax + t * vx), cy - (ay + t * vy)
-                if dx * dx + dy * dy <= r2:
-                    out[i * ny + j] = True
 
 
 @njit(cache=True)

@@ -96,8 +96,7 @@ def coordinated(ctx: PlanningContext, allocation: Allocation) -> tuple[Schedule,
     feet: Footprints | None = None             # the same moves' zones, for every order
     for name, variant in _variants(allocation):
         jobs = arm_jobs(ctx, variant)
-        points = [j.base for j in jobs] + [m.target for j in jobs for m in j.moves]
-        grid = ZoneGrid.around(points)
+        grid = _grid(jobs)
         feet = feet if feet is not None and feet.grid == grid else Footprints(grid)
         try:
             schedule = coordinate(grid, jobs, feet=feet)
@@ -109,6 +108,11 @@ def coordinated(ctx: PlanningContext, allocation: Allocation) -> tuple[Schedule,
     if best is None:
         raise Deadlock("no order of the allocation's work could be coordinated: " + "; ".join(stuck))
     return best
+
+
+def _grid(jobs: Sequence[ArmJob]) -> ZoneGrid:
+    """The zones around the arms' bases and every target of their moves."""
+    return ZoneGrid.around([j.base for j in jobs] + [m.target for j in jobs for m in j.moves])
 
 
 def _variants(allocation: Allocation) -> list[tuple[str, Allocation]]:
@@ -184,8 +188,7 @@ def hand_over(ctx: PlanningContext, plan: SequencePlan, allocation: Allocation, 
     q = configurations_at(schedule, jobs, np.array([at_s, resume]))
     q_down, q_other = q[down][0], q[other][1]
     # the survivor's work now, its body clear of the downed arm's zones
-    points = [j.base for j in jobs] + [m.target for j in jobs for m in j.moves]
-    grid = ZoneGrid.around(points)
+    grid = _grid(jobs)
     body_down, body_other = by[down].body, by[other].body
     if body_down is None or body_other is None:
         raise ValueError("a hand-over needs both arms' body models")
