@@ -21,6 +21,8 @@
             set_tool_condition/2,       % +Tool, +Condition
             set_location/2,             % +Tool, +Where
             set_couplant_level/1,       % +Percent
+            reserved/2,                 % ?Tool, ?Arm
+            set_reserved/2,             % +Tool, +Arm
             reset_world/0
           ]).
 
@@ -42,6 +44,7 @@ forgets the updates.  Nothing runs at load time.
 :- dynamic moved/2.                     % moved(Tool, Where): location update
 :- dynamic condition_update/2.          % condition_update(Tool, Condition)
 :- dynamic couplant_update/1.           % couplant_update(Percent)
+:- dynamic reserved/2.                  % reserved(Tool, Arm): kept for another arm
 
 
                  /*******************************
@@ -208,7 +211,13 @@ missing(Tool) :-
 
 available(Tool) :-
     tool_condition(Tool, ok),
-    \+ missing(Tool).
+    \+ missing(Tool),
+    \+ reserved(Tool, _).
+
+%!  reserved(?Tool, ?Arm) is nondet.
+%
+%   Tool is kept for Arm, the other arm of a two-arm run (each arm its own tools): it
+%   stays in its slot, and this arm does not use it (not available/1).
 
 %!  holding(?Arm, ?Tool) is nondet.
 %
@@ -291,6 +300,18 @@ valid_location(in_rack(Slot)) :- atom(Slot), rack_slot(_, Slot).
 valid_location(on_arm(Arm)) :- atom(Arm), type(Arm, arm).
 valid_location(missing).
 
+%!  set_reserved(+Tool, +Arm) is det.
+%
+%   Record that Tool is kept for Arm (another arm) from now on: see reserved/2.
+%
+%   @error domain_error(tool, Tool) if Tool is not a tool of the cell
+
+set_reserved(Tool, Arm) :-
+    must_be_tool(Tool),
+    must_be(atom, Arm),
+    retractall(reserved(Tool, _)),
+    assertz(reserved(Tool, Arm)).
+
 %!  set_couplant_level(+Percent) is det.
 %
 %   Record that the couplant reservoir is now Percent full.
@@ -316,7 +337,8 @@ between_0_100(X) :- X >= 0, X =< 100.
 reset_world :-
     retractall(moved(_, _)),
     retractall(condition_update(_, _)),
-    retractall(couplant_update(_)).
+    retractall(couplant_update(_)),
+    retractall(reserved(_, _)).
 
 must_be_tool(Tool) :-
     must_be(atom, Tool),

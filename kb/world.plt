@@ -81,4 +81,17 @@ test(couplant_out_of_range, error(domain_error(percent, 140))) :-
 test(couplant_not_a_number, error(type_error(number, full))) :-
     set_couplant_level(full).
 
+test(reserved_for_the_other_arm, [true(Usable-Slot == [us_probe_2]-in_rack(slot_1))]) :-
+    set_reserved(us_probe_1, t3_b),
+    findall(T, usable(t3, us_tool, T), Usable),
+    location(us_probe_1, Slot).
+
+test(reserved_forgotten_on_reset, [true(Usable == [us_probe_1, us_probe_2])]) :-
+    set_reserved(us_probe_1, t3_b),
+    reset_world,
+    findall(T, usable(t3, us_tool, T), Usable).
+
+test(reserved_unknown_tool, error(domain_error(tool, hammer))) :-
+    set_reserved(hammer, t3_b).
+
 :- end_tests(world).

@@ -4,11 +4,12 @@
 :- use_module('../kb/world').
 
 test(proof_tree_of_rule,
-     [ true(Kinds == [rule, rule, negation]) ]) :-
+     [ true(Kinds == [rule, rule, negation, negation]) ]) :-
     explain_query("available(us_probe_1)", [world], [],
                   proof(node(query, "available(us_probe_1)", '', 0,
-                             [node(Kind1, _, File, Line, [node(Kind2, _, _, _, _), node(Kind3, _, _, _, _)])]))),
-    Kinds = [Kind1, Kind2, Kind3],
+                             [node(Kind1, _, File, Line, [node(Kind2, _, _, _, _), node(Kind3, _, _, _, _),
+                                                          node(Kind4, _, _, _, _)])]))),
+    Kinds = [Kind1, Kind2, Kind3, Kind4],
     sub_atom(File, _, _, 0, 'world.pl'),
     Line > 0.
 

@@ -131,6 +131,11 @@ class WorldModel:
         """Record that `tool` is now at `where`."""
         self.kb.one(WORLD, "set_location", tool, where.to_term())
 
+    def set_reserved(self, tool: str, arm: str) -> None:
+        """Record that `tool` is kept for `arm`, the other arm of a two-arm run: it stays in
+        its slot and is not available to this one."""
+        self.kb.one(WORLD, "set_reserved", tool, arm)
+
     def reset(self) -> None:
         """Forget every recorded change: the cell as built."""
         self.kb.one(WORLD, "reset_world")
