@@ -152,8 +152,11 @@ class ArmDevice:
         target = self.last_free_q
         if not free(target):      # the last free one is not (a retract that settled on an edge): straight back out
             target = next((c for c in self._backed_off(np.asarray(self.world.q, dtype=float)) if free(c)), target)
+        if not self.controller.claim_jog(target, RECOVER_SECONDS):     # the other arm's zones: left as it is
+            return False
         self.world.set_q(target)
         self.world.clock.advance(RECOVER_SECONDS)
+        self.controller.jogged()
         return True
 
     def _backed_off(self, q: np.ndarray) -> list[np.ndarray]:
@@ -213,18 +216,19 @@ class ArmDevice:
         ends = _pass_times(traj, [goals[i] for i in keep])
         flown = self._path(traj)
         reply = self.controller.execute(traj, command="move")
+        start_t += reply.waited_s            # the other arm's zones (a wait, a fold) before it set off
         self.stats["moves"] += len(keep)
-        self.stats["move_s"] += reply.time_s
+        self.stats["move_s"] += reply.time_s - reply.waited_s
         completions: dict[int, Completion] = {}
         kept_end = dict(zip(keep, ends))
         t_prev = 0.0
-        failed_at = None if reply.ok else reply.time_s
+        failed_at = None if reply.ok else reply.time_s - reply.waited_s
         if not reply.ok and reply.q is None:     # a silent controller: the arm did not move at all
             failed_at = 0.0
         for i, c in enumerate(batch):
             t_end = kept_end.get(i, t_prev)
             if failed_at is not None and t_end >= failed_at - 1e-9:
-                completions[c.step] = Completion(start_t + reply.time_s if reply.q is None else start_t + failed_at,
+                completions[c.step] = Completion(start_t + reply.time_s - reply.waited_s if reply.q is None else start_t + failed_at,
                                                  self._motion_failure(reply, c))
                 break
             completions[c.step] = Completion(start_t + (traj.duration if i == len(batch) - 1 and reply.ok else t_end),

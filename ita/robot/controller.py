@@ -31,7 +31,8 @@ from numpy.typing import NDArray
 
 from ita.kinematics import JOINT_LIMIT_TOL, frame_segments, link_frames
 from ita.kinematics.settle import settled
-from ita.robot.waypoints import TimedTrajectory
+from ita.robot.gate import Grant, MotionGate
+from ita.robot.waypoints import TimedTrajectory, retreat_paths
 from ita.sim.faults import CONTROLLER, Fault
 from ita.sim.world import Contact, SimWorld, tool_shapes
 
@@ -66,6 +67,7 @@ class MotionReply:
     contact: Contact | None = None
     joint: str = ""
     message: str = ""
+    waited_s: float = 0.0        # of time_s, before the motion started: the other arm's zones (a wait, a fold)
 
     @property
     def ok(self) -> bool:
@@ -95,6 +97,10 @@ class RobotController:
         self.reply_timeout_s = float(reply_timeout_s)
         self.contact_margin = float(contact_margin)
         self._drift_direction = _unit(np.random.default_rng([world.seed, 3]).normal(size=3))
+        #: the interlock with another arm's controller (ita.robot.gate): None when alone
+        self.gate: MotionGate | None = None
+        #: seconds waited for the other arm's zones, folds made to give way, motions refused
+        self.zone_stats: dict[str, float] = {"wait_s": 0.0, "folds": 0, "fold_s": 0.0, "refused": 0}
 
     @property
     def period(self) -> float:
@@ -103,7 +109,112 @@ class RobotController:
 
     def execute(self, trajectory: TimedTrajectory, *, allowed: Iterable[str] = (),
                 command: str = "move") -> MotionReply:
-        """Run `trajectory` from the arm's current joints; the MotionReply says how it went."""
+        """Run `trajectory` from the arm's current joints; the MotionReply says how it went.
+        With a gate (another arm in the cell), the motion's space is claimed first: the
+        arm waits for the grant, folds back when told to, and a refused claim is REJECTED."""
+        if self.gate is None:
+            return self._execute(trajectory, allowed=allowed, command=command)
+        world, gate = self.world, self.gate
+        t0 = world.clock.now
+        grant = gate.claim(t0, trajectory.times, trajectory.q)
+        back: TimedTrajectory | None = None
+        allowed = tuple(allowed)
+        while grant.kind == "fold" and grant.fold is not None:
+            folded = self._fold(grant, allowed)
+            if not folded.ok:
+                return replace(folded, time_s=world.clock.now - t0, waited_s=world.clock.now - t0)
+            # back the way a retreat goes, the other way round: out in front of where it was, then in
+            out = self._clear_way(retreat_paths(world.model, trajectory.start, world.q), allowed)
+            back = TimedTrajectory(out.duration - out.times[::-1], out.q[::-1])
+            both = np.concatenate([back.q, trajectory.q[1:]]) if len(trajectory.q) > 1 else back.q
+            times = np.concatenate([back.times, back.duration + trajectory.times[1:]])
+            grant = gate.claim(world.clock.now, times, both)
+        if grant.kind != "go":
+            self.zone_stats["refused"] += 1
+            return MotionReply(MotionStatus.REJECTED, command, world.clock.now - t0, tuple(map(float, world.q)),
+                               message=f"the other arm's zones: {grant.why}", waited_s=world.clock.now - t0)
+        self._wait(grant.wait_s)
+        if back is not None:
+            reply = self._execute(back, allowed=allowed, command="return")
+            if not reply.ok:
+                gate.moved(world.clock.now, world.q)
+                return replace(reply, time_s=world.clock.now - t0, waited_s=world.clock.now - t0)
+        started = world.clock.now
+        reply = self._execute(trajectory, allowed=allowed, command=command)
+        gate.moved(world.clock.now, world.q)
+        return replace(reply, time_s=reply.time_s + started - t0, waited_s=started - t0)
+
+    def give_way(self) -> None:
+        """Fold out of the other arm's way (when the conductor says it is not yet), before
+        the arm waits for something other than space (nothing without a gate)."""
+        if self.gate is None:
+            return
+        grant = self.gate.park(self.world.clock.now, self.world.q)
+        if grant.kind == "fold" and grant.fold is not None:
+            self._fold(grant)
+
+    def park(self) -> None:
+        """At the end of the arm's work: give way, then tell the conductor the arm is done."""
+        if self.gate is None:
+            return
+        self.give_way()
+        self.gate.done(self.world.clock.now)
+
+    def claim_jog(self, target: NDArray[np.float64], seconds: float) -> bool:
+        """Claim an operator's jog straight to `target` taking `seconds` (True: granted,
+        after the wait; always True without a gate)."""
+        if self.gate is None:
+            return True
+        grant = self.gate.claim(self.world.clock.now, np.array([0.0, seconds]), np.stack([self.world.q, target]))
+        if grant.kind != "go":
+            self.zone_stats["refused"] += 1
+            return False
+        self._wait(grant.wait_s)
+        return True
+
+    def jogged(self) -> None:
+        """After a jog claimed with :meth:`claim_jog`: where the arm is now."""
+        if self.gate is not None:
+            self.gate.moved(self.world.clock.now, self.world.q)
+
+    def _clear_way(self, ways: list[TimedTrajectory], allowed: tuple[str, ...]) -> TimedTrajectory:
+        """The first of `ways` the arm can fly without touching the cell (checked every
+        control period, the arm put back after); the last when none is."""
+        world = self.world
+        q_now = np.array(world.q)
+        try:
+            for way in ways[:-1]:
+                steps = max(2, int(np.ceil(way.duration * self.rate_hz)))
+                for q in way.sample(np.linspace(0.0, way.duration, steps)):
+                    world.set_q(q)
+                    if world.contacts(self.contact_margin, allowed):
+                        break
+                else:
+                    return way
+        finally:
+            world.set_q(q_now)
+        return ways[-1]
+
+    def _wait(self, seconds: float) -> None:
+        if seconds > 0:
+            self.world.clock.advance(seconds)
+            self.zone_stats["wait_s"] += seconds
+
+    def _fold(self, grant: Grant, allowed: tuple[str, ...] = ()) -> MotionReply:
+        """Fold back as the conductor told (after its wait) and say where the arm ended;
+        `allowed`: what the motion it makes way for may touch (a tool just let go)."""
+        assert self.gate is not None and grant.fold is not None
+        self._wait(grant.wait_s)
+        t0 = self.world.clock.now
+        way = self._clear_way(retreat_paths(self.world.model, self.world.q, np.asarray(grant.fold)), allowed)
+        reply = self._execute(way, allowed=allowed, command="retreat")
+        self.gate.moved(self.world.clock.now, self.world.q)
+        self.zone_stats["folds"] += 1
+        self.zone_stats["fold_s"] += self.world.clock.now - t0
+        return reply
+
+    def _execute(self, trajectory: TimedTrajectory, *, allowed: Iterable[str] = (),
+                 command: str = "move") -> MotionReply:
         world = self.world
         glitch = world.faults.has(Fault.TRANSIENT, CONTROLLER)
         if glitch:                          # a one-off: this command is lost, the next is not

@@ -23,7 +23,8 @@ from itertools import pairwise
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ita.kinematics import ArmModel
+from ita.kinematics import ArmModel, flange_poses
+from ita.kinematics.settle import joint_translation
 from ita.path.trajectory import TimedTrajectory
 
 __all__ = ["KNOT_PERIOD", "TimedTrajectory", "from_waypoints", "profile_position", "profile_time"]
@@ -84,3 +85,29 @@ def from_waypoints(model: ArmModel, waypoints: ArrayLike, knot_period: float = K
         qs.extend(a + s[:, None] * (b - a))
         times.extend(times[-1] + local)
     return TimedTrajectory(np.array(times), np.array(qs))
+
+
+#: a retreat may first back the tool straight out along its axis by this much (m), clear
+#: of a rack's cradle or the part's surface, then fold in joint space
+RETREAT_BACK_M = 0.2
+
+
+def retreat_paths(model: ArmModel, q: ArrayLike, fold: ArrayLike, back_m: float = RETREAT_BACK_M,
+                  tcp: ArrayLike | None = None) -> list[TimedTrajectory]:
+    """The ways an arm may retreat from joints `q` to `fold` (rest-to-rest trajectories),
+    the first preferred: the tool (TCP `tcp` in the flange frame; the flange without)
+    backed straight out along its axis `back_m` keeping its orientation, then straight
+    in joint space to the fold (when the joints allow); and straight in joint space
+    alone.  The controller flies the first its world finds clear, and the zone conductor
+    claims them all (ita.robot.controller, ita.executive.conductor)."""
+    q0 = np.asarray(q, dtype=float)
+    goal = np.asarray(fold, dtype=float)
+    frame = np.eye(4) if tcp is None else np.asarray(tcp, dtype=float)
+    axis = (flange_poses(model, q0[None])[0] @ frame)[:3, 2]
+    backed = q0 + joint_translation(model, q0, frame, -back_m * axis / np.linalg.norm(axis))
+    inside = bool(np.all(backed >= np.asarray(model.lower) - 1e-9) and np.all(backed <= np.asarray(model.upper) + 1e-9))
+    ways = []
+    if inside and np.all(np.isfinite(backed)) and float(np.max(np.abs(backed - q0))) < 1.0:
+        ways.append(from_waypoints(model, np.stack([q0, backed, goal])))
+    ways.append(from_waypoints(model, np.stack([q0, goal])))
+    return ways

@@ -1,0 +1,100 @@
+"""The controller's interlock with another arm's: every motion claims its space first.
+
+An arm that shares the cell with another asks, before each motion, for the zones the
+motion sweeps and the pose it ends in (the cell's zone conductor,
+ita.executive.conductor, answers for both arms).  The answer is a :class:`Grant`:
+
+- ``go``: start after ``wait_s`` simulated seconds (the WAIT until the other arm's
+  release; the claim's CONTINUE);
+- ``fold``: after ``wait_s``, first fold back to ``fold`` (the other arm needs where this
+  one stands), then ask again for the way back and the motion;
+- ``refuse``: the motion cannot be granted (the other arm is down, or neither can give
+  way): the controller replies REJECTED and the arm stays where it is.
+
+After each motion the controller says where the arm ended (``moved``: a bump stops it
+short of the claimed end); at the end of its work the arm parks (``park``: a fold like
+the above) and says it is ``done``.
+
+The same line carries what the arms share besides space, in simulated time: one arm
+``post``s a fact (the part's registration on its datums), the other ``take``s it, waiting
+until the simulated time it was posted (None when the poster ended without one).
+
+    gate = RemoteGate(connection)            # a multiprocessing Connection to the conductor
+    controller.gate = gate                   # RobotController asks it before every motion
+
+Messages on the connection are tuples (name, arm's clock, arrays): ``("claim", t,
+times, q)`` answered by ``(kind, wait_s, fold q or None, why)``; ``("moved", t, q)``;
+``("park", t, q)`` answered like a claim; ``("done", t)``; ``("post", t, key, value)``;
+``("take", t, key)`` answered by ``(wait_s, value)``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from multiprocessing.connection import Connection
+from typing import Protocol
+
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = ["Grant", "MotionGate", "RemoteGate"]
+
+FloatArray = NDArray[np.float64]
+
+
+@dataclass(frozen=True)
+class Grant:
+    """The conductor's answer to a claim (see the module docstring)."""
+
+    kind: str                           # "go", "fold" or "refuse"
+    wait_s: float = 0.0
+    fold: tuple[float, ...] | None = None
+    why: str = ""
+
+
+class MotionGate(Protocol):
+    """What the robot controller asks before and tells after each motion."""
+
+    def claim(self, t: float, times: FloatArray, q: FloatArray) -> Grant: ...
+
+    def moved(self, t: float, q: FloatArray) -> None: ...
+
+    def park(self, t: float, q: FloatArray) -> Grant: ...
+
+    def done(self, t: float) -> None: ...
+
+    def post(self, t: float, key: str, value: object) -> None: ...
+
+    def take(self, t: float, key: str) -> tuple[float, object]: ...
+
+
+class RemoteGate:
+    """A :class:`MotionGate` whose conductor runs in another process, over `connection`."""
+
+    def __init__(self, connection: Connection) -> None:
+        self.connection = connection
+
+    def _ask(self, message: tuple[object, ...]) -> Grant:
+        self.connection.send(message)
+        kind, wait_s, fold, why = self.connection.recv()
+        return Grant(str(kind), float(wait_s), None if fold is None else tuple(map(float, fold)), str(why))
+
+    def claim(self, t: float, times: FloatArray, q: FloatArray) -> Grant:
+        return self._ask(("claim", float(t), np.asarray(times, dtype=float), np.asarray(q, dtype=float)))
+
+    def moved(self, t: float, q: FloatArray) -> None:
+        self.connection.send(("moved", float(t), np.asarray(q, dtype=float)))
+
+    def park(self, t: float, q: FloatArray) -> Grant:
+        return self._ask(("park", float(t), np.asarray(q, dtype=float)))
+
+    def done(self, t: float) -> None:
+        self.connection.send(("done", float(t)))
+
+    def post(self, t: float, key: str, value: object) -> None:
+        self.connection.send(("post", float(t), key, value))
+
+    def take(self, t: float, key: str) -> tuple[float, object]:
+        self.connection.send(("take", float(t), key))
+        wait_s, value = self.connection.recv()
+        return float(wait_s), value
