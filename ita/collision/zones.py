@@ -179,12 +179,14 @@ def _along(tubes: np.ndarray, radii: np.ndarray, spacing: float) -> tuple[np.nda
 
 def folded_configuration(model: ArmModel, lower: Sequence[float], upper: Sequence[float],
                          body: Callable[[np.ndarray], np.ndarray] | None = None,
-                         above_m: float = 0.75) -> tuple[np.ndarray, float]:
+                         above_m: float = 0.75, behind_m: float | None = None) -> tuple[np.ndarray, float]:
     """The configuration (base joint 0) that keeps the arm's body nearest its base axis seen
     from above, every link and the tool above ``above_m`` (clear of its pedestal): the
     pose a retreating arm folds to, its base joint kept.  Returns it and how far (m) the
     body then reaches from the base axis.  A search over shoulder, elbow and wrist pitch
-    within the joint limits."""
+    within the joint limits.  behind_m: when given, only folds whose body stays within
+    that distance behind the base (against the way the base joint points, seen from
+    above): an arm standing near a fence folds forward, away from it."""
     shape = body if body is not None else arm_body(model)
     g2 = np.linspace(lower[1], upper[1], 31)
     g3 = np.linspace(lower[2], upper[2], 31)
@@ -195,7 +197,12 @@ def folded_configuration(model: ArmModel, lower: Sequence[float], upper: Sequenc
     heights = np.concatenate([frames[:, 2:, 2, 3], tip[:, None, 2]], axis=1).min(axis=1)
     xy = shape(Q)
     extent = np.linalg.norm(xy - xy[:, :1], axis=2).max(axis=1)
-    k = int(np.argmin(np.where(heights > above_m, extent, np.inf)))
+    fit = heights > above_m
+    if behind_m is not None:
+        forward = np.asarray(model.base, dtype=float)[:2, 0]          # the base joint at 0 points along x
+        ahead = ((xy - xy[:, :1]) @ (forward / np.linalg.norm(forward))).min(axis=1)
+        fit &= ahead >= -behind_m
+    k = int(np.argmin(np.where(fit, extent, np.inf)))
     return Q[k], float(extent[k])
 
 

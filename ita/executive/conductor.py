@@ -1,0 +1,498 @@
+"""The zone conductor of a two-arm run: it grants each arm's motions their space, live.
+
+Each arm's controller (ita.robot.gate) claims every motion before it makes it: the zones
+the motion sweeps (its joint trajectory, sampled so no point of the arm moves more than
+:data:`STEP_M` between samples, each sample's collision tubes
+and its tools', ita.collision.zones) and the zones it holds at rest where the motion
+ends.  The conductor keeps who holds what when (:class:`~ita.executive.zones.ZoneTable`,
+reservations in simulated time) and answers each claim (:class:`~ita.robot.gate.Grant`):
+go after a wait (WAIT until the holder's release, then CONTINUE), fold back first, or
+refuse.
+
+**Simulated time, not wall time.**  The arms run in their own processes, each with its
+own clock.  A claim made at an arm's time t is decided only when every other arm's clock
+is known to be at t or later (it has a claim waiting at a later time, or its last granted
+motion ends later, or it is done): the conservative rule of parallel discrete-event
+simulation.  So the decisions, the waits and the run's figures do not depend on which
+process the machine happens to run faster; ties go to the arm of higher priority (the
+cell's first arm first).
+
+**No deadlock** (the rules of ita.executive.zones.coordinate, applied live):
+
+- An arm after the first holds, at rest, its way back too: the zones of folding from
+  there (base joint kept, straight in joint space) and of the arm folded.  Its fold is
+  always granted.
+- A claim that meets another arm's motion waits for that motion's end.  A claim that
+  meets another arm's rest zones waits for that arm's next claim; if that arm is of lower
+  priority, and its next claim would still leave it in the way, it folds back instead
+  (it gives way).  If each waits for the other's rest zones, the one of lower priority
+  folds.  The allocation (ita.sequence.allocate) keeps every measuring pose of each arm
+  clear of the other arm folded, so a higher-priority arm is then free to go on.
+- A case outside these rules (a claim that meets an arm that is done, or folded and
+  unable to give way further) is refused: the controller replies REJECTED, and the Top
+  Level's Exception Handler deals with that measurement (it stays not done, with the
+  reason); the conductor never waits for ever.
+
+    conductor = Conductor(zone_grid(cell), conducted_arms(cell))   # the cell's arms, the first first
+    replies = conductor.receive("t3", ("claim", t, times, q))   # [(arm, reply), ...] to send
+    conductor.summary(), conductor.paths                        # figures; every motion made, in time
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ita.collision.zones import ArmBody, ZoneGrid, Zones, arm_body, folded_configuration
+from ita.executive.zones import ZoneEvent, ZoneTable
+from ita.kinematics import arm_model
+from ita.path.trajectory import TimedTrajectory
+from ita.robot.waypoints import retreat_paths
+from ita.workcell import Workcell
+
+__all__ = ["GRID_MARGIN_M", "ConductedArm", "Conductor", "Motion", "conducted_arms", "zone_grid"]
+
+#: the zones reach this far (m) around the arms' bases: farther than either arm with a tool
+GRID_MARGIN_M = 3.5
+#: a motion's poses are sampled so no point of the arm moves farther than this between two
+#: (m); each sample's tubes are grown by half the farthest move (so the zones cover it all)
+STEP_M = 0.1
+#: a fold keeps the arm's body within this distance (m) behind its base
+FOLD_BEHIND_M = 0.2
+#: zone sets kept for poses and motions seen before
+CACHE_SIZE = 20_000
+
+FloatArray = NDArray[np.float64]
+Reply = tuple[str, float, "tuple[float, ...] | None", str]
+#: the ways an arm may retreat from its joints to its folded joints (its controller flies one)
+Retreat = Callable[[FloatArray, FloatArray], list[TimedTrajectory]]
+
+
+@dataclass(frozen=True)
+class ConductedArm:
+    """An arm the conductor answers for: its name, body (collision tubes and tools'), folded
+    configuration (its base joint is kept when it folds), where it starts, and the ways it
+    may retreat (``retreat(q_from, q_fold)``: ita.robot.waypoints.retreat_paths; the
+    conductor claims them all)."""
+
+    name: str
+    body: ArmBody
+    fold: tuple[float, ...]
+    home: tuple[float, ...]
+    retreat: Retreat
+
+
+@dataclass(frozen=True)
+class Motion:
+    """A motion granted and made: its start (s, the run's simulated time), its knots'
+    times (from the start) and joints."""
+
+    arm: str
+    start_s: float
+    times: FloatArray
+    q: FloatArray
+    kind: str = "move"
+
+    @property
+    def end_s(self) -> float:
+        return self.start_s + float(self.times[-1])
+
+
+@dataclass
+class _Claim:
+    asked_s: float          # when the arm asked
+    t: float                # when it is now to be decided (later after a wait)
+    times: FloatArray
+    q: FloatArray
+    park: bool = False
+    zones: tuple[Zones, Zones] | None = None     # (swept, held after), once computed
+
+
+@dataclass
+class _State:
+    arm: ConductedArm
+    q: FloatArray
+    floor: float = 0.0                  # the arm makes no claim before this simulated time
+    pending: _Claim | None = None
+    stuck_on: str | None = None         # whose rest zones its claim waits for
+    done: bool = False
+    folded: bool = False
+    busy_s: float = 0.0
+    folds: int = 0
+    refused: int = 0
+    claims: int = 0
+    last_s: float = 0.0
+    rest_zones: Zones = 0
+    refusals: list[str] = field(default_factory=list)
+    taking: tuple[str, float] | None = None     # (key, time) of a fact it waits for
+
+
+def conducted_arms(cell: Workcell) -> list[ConductedArm]:
+    """The conductor's view of each arm of `cell`, the first first: its body with every tool
+    of the cell (whichever it holds), its fold, its home and its straight moves' timing."""
+    out = []
+    for arm in cell.arms():
+        view = cell.seen_by(arm.name)
+        model = arm_model(view.arm)
+        body = arm_body(model, view.tools)
+        # folded forward (never far behind its base: a fence may stand there)
+        fold, _ = folded_configuration(model, view.arm.joints.lower, view.arm.joints.upper, body, behind_m=FOLD_BEHIND_M)
+
+        def retreat(a: np.ndarray, b: np.ndarray, model: Any = model) -> list[TimedTrajectory]:
+            return retreat_paths(model, a, b)
+
+        out.append(ConductedArm(arm.name, body, tuple(map(float, fold)), tuple(map(float, view.arm.home)), retreat))
+    return out
+
+
+def zone_grid(cell: Workcell) -> ZoneGrid:
+    """Zones over everything either arm can reach."""
+    return ZoneGrid.around([(float(a.base.position[0]), float(a.base.position[1])) for a in cell.arms()],
+                           margin=GRID_MARGIN_M)
+
+
+class Conductor:
+    """Grants the arms' claims in simulated-time order (see the module docstring)."""
+
+    def __init__(self, grid: ZoneGrid, arms: Sequence[ConductedArm]) -> None:
+        self.grid = grid
+        self.order = [a.name for a in arms]
+        self.state = {a.name: _State(a, np.asarray(a.home, dtype=float)) for a in arms}
+        self.table = ZoneTable()
+        self.events: list[ZoneEvent] = []
+        self.paths: list[Motion] = []
+        self.posts: dict[str, tuple[float, Any]] = {}          # key -> (time posted, value), the first
+        self._zones: dict[tuple[str, str, bytes], Zones] = {}
+        self.cpu_s = 0.0                     # the conductor's own time (the caller counts it)
+        for a in arms:
+            st = self.state[a.name]
+            st.rest_zones = self._held_at(a.name, st.q)
+            self.table.reserve(a.name, 0.0, math.inf, st.rest_zones)
+
+    # -- zones -------------------------------------------------------------------------
+    def _cached(self, key: tuple[str, str, bytes], make: Callable[[], Zones]) -> Zones:
+        """Zones kept by key (an arm comes back to the same poses: approach, contact, retract)."""
+        found = self._zones.get(key)
+        if found is None:
+            found = make()
+            if len(self._zones) >= CACHE_SIZE:
+                self._zones.pop(next(iter(self._zones)))
+            self._zones[key] = found
+        return found
+
+    def _rest(self, name: str, q: FloatArray) -> Zones:
+        body = self.state[name].arm.body
+        q = np.asarray(q, dtype=float)
+        return self._cached((name, "rest", q.tobytes()),
+                            lambda: self.grid.near_tubes(body.tubes(q[None]), body.radii))
+
+    def _sweep(self, name: str, times: FloatArray, q: FloatArray) -> Zones:
+        """The zones of every pose along the motion (knots linear in between, sampled)."""
+        q = np.asarray(q, dtype=float)
+        if len(q) < 2:
+            return self._rest(name, q[0])
+        return self._cached((name, "sweep", q.tobytes()), lambda: self._swept_now(name, q))
+
+    def _swept_now(self, name: str, q: FloatArray) -> Zones:
+        body = self.state[name].arm.body
+        ends = body.tubes(q)                                              # (k, T, 2, 3)
+        far = float(np.max(np.linalg.norm(ends[..., :2] - ends[:1, :1, :1, :2], axis=-1))) + 1.0
+        pieces = [q[:1]]
+        for a, b in zip(q[:-1], q[1:]):
+            n = max(1, math.ceil(float(np.max(np.abs(b - a))) * far / STEP_M))
+            pieces.append(a + np.linspace(0.0, 1.0, n + 1)[1:, None] * (b - a))
+        dense = np.concatenate(pieces)
+        tubes = body.tubes(dense)
+        step = float(np.max(np.linalg.norm(np.diff(tubes, axis=0), axis=-1))) if len(dense) > 1 else 0.0
+        return self.grid.near_tubes(tubes, body.radii + step / 2)
+
+    def _folded(self, name: str, q: FloatArray) -> FloatArray:
+        fold = np.asarray(self.state[name].arm.fold, dtype=float).copy()
+        fold[0] = q[0]                                   # the base joint kept: it folds on its own ray
+        return fold
+
+    def _held_at(self, name: str, q: FloatArray) -> Zones:
+        """At rest at q: its body's zones; an arm after the first holds its way back too."""
+        q = np.asarray(q, dtype=float)
+        return self._cached((name, "held", q.tobytes()), lambda: self._held_now(name, q))
+
+    def _held_now(self, name: str, q: FloatArray) -> Zones:
+        rest = self._rest(name, q)
+        if name == self.order[0]:
+            return rest
+        fold = self._folded(name, q)
+        if np.allclose(fold, q):
+            return rest
+        way = 0
+        for back in self.state[name].arm.retreat(q, fold):
+            way |= self._sweep(name, back.times, back.q)
+        return rest | way | self._rest(name, fold)
+
+    def body(self, name: str, q: Sequence[float]) -> Zones:
+        """The zones of arm `name`'s body (and tools) at joints `q`."""
+        return self._rest(name, np.asarray(q, dtype=float))
+
+    def held(self, name: str, q: Sequence[float]) -> Zones:
+        """The zones arm `name` holds at rest at joints `q` (its way back included)."""
+        return self._held_at(name, np.asarray(q, dtype=float))
+
+    def swept(self, name: str, times: Sequence[float], q: Sequence[Sequence[float]]) -> Zones:
+        """The zones a motion of arm `name` (knots' times and joints) sweeps."""
+        return self._sweep(name, np.asarray(times, dtype=float), np.asarray(q, dtype=float))
+
+    # -- messages ------------------------------------------------------------------------
+    def receive(self, name: str, message: tuple[Any, ...]) -> list[tuple[str, Any]]:
+        """Take one message of arm `name` (ita.robot.gate); the replies now due, to whom."""
+        st = self.state[name]
+        kind = message[0]
+        if kind == "claim":
+            _, t, times, q = message
+            st.pending = _Claim(float(t), float(t), np.asarray(times, dtype=float), np.asarray(q, dtype=float))
+            st.floor = float(t)
+            st.claims += 1
+        elif kind == "park":
+            _, t, q = message
+            st.q = np.asarray(q, dtype=float)
+            st.pending = _Claim(float(t), float(t), np.zeros(1), st.q[None], park=True)
+            st.floor = float(t)
+        elif kind == "moved":
+            _, t, q = message
+            self._moved(name, float(t), np.asarray(q, dtype=float))
+        elif kind == "done":
+            self._finish(name, float(message[1]))
+        elif kind == "post":
+            _, t, key, value = message
+            self.posts.setdefault(str(key), (float(t), value))
+            st.floor = max(st.floor, float(t))
+        elif kind == "take":
+            # while it waits for a fact it stands still and is never asked to fold: it holds
+            # its body's zones alone (its way back is given up until it moves again)
+            t = float(message[1])
+            st.taking = (str(message[2]), t)
+            st.rest_zones = self._rest(name, st.q)
+            self.table.clear_from(name, t)
+            self.table.reserve(name, t, math.inf, st.rest_zones)
+            st.folded = True                       # (so no one waits for it to give way)
+        else:
+            raise ValueError(f"arm {name}: unknown message {kind!r}")
+        return self._settle()
+
+    def gone(self, name: str) -> list[tuple[str, Any]]:
+        """Arm `name`'s process ended (or broke off): it stays where it is, for good."""
+        st = self.state[name]
+        if not st.done:
+            self._finish(name, st.floor)
+        return self._settle()
+
+    def _finish(self, name: str, t: float) -> None:
+        st = self.state[name]
+        st.done, st.pending, st.floor = True, None, math.inf
+        st.last_s = max(st.last_s, t)
+        st.rest_zones = self._rest(name, st.q)       # it stands there for good: its body alone
+        self.table.clear_from(name, t)
+        self.table.reserve(name, t, math.inf, st.rest_zones)
+        self.events.append(ZoneEvent(t, name, "done"))
+        self._unstick(name)                         # who waited for its next claim: there is none
+
+    def _moved(self, name: str, t: float, q: FloatArray) -> None:
+        st = self.state[name]
+        st.floor = max(st.floor, t)
+        st.last_s = max(st.last_s, t)
+        if not np.allclose(q, st.q, atol=1e-9):
+            claimed = st.q
+            st.q = q
+            if np.max(np.abs(q - claimed)) > 1e-3:     # stopped short of the claim's end (a bump): hold where it is
+                st.rest_zones = self._held_at(name, q)
+                self.table.clear_from(name, t)
+                self.table.reserve(name, t, math.inf, st.rest_zones)
+        if self.paths and self.paths[-1].arm == name and self.paths[-1].end_s > t + 1e-9:
+            last = self.paths[-1]                       # cut the recorded motion where it ended
+            keep = last.times <= t - last.start_s
+            times = np.append(last.times[keep], t - last.start_s)
+            qs = np.vstack([last.q[keep], q[None]])
+            if len(times) >= 2 and np.all(np.diff(times) > 0):
+                self.paths[-1] = Motion(name, last.start_s, times, qs, last.kind)
+
+    # -- deciding --------------------------------------------------------------------------
+    def _settle(self) -> list[tuple[str, Any]]:
+        out: list[tuple[str, Any]] = []
+        for name in self.order:                    # facts waited for: posted, or no one left to post them
+            st = self.state[name]
+            if st.taking is None:
+                continue
+            key, t = st.taking
+            if key in self.posts:
+                at, value = self.posts[key]
+                wait = max(0.0, at - t)
+                st.taking, st.floor = None, t + wait
+                held = self._held_at(name, st.q)          # its way back again, when no one took it meanwhile
+                if self.table.conflict(name, t + wait, math.inf, held) is None:
+                    st.rest_zones, st.folded = held, False
+                    self.table.clear_from(name, t + wait)
+                    self.table.reserve(name, t + wait, math.inf, held)
+                out.append((name, (wait, value)))
+            elif all(self.state[o].done for o in self.order if o != name):
+                st.taking = None
+                out.append((name, (0.0, None)))
+        for _ in range(10_000):
+            ready = [n for n in self.order if self.state[n].pending is not None and self.state[n].stuck_on is None]
+            if not ready:
+                break
+            name = min(ready, key=lambda n: (self.state[n].pending.t, self.order.index(n)))   # type: ignore[union-attr]
+            claim = self.state[name].pending
+            assert claim is not None
+            # another arm may still act before then: wait for news (an arm waiting for this
+            # one's next claim does nothing before it)
+            if any(self._floor(o) < claim.t for o in self.order if o != name):
+                break
+            out.extend(self._decide(name, claim))
+        return out
+
+    def _floor(self, name: str) -> float:
+        """The earliest simulated time arm `name` may still act at: its claim's (it waits for
+        the answer), never while it waits for another's next claim, else its clock."""
+        st = self.state[name]
+        if st.stuck_on is not None or st.taking is not None:
+            return math.inf
+        return st.pending.t if st.pending is not None else st.floor
+
+    def _decide(self, name: str, claim: _Claim) -> list[tuple[str, Reply]]:
+        st = self.state[name]
+        if claim.park:
+            return [(name, self._park(name, claim))]
+        sweep, rest = self._claimed(name, claim)
+        want = sweep | rest
+        found = self.table.conflict(name, claim.t, math.inf, want)
+        if found is None:
+            # an arm of higher priority waits for this one's rest zones: if this claim would
+            # leave it in the way still, give way (fold) instead
+            waiting = [h for h in self.order[:self.order.index(name)] if self.state[h].stuck_on == name]
+            if waiting and not st.folded and any(self._wanted(h) & want for h in waiting):
+                return [(name, self._fold(name, claim))]
+            return [(name, self._grant(name, claim, sweep, rest))]
+        until, other = found
+        if not math.isinf(until):                        # the other's motion ends then: wait for it
+            claim.t = until
+            return []
+        ost = self.state[other]
+        if ost.done:
+            return [(name, self._refuse(name, claim, f"{other} is done and stands in the way"))]
+        if ost.stuck_on == name:
+            # each waits for the other's rest zones: the one of lower priority folds
+            lower = other if self.order.index(name) < self.order.index(other) else name
+            lst = self.state[lower]
+            if lst.folded or lst.pending is None:
+                return [(name, self._refuse(name, claim, f"{other} stands in the way and neither arm can give way"))]
+            return [(lower, self._fold(lower, lst.pending))]
+        st.stuck_on = other                              # wait for the other's next claim
+        return []
+
+    def _claimed(self, name: str, claim: _Claim) -> tuple[Zones, Zones]:
+        """A claim's zones: those its motion sweeps, those it holds after."""
+        if claim.zones is None:
+            claim.zones = (self._sweep(name, claim.times, claim.q), self._held_at(name, claim.q[-1]))
+        return claim.zones
+
+    def _wanted(self, name: str) -> Zones:
+        st = self.state[name]
+        if st.pending is None or st.pending.park:
+            return 0
+        sweep, rest = self._claimed(name, st.pending)
+        return sweep | rest
+
+    def _grant(self, name: str, claim: _Claim, sweep: Zones, rest: Zones) -> Reply:
+        st = self.state[name]
+        t0, d = claim.t, float(claim.times[-1])
+        self.table.clear_from(name, t0)
+        self.table.reserve(name, t0, t0 + d, sweep)
+        self.table.reserve(name, t0 + d, math.inf, rest)
+        wait = t0 - claim.asked_s
+        kind = "continue" if wait > 0 else "grant"
+        self.events.append(ZoneEvent(claim.asked_s, name, "request", "", sweep.bit_count()))
+        if wait > 0:
+            self.events.append(ZoneEvent(claim.asked_s, name, "wait"))
+        self.events.append(ZoneEvent(t0, name, kind, "", sweep.bit_count()))
+        self.events.append(ZoneEvent(t0 + d, name, "clear", "", sweep.bit_count()))
+        self.paths.append(Motion(name, t0, claim.times, claim.q))
+        st.q, st.rest_zones, st.pending, st.folded = claim.q[-1].copy(), rest, None, False
+        st.floor = t0 + d
+        st.last_s = max(st.last_s, t0 + d)
+        st.busy_s += d
+        self._unstick(name)
+        self._forget()
+        return ("go", wait, None, "")
+
+    def _fold(self, name: str, claim: _Claim, fold: FloatArray | None = None) -> Reply:
+        """Fold `name` back from its pose now (its claim stays to be asked again); `fold`:
+        where to (default its fold on its own base ray)."""
+        st = self.state[name]
+        fold = self._folded(name, st.q) if fold is None else fold
+        ways = st.arm.retreat(st.q, fold)
+        d = max(float(b.duration) for b in ways)
+        sweep = 0
+        for b in ways:
+            sweep |= self._sweep(name, b.times, b.q)
+        back = ways[0]
+        rest = self._rest(name, fold)
+        t0 = claim.t
+        while (found := self.table.conflict(name, t0, math.inf, sweep | rest)) is not None:
+            if math.isinf(found[0]):
+                return self._refuse(name, claim, f"its way back meets {found[1]}'s zones")
+            t0 = found[0]                                # the other's motion there ends then: wait for it
+        self.table.clear_from(name, t0)
+        self.table.reserve(name, t0, t0 + d, sweep)
+        self.table.reserve(name, t0 + d, math.inf, rest)
+        self.events.append(ZoneEvent(t0, name, "retreat", "", sweep.bit_count()))
+        self.paths.append(Motion(name, t0, np.asarray(back.times), np.asarray(back.q), "retreat"))
+        wait = t0 - claim.asked_s
+        st.folds += 1
+        st.q, st.rest_zones, st.pending, st.folded = fold, rest, None, True
+        st.floor = t0 + d
+        st.last_s = max(st.last_s, t0 + d)
+        self._unstick(name)
+        return ("fold", wait, tuple(map(float, fold)), "")
+
+    def _park(self, name: str, claim: _Claim) -> Reply:
+        """The arm gives way (its work done, or before it waits for a fact): it folds on its
+        own base ray (nothing when it is folded there already; turning its base could take
+        it into the cell's fences, which the conductor does not know)."""
+        st = self.state[name]
+        if np.allclose(self._folded(name, st.q), st.q, atol=1e-6):
+            st.pending = None
+            return ("go", 0.0, None, "")
+        return self._fold(name, claim)
+
+    def _refuse(self, name: str, claim: _Claim, why: str) -> Reply:
+        st = self.state[name]
+        st.pending, st.stuck_on = None, None
+        st.refused += 1
+        st.refusals.append(f"{claim.asked_s:.1f} s: {why}")
+        st.floor = claim.t
+        self.events.append(ZoneEvent(claim.t, name, "refuse", why))
+        self._unstick(name)
+        return ("refuse", claim.t - claim.asked_s, None, why)
+
+    def _unstick(self, name: str) -> None:
+        for o in self.order:
+            if self.state[o].stuck_on == name:
+                self.state[o].stuck_on = None
+
+    def _forget(self) -> None:
+        live = [self.state[n].floor for n in self.order if not self.state[n].done]
+        if live:
+            self.table.forget_before(min(live) - 1.0)
+
+    # -- figures ----------------------------------------------------------------------------
+    def summary(self) -> dict[str, object]:
+        """Each arm's granted motion seconds, folds ordered, claims and refusals (with the
+        first refusals' reasons), its last simulated time; the conductor's own CPU seconds.
+        (Each arm's waits are its own clock's: the controllers count them.)"""
+        return {"arms": {n: {"motion_s": round(s.busy_s, 3), "folds": s.folds, "claims": s.claims, "refused": s.refused,
+                             "refusals": s.refusals[:20], "last_s": round(s.last_s, 3)}
+                         for n, s in self.state.items()},
+                "events": len(self.events), "conductor_cpu_s": round(self.cpu_s, 2)}

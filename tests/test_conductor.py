@@ -1,0 +1,229 @@
+"""The zone conductor of two-arm runs (ita.executive.conductor): claims granted in
+simulated time, never two arms in one zone at once, no deadlock, the same answers
+whichever arm's message arrives first, facts shared in simulated time."""
+
+from __future__ import annotations
+
+import itertools
+import math
+
+import numpy as np
+import pytest
+
+from ita.executive.conductor import Conductor, conducted_arms, zone_grid
+from ita.workcell import load_workcell
+
+MOVE_S = 2.0
+
+
+@pytest.fixture(scope="module")
+def cell():
+    return load_workcell()
+
+
+@pytest.fixture(scope="module")
+def poses(cell):
+    """Random configurations of each arm (seeded) with the zones each holds there."""
+    conductor = Conductor(zone_grid(cell), conducted_arms(cell))
+    rng = np.random.default_rng(7)
+    out = {}
+    for arm in cell.arms():
+        lo, hi = np.asarray(arm.joints.lower), np.asarray(arm.joints.upper)
+        qs = lo + (hi - lo) * rng.random((160, len(lo)))
+        out[arm.name] = [(q, conductor.held(arm.name, q)) for q in qs]
+    return out
+
+
+def fresh(cell) -> Conductor:
+    return Conductor(zone_grid(cell), conducted_arms(cell))
+
+
+def claim(conductor: Conductor, arm: str, t: float, q0, q1, seconds: float = MOVE_S):
+    return conductor.receive(arm, ("claim", t, np.array([0.0, seconds]), np.stack([q0, q1])))
+
+
+def granted_apart(conductor: Conductor) -> None:
+    """No two arms' bodies are ever in one zone at one time: each recorded motion's sweep
+    and each rest between motions (the body's zones) against the other arm's in time."""
+    arms = conductor.order
+    spans = {a: [] for a in arms}                       # (start, end, zones) of motions and rests
+    for a in arms:
+        moves = [m for m in conductor.paths if m.arm == a]
+        q_prev = np.asarray(conductor.state[a].arm.home)
+        t_prev = 0.0
+        for m in moves:
+            spans[a].append((t_prev, m.start_s, conductor.body(a, q_prev)))
+            spans[a].append((m.start_s, m.end_s, conductor.swept(a, m.times, m.q)))
+            q_prev, t_prev = m.q[-1], m.end_s
+        spans[a].append((t_prev, math.inf, conductor.body(a, q_prev)))
+    for (s0, e0, z0), (s1, e1, z1) in itertools.product(spans[arms[0]], spans[arms[1]]):
+        if s0 < e1 and s1 < e0:
+            assert not (z0 & z1), f"both arms hold a zone between {max(s0, s1):.2f} and {min(e0, e1):.2f} s"
+
+
+def across(cell, poses):
+    """A target for each arm in the zones the other holds at home, the two targets apart,
+    each clear of the other arm folded (the allocation's rule)."""
+    c = fresh(cell)
+    a, b = c.order
+    home = {n: c.held(n, c.state[n].arm.home) for n in c.order}
+    folded = {n: c.held(n, c._folded(n, np.asarray(c.state[n].arm.home))) for n in c.order}
+    for qa, za in poses[a]:
+        if not (za & home[b]) or za & folded[b]:
+            continue
+        qb = next((q for q, z in poses[b] if z & home[a] and not z & folded[a] and not z & za), None)
+        if qb is not None:
+            return qa, qb
+    pytest.skip("no crossing targets among the sampled poses")
+
+
+def play(cell, targets, first: int = 0, dwell_s: float = 1.0, limit: int = 200):
+    """Each arm's process as a two-arm run has it (ita.robot.controller with a gate): claim
+    a motion to each target in turn (MOVE_S each), dwell there, fold when told, and at the
+    end park and say done; messages sent in turn, arm `first` first.  Returns the
+    conductor, the targets each arm reached and its refusals."""
+    c = fresh(cell)
+    names = c.order[first:] + c.order[:first]
+    clock = {n: 0.0 for n in names}
+    q = {n: np.asarray(c.state[n].arm.home, dtype=float) for n in names}
+    todo = {n: list(targets[n]) for n in names}
+    waiting: dict[str, str] = {}                     # arm -> what it asked
+    reached = {n: 0 for n in names}
+    refused = {n: 0 for n in names}
+    finished: set[str] = set()
+    retreat = {n: c.state[n].arm.retreat for n in names}
+
+    def answer(arm: str, reply) -> None:
+        kind, wait, fold, _why = reply
+        clock[arm] += wait
+        asked = waiting.pop(arm)
+        if kind == "fold":
+            clock[arm] += retreat[arm](q[arm], np.asarray(fold))[0].duration
+            q[arm] = np.asarray(fold)
+            inbox.extend(c.receive(arm, ("moved", clock[arm], q[arm])))
+            if asked == "park":
+                inbox.extend(c.receive(arm, ("done", clock[arm])))
+                finished.add(arm)
+            return
+        if asked == "park":
+            inbox.extend(c.receive(arm, ("done", clock[arm])))
+            finished.add(arm)
+            return
+        target = todo[arm].pop(0)
+        if kind == "go":
+            clock[arm] += MOVE_S
+            q[arm] = target
+            reached[arm] += 1
+            inbox.extend(c.receive(arm, ("moved", clock[arm], q[arm])))
+            clock[arm] += dwell_s
+        else:
+            refused[arm] += 1
+
+    inbox: list = []
+    for _ in range(limit):
+        if len(finished) == len(names):
+            break
+        for arm in names:
+            if arm in waiting or arm in finished:
+                continue
+            if todo[arm]:
+                waiting[arm] = "claim"
+                inbox.extend(c.receive(arm, ("claim", clock[arm], np.array([0.0, MOVE_S]), np.stack([q[arm], todo[arm][0]]))))
+            else:
+                waiting[arm] = "park"
+                inbox.extend(c.receive(arm, ("park", clock[arm], q[arm])))
+        while inbox:
+            arm, reply = inbox.pop(0)
+            answer(arm, reply)
+    else:
+        raise AssertionError(f"no end after {limit} rounds: {waiting} wait")
+    return c, reached, refused
+
+
+def test_arms_sent_across_each_other_take_turns_and_never_share_a_zone(cell, poses) -> None:
+    qa, qb = across(cell, poses)
+    a, b = fresh(cell).order
+    home = {n: np.asarray(fresh(cell).state[n].arm.home) for n in (a, b)}
+    c, reached, refused = play(cell, {a: [qa, home[a]], b: [qb, home[b]]})
+    assert reached == {a: 2, b: 2} and refused == {a: 0, b: 0}
+    assert c.state[b].folds >= 1                     # the arm of lower priority gave way
+    granted_apart(c)
+
+
+def test_the_answers_do_not_depend_on_which_arm_asks_first(cell, poses) -> None:
+    qa, qb = across(cell, poses)
+    a, b = fresh(cell).order
+    home = {n: np.asarray(fresh(cell).state[n].arm.home) for n in (a, b)}
+    targets = {a: [qa, home[a], qa], b: [qb, home[b]]}
+    runs = [play(cell, targets, first=k)[0] for k in (0, 1)]
+    timeline = [sorted((m.arm, round(m.start_s, 9), round(m.end_s, 9), m.kind) for m in r.paths) for r in runs]
+    assert timeline[0] == timeline[1]
+
+
+@pytest.mark.parametrize("seed", [1, 2, 3])
+def test_random_work_of_both_arms_ends_without_deadlock_and_apart(cell, poses, seed: int) -> None:
+    """Targets drawn at random among those the allocation could give (each clear of the
+    other arm folded): every one reached or, outside the rules, refused; never stuck."""
+    c0 = fresh(cell)
+    a, b = c0.order
+    folded = {n: c0.held(n, c0._folded(n, np.asarray(c0.state[n].arm.home))) for n in (a, b)}
+    rng = np.random.default_rng(seed)
+    ok = {n: [q for q, z in poses[n] if not z & folded[c0.order[1 - c0.order.index(n)]]] for n in (a, b)}
+    targets = {n: [ok[n][i] for i in rng.choice(len(ok[n]), 6, replace=False)] for n in (a, b)}
+    c, reached, refused = play(cell, targets, limit=400)
+    assert all(reached[n] + refused[n] == 6 for n in (a, b))
+    granted_apart(c)
+
+
+def test_a_claim_waits_for_the_other_arms_motion_to_end(cell, poses) -> None:
+    c = fresh(cell)
+    a, b = c.order
+    home_a, home_b = c.state[a].arm.home, c.state[b].arm.home
+    # a motion of the first arm, and one of the second whose space meets the first's sweep,
+    # not where the first then rests
+    home_held = c.held(b, home_b)
+    for qa, za in poses[a][:80]:
+        sweep = c.swept(a, [0.0, MOVE_S], [home_a, qa])
+        if (sweep | za) & home_held:
+            continue
+        hit = next((q for q, z in poses[b]
+                    if (want := z | c.swept(b, [0.0, MOVE_S], [home_b, q])) & sweep and not want & za), None)
+        if hit is not None:
+            break
+    else:
+        pytest.skip("no such pair among the sampled poses")
+    assert claim(c, a, 0.0, home_a, qa)[0][1][0] == "go"
+    got = claim(c, b, 0.5, c.state[b].arm.home, hit)
+    if got:                                     # decided now: it starts when the first arm's motion ends
+        assert got[0][1][0] == "go" and got[0][1][1] == pytest.approx(MOVE_S - 0.5)
+    else:                                       # or when the first arm's clock passes that time
+        got = c.receive(a, ("moved", MOVE_S, qa)) + claim(c, a, MOVE_S + 5.0, qa, qa + 0.01)
+        mine = dict(got)[b]
+        assert mine[0] == "go" and mine[1] >= MOVE_S - 0.5 - 1e-9
+    granted_apart(c)
+
+
+def test_an_arm_that_is_done_in_the_way_refuses_the_claim_never_waits(cell, poses) -> None:
+    qa, qb = across(cell, poses)
+    c = fresh(cell)
+    a, b = c.order
+    c.receive(a, ("done", 0.0))                   # the first arm stays at home for good
+    got = dict(claim(c, b, 1.0, c.state[b].arm.home, qb))
+    assert got[b][0] == "refuse" and "done" in got[b][3]
+
+
+def test_a_fact_is_taken_in_simulated_time(cell) -> None:
+    c = fresh(cell)
+    a, b = c.order
+    assert c.receive(b, ("take", 2.0, "alignment")) == []      # not posted yet: it waits
+    got = c.receive(a, ("post", 30.0, "alignment", {"shift": 0.1}))
+    assert got == [(b, (28.0, {"shift": 0.1}))]
+    # posted before it is asked for: no wait
+    assert c.receive(b, ("take", 50.0, "alignment")) == [(b, (0.0, {"shift": 0.1}))]
+
+
+def test_a_fact_no_one_is_left_to_post_is_none(cell) -> None:
+    c = fresh(cell)
+    a, b = c.order
+    c.receive(b, ("take", 2.0, "alignment"))
+    assert c.receive(a, ("done", 10.0)) == [(b, (0.0, None))]
