@@ -51,6 +51,7 @@ from ita.collision.zones import (
 )
 from ita.geometry.configurations import measurement_configurations
 from ita.geometry.mkb import MeasurementKB
+from ita.geometry.reasoner import GeometricReasoner
 from ita.kinematics import arm_model
 from ita.sequence.cost import rack_configurations, slot_position, tool_points_world
 from ita.sequence.plan import PlanningContext, SequencePlan
@@ -159,7 +160,13 @@ def allocate(ctx: PlanningContext, plan: SequencePlan, dwell_s: float = DWELL_S,
         for t, ids in groups:
             own = _tools(cell, t, a)
             tool = cell.tool(own if own is not None else t)
-            ok = _placeable(ctx, views[a], tool, ids, None if mkbs is None else mkbs.get(arms[a].name), why)
+            mkb = None if mkbs is None else mkbs.get(arms[a].name)
+            ok = _placeable(ctx, views[a], tool, ids, mkb, why)
+            if ok and mkb is not None and tool.tool_class.ultrasonic:
+                missed = _stations_missed(ctx, views[a], mkb, tool.name)
+                if missed:                      # a probe is calibrated on the block and wetted at the station
+                    why.update({i: f"{arms[a].name}: cannot reach the {missed} with {tool.name}" for i in ok})
+                    ok = []
             matrix, kept = _matrix(ctx, views[a], tool.name, ok, bodies[a], folds[a][0], revolved[1 - a], gap)
             matrices[a][t] = (kept, matrix) if matrix is not None else ([], np.zeros((1, 1)))
             for i in ids:
@@ -229,6 +236,19 @@ def allocate(ctx: PlanningContext, plan: SequencePlan, dwell_s: float = DWELL_S,
                 *(sum(least[i] for i, a in only.items() if a == arm) for arm in range(2)))
     one = sum(g.cost_s for g in plan.groups) + plan.transfer_s + dwell_s * len(every)
     return Allocation(chosen, assigned, max(s.time_s for s in chosen), bound, one, unassigned, best, dwell_s)
+
+
+def _stations_missed(ctx: PlanningContext, view: Workcell, mkb: MeasurementKB, tool: str) -> str:
+    """The stations a probe needs (the calibration block, the couplant station) that the
+    arm cannot take with `tool` in hand ("" when it reaches both)."""
+    reasoner = GeometricReasoner(mkb, view, ctx.specs)
+    missed = []
+    for name, said in (("cal_block", "calibration block"), ("couplant_station", "couplant station")):
+        try:
+            reasoner.station(name, tool)
+        except KeyError:
+            missed.append(said)
+    return " and ".join(missed)
 
 
 def _placeable(ctx: PlanningContext, view: Workcell, tool: ToolSpec, ids: Sequence[str],
