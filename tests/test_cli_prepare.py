@@ -103,3 +103,23 @@ def test_sequence_allocate_splits_by_what_each_arms_mkb_places_and_the_arms_neve
     coordinated = report["coordinated"]
     assert coordinated["arm_arm_contacts"] == 0 and coordinated["moments"] > 1000
     assert report["makespan_s"] <= coordinated["makespan_s"] < report["one_arm_s"]
+
+
+@pytest.mark.slow       # about 4 min: both arms prepared, then a two-arm run of 420 measurements
+def test_two_arms_inspect_at_once_each_its_share_with_its_own_tools_and_never_touch(builtin_part) -> None:
+    result = CliRunner().invoke(main, ["inspect", "--arms", "2", "--limit", "420", "--json"])
+    assert result.exit_code == 0, result.output
+    report = json.loads(result.stdout)
+    assert report["arm_arm_contacts"] == 0 and report["contact_check"]["moments"] > 1000
+    assert report["measured"] == report["total"] == 420
+    per_arm = report["per_arm"]
+    assert set(per_arm) == {"t3", "t3_b"} and all(p["measured"] > 0 for p in per_arm.values())
+    from ita.archive import Archive, archive_path
+
+    with Archive.open(archive_path(), create=False) as archive:
+        tools = {arm: {r.tool for r in archive.results(p["run_id"])} for arm, p in per_arm.items()}
+        taken = [e.payload for e in archive.events(per_arm["t3_b"]["run_id"], kinds=["alignment"])]
+    # each arm its own tools: the second never takes the first's, nor the first the second's
+    assert not tools["t3"] & tools["t3_b"]
+    # the second arm measures in the first arm's registration of the part
+    assert taken and taken[0]["why"] == "the other arm's registration" and "shift_mm" in taken[0]

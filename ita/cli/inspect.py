@@ -20,6 +20,7 @@ import shutil
 import sys
 import time
 from collections.abc import Iterator
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -168,18 +169,56 @@ def _attach_injector(session: Any, archive: Any, run_id: str) -> None:
     session.arm.injector = session.slra.injector = injector
 
 
-def _run(session: Any, archive: Any, run_id: str, as_json: bool, view: LiveView) -> None:
+def _run(session: Any, archive: Any, run_id: str, as_json: bool, view: LiveView, parked: bool = False) -> None:
     from ita.toplevel import RunSignals, TopLevel
 
     _attach_injector(session, archive, run_id)
     with RunSignals(message=sys.stderr) as signals:
         summary = TopLevel(session, archive, run_id, signals).run(on_progress=view)
+    extra: dict[str, Any] = {}
+    if parked:           # one arm of two: out of the other's way, and its zones given up
+        session.arm.controller.park()
+        stats = [session.arm.controller.zone_stats, session.slra.controller.zone_stats]
+        extra["zones"] = {k: round(sum(float(s[k]) for s in stats), 3) for k in stats[0]}
+        extra["simulated_parked_s"] = round(session.clock.now, 3)
     if as_json:
-        click.echo(json.dumps(summary.to_dict(), indent=1))
+        click.echo(json.dumps(summary.to_dict() | extra, indent=1))
     else:
         click.echo(_summary_text(summary))
     if summary.status != "completed":
         raise SystemExit(NOT_FINISHED)     # the summary said how to continue
+
+
+@dataclass(frozen=True)
+class _Conducted:
+    """This run as one arm of a two-arm run: its share, the tools it leaves to the other
+    arm, the two-arm run's name, and the gate to the zone conductor."""
+
+    specs: tuple[str, ...]
+    away_tools: dict[str, str]          # tool -> the other arm it is kept for
+    group: str
+    gate: Any
+    registers: bool = True              # this arm registers the part (the other takes its registration)
+
+
+def _conducted(fd: int) -> _Conducted:
+    """Read a two-arm run's set-up from its conductor over the inherited socket `fd`."""
+    import os
+    import stat
+    from multiprocessing.connection import Connection
+
+    from ita.robot.gate import RemoteGate
+
+    try:
+        is_socket = stat.S_ISSOCK(os.fstat(fd).st_mode)
+    except OSError as exc:
+        raise click.BadParameter(f"file descriptor {fd}: {exc.strerror}", param_hint="--conductor-fd") from None
+    if not is_socket:
+        raise click.BadParameter(f"file descriptor {fd} is not a socket", param_hint="--conductor-fd")
+    conn = Connection(fd)
+    setup = conn.recv()
+    return _Conducted(tuple(setup["specs"]), {str(k): str(v) for k, v in setup["away_tools"].items()},
+                      str(setup["group"]), RemoteGate(conn), bool(setup.get("registers", True)))
 
 
 @contextlib.contextmanager
@@ -243,11 +282,18 @@ def _closing(session: Any) -> Iterator[Any]:
                    "cell does; 'exact', at its nominal placement.  Either way the run registers the part on "
                    "its datums (tooling holes B and C) before it measures.")
 @arm_option
+@click.option("--arms", "arms", type=click.IntRange(1, 2), default=1, show_default=True,
+              help="How many of the cell's arms work the part: 2, both at once (the workcell needs a second "
+                   "arm, its [robot_b] table): the measurements split between them, each arm's motions "
+                   "claiming their space from the other's (interference zones), each arm a run of its own.")
+@click.option("--conductor-fd", "conductor_fd", type=int, default=None, hidden=True,
+              help="(internal) the socket of a two-arm run's zone conductor: this run is one arm's.")
 @reports_errors
 def inspect(part_dir: Path | None, limit: int | None, seed: int, runs_dir: Path | None, as_json: bool,
             fault_rate: float, fault_kinds: str | None, scripts: tuple[str, ...], run_id: str | None,
             alarm_after: int | None, network: bool, job: str, serial: str | None, operator: str | None,
-            shift_texts: tuple[str, ...], from_run: str | None, placement: str, arm: str | None) -> None:
+            shift_texts: tuple[str, ...], from_run: str | None, placement: str, arm: str | None,
+            arms: int = 1, conductor_fd: int | None = None) -> None:
     """Inspect the part (in the simulated workcell): every measurement of the sequence
     plan, planned, executed, measured and recorded in the runs archive as it is made.
 
@@ -271,6 +317,17 @@ def inspect(part_dir: Path | None, limit: int | None, seed: int, runs_dir: Path 
     from ita.toplevel import earlier_results, start_run, tooling_specs, unproven
 
     injection = InjectionPlan.parse(fault_rate, fault_kinds, scripts, seed)   # bad options fail before any work
+    if arms == 2:
+        from ita.cli.arms import inspect_with_two_arms
+
+        if arm is not None or job != "inspect_part" or from_run is not None or serial is not None:
+            raise click.UsageError("--arms 2 inspects the part (the job inspect_part) with both arms: it does not "
+                                   "go with --arm, --task, --from or --serial")
+        inspect_with_two_arms(part_dir=part_dir, limit=limit, seed=seed, runs_dir=runs_dir, as_json=as_json,
+                              fault_rate=fault_rate, fault_kinds=fault_kinds, scripts=scripts,
+                              network=network, placement=placement, operator=operator, alarm_after=alarm_after)
+        return
+    conducted = None if conductor_fd is None else _conducted(conductor_fd)
     view = LiveView()
     check_job(job)
     from ita.part.serials import parse_shift
@@ -292,8 +349,14 @@ def inspect(part_dir: Path | None, limit: int | None, seed: int, runs_dir: Path 
         if not specs:
             click.echo(f"run {source}: every result is proven to conform; nothing to measure again")
             return
+    if conducted is not None:
+        specs = list(conducted.specs)
     session = open_session(part_dir, seed=seed, progress=lambda m: view.note(f"{m} ..."), serial=serial,
-                           shifts=shifts, placement_error=placement == "fixture", arm=arm)
+                           shifts=shifts, placement_error=placement == "fixture", arm=arm,
+                           away_tools=conducted.away_tools if conducted is not None else None)
+    if conducted is not None:
+        session.arm.controller.gate = session.slra.controller.gate = session.peer = conducted.gate
+        session.registers = conducted.registers
     with _closing(session):
         tools = session.ctx.workcell.tools
         injection.check_targets([t.name for t in tools if t.tool_class.ultrasonic],
@@ -319,12 +382,14 @@ def inspect(part_dir: Path | None, limit: int | None, seed: int, runs_dir: Path 
                 settings["shifts"] = dict(shifts)
             if alarm_after is not None:
                 settings["alarm_after"] = alarm_after
+            if conducted is not None:
+                settings["two_arms"] = {"group": conducted.group, "away_tools": dict(conducted.away_tools)}
             if injection.active:
                 settings["faults"] = injection.to_dict()
             run_id = start_run(session, archive, limit=limit, run_id=run_id, settings=settings, specs=specs)
             view.note(f"run {run_id}: {archive.run(run_id).total} measurements of {session.part.name} "
                       f"(set up in {session.setup_seconds:.1f} s)")
-            _run(session, archive, run_id, as_json, view)
+            _run(session, archive, run_id, as_json, view, parked=conducted is not None)
 
 
 @click.command("continue")

@@ -23,12 +23,14 @@ from ita.geometry import GeometricReasoner
 from ita.kinematics import ArmModel
 from ita.kinematics.fk import FloatArray
 from ita.logic.bridge import KnowledgeBase
+from ita.logic.world import WorldModel
 from ita.offline.prepare import prepare_inspection
 from ita.part.serials import design_params, serial_asbuilt
 from ita.part.specfile import check_measurable
 from ita.part.store import load_part
 from ita.path import planners_for
 from ita.planning import OperationPlanner, store_path
+from ita.robot.gate import MotionGate
 from ita.sensors.ultrasonic import UltrasonicGauge
 from ita.sequence.plan import planning_context, with_mkb
 from ita.sequence.store import apply_tool_marks, load_tool_marks
@@ -84,6 +86,11 @@ class Session:
     asbuilt_dir: str | None = None
     #: where the part was registered on its datums (ita.task.align; None: not registered)
     alignment: Alignment | None = None
+    #: the other arm of a two-arm run (ita.robot.gate): the part's registration is posted
+    #: to it by the arm that registers, and taken from it by the other (None: one arm)
+    peer: MotionGate | None = None
+    #: whether this arm registers the part (else it takes the other arm's registration)
+    registers: bool = True
     _specs: dict[str, MeasurementSpec] = field(default_factory=dict, repr=False)
     _specs_of: PlanningContext | None = field(default=None, repr=False)   # the context _specs are of
 
@@ -131,7 +138,7 @@ class Session:
 def open_session(part_dir: Path | None = None, *, seed: int = 0,
                  progress: Callable[[str], None] = lambda _m: None, serial: str | None = None,
                  shifts: Mapping[str, float] | None = None, placement_error: bool = False,
-                 arm: str | None = None) -> Session:
+                 arm: str | None = None, away_tools: Mapping[str, str] | None = None) -> Session:
     """Load everything a run needs; prepare the part first (sequence plan, MKB, MACROPs)
     when what is stored is missing or stale.  serial: the simulator holds that serial's own
     as-built part of a generated design (shifts: special causes asked, spec id -> mm;
@@ -139,12 +146,16 @@ def open_session(part_dir: Path | None = None, *, seed: int = 0,
     simulator seats the part off its nominal placement as a fixture does (ita.sim.fixture,
     a draw of `seed`; only a part with datum holes to register it on, ita.task.align).
     arm: the cell's arm that works (default its first; the second works the cell alone,
-    with its own plan, MKB and MACROPs: ita.sequence.plan.planning_context)."""
+    with its own plan, MKB and MACROPs: ita.sequence.plan.planning_context).  away_tools:
+    tool -> the arm it is kept for (the other arm's own, in a two-arm run): reserved to
+    this session's world model (kb/world.pl reserved/2), so this arm never takes it."""
 
     t0 = time.perf_counter()
     progress("loading the knowledge bases and the part")
     kb = KnowledgeBase()
     apply_tool_marks(kb, load_tool_marks())
+    for tool, keeper in sorted((away_tools or {}).items()):
+        WorldModel(kb).set_reserved(tool, keeper)
     part = load_part(part_dir)
     check_measurable(part)                # no specs, or features the mesh does not show: say so first
     asbuilt_dir: str | None = None

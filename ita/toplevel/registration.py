@@ -16,7 +16,7 @@ from ita.archive import Event
 from ita.devices.injection import paused
 from ita.logic.json_value import JsonObject
 from ita.logic.world import WorldModel
-from ita.task.align import AlignDone, Alignment, register_part
+from ita.task.align import AlignDone, Alignment, apply_alignment, register_part
 from ita.toplevel.events import PlanNumbers, plan_events
 
 if TYPE_CHECKING:
@@ -49,6 +49,8 @@ class PartRegistration:
         """Register the part with a working SLRA (its first look and measuring steps, no
         new fault injected meanwhile); the arm's state after."""
         s = self.session
+        if s.peer is not None and not s.registers:
+            return self._taken(state)
         usable = WorldModel(s.kb).usable(state.arm, "slra_tool")
         held = s.held
         tool = held if held in usable else (usable[0] if usable else None)
@@ -65,9 +67,30 @@ class PartRegistration:
                                                                     self.plans.next(), tool=out.tool))
         if done.alignment is not None:
             s.alignment = done.alignment
+        if s.peer is not None:                 # the other arm measures in this registration too
+            s.peer.post(s.clock.now, "alignment", done.alignment)
         self.last = alignment_payload(done, done.alignment, "the run's start")
         self.archive.record_event(self.run_id, Event("alignment", "top", s.clock.now, self.last))
         return done.state
+
+    def _taken(self, state: WorldState) -> WorldState:
+        """The other arm's registration of the part (a two-arm run): waited for in simulated
+        time until it was made, then measured in; the nominal placement if it made none."""
+        s = self.session
+        assert s.peer is not None
+        s.arm.controller.give_way()                # folded while it waits: the other arm may need where it stands
+        wait, found = s.peer.take(s.clock.now, "alignment")
+        s.clock.advance(wait)
+        if isinstance(found, Alignment):
+            s.alignment = found
+            nominal = s.ctx.workcell.part
+            apply_alignment(s, found.placement, found.u_max(nominal.envelope_min_mm, nominal.envelope_max_mm))
+            self.last = alignment_payload(None, found, "the other arm's registration") | {"waited_s": round(wait, 3)}
+        else:
+            self.last = alignment_payload(None, None, "the run's start") | {
+                "reason": "the other arm made no registration: measured at the nominal placement"}
+        self.archive.record_event(self.run_id, Event("alignment", "top", s.clock.now, self.last))
+        return state
 
     def note_change(self, before: Alignment | None, why: str) -> None:
         """An ``alignment`` event when the session's registration is no longer `before`
