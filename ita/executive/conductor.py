@@ -127,7 +127,6 @@ class _State:
     refused: int = 0
     claims: int = 0
     last_s: float = 0.0
-    rest_zones: Zones = 0
     refusals: list[str] = field(default_factory=list)
     taking: tuple[str, float] | None = None     # (key, time) of a fact it waits for
 
@@ -171,8 +170,7 @@ class Conductor:
         self.cpu_s = 0.0                     # the conductor's own time (the caller counts it)
         for a in arms:
             st = self.state[a.name]
-            st.rest_zones = self._held_at(a.name, st.q)
-            self.table.reserve(a.name, 0.0, math.inf, st.rest_zones)
+            self.table.reserve(a.name, 0.0, math.inf, self._held_at(a.name, st.q))
 
     # -- zones -------------------------------------------------------------------------
     def _cached(self, key: tuple[str, str, bytes], make: Callable[[], Zones]) -> Zones:
@@ -228,10 +226,14 @@ class Conductor:
         fold = self._folded(name, q)
         if np.allclose(fold, q):
             return rest
-        way = 0
-        for back in self.state[name].arm.retreat(q, fold):
-            way |= self._sweep(name, back.times, back.q)
-        return rest | way | self._rest(name, fold)
+        return rest | self._ways_swept(name, self.state[name].arm.retreat(q, fold)) | self._rest(name, fold)
+
+    def _ways_swept(self, name: str, ways: Sequence[TimedTrajectory]) -> Zones:
+        """The zones of every way a retreat may take (the arm's controller flies one of them)."""
+        zones = 0
+        for way in ways:
+            zones |= self._sweep(name, way.times, way.q)
+        return zones
 
     def body(self, name: str, q: Sequence[float]) -> Zones:
         """The zones of arm `name`'s body (and tools) at joints `q`."""
@@ -274,9 +276,8 @@ class Conductor:
             # its body's zones alone (its way back is given up until it moves again)
             t = float(message[1])
             st.taking = (str(message[2]), t)
-            st.rest_zones = self._rest(name, st.q)
             self.table.clear_from(name, t)
-            self.table.reserve(name, t, math.inf, st.rest_zones)
+            self.table.reserve(name, t, math.inf, self._rest(name, st.q))
             st.folded = True                       # (so no one waits for it to give way)
         else:
             raise ValueError(f"arm {name}: unknown message {kind!r}")
@@ -293,9 +294,8 @@ class Conductor:
         st = self.state[name]
         st.done, st.pending, st.floor = True, None, math.inf
         st.last_s = max(st.last_s, t)
-        st.rest_zones = self._rest(name, st.q)       # it stands there for good: its body alone
-        self.table.clear_from(name, t)
-        self.table.reserve(name, t, math.inf, st.rest_zones)
+        self.table.clear_from(name, t)                # it stands there for good: its body alone
+        self.table.reserve(name, t, math.inf, self._rest(name, st.q))
         self.events.append(ZoneEvent(t, name, "done"))
         self._unstick(name)                         # who waited for its next claim: there is none
 
@@ -307,9 +307,8 @@ class Conductor:
             claimed = st.q
             st.q = q
             if np.max(np.abs(q - claimed)) > 1e-3:     # stopped short of the claim's end (a bump): hold where it is
-                st.rest_zones = self._held_at(name, q)
                 self.table.clear_from(name, t)
-                self.table.reserve(name, t, math.inf, st.rest_zones)
+                self.table.reserve(name, t, math.inf, self._held_at(name, q))
         if self.paths and self.paths[-1].arm == name and self.paths[-1].end_s > t + 1e-9:
             last = self.paths[-1]                       # cut the recorded motion where it ended
             keep = last.times <= t - last.start_s
@@ -332,7 +331,7 @@ class Conductor:
                 st.taking, st.floor = None, t + wait
                 held = self._held_at(name, st.q)          # its way back again, when no one took it meanwhile
                 if self.table.conflict(name, t + wait, math.inf, held) is None:
-                    st.rest_zones, st.folded = held, False
+                    st.folded = False
                     self.table.clear_from(name, t + wait)
                     self.table.reserve(name, t + wait, math.inf, held)
                 out.append((name, (wait, value)))
@@ -419,7 +418,7 @@ class Conductor:
         self.events.append(ZoneEvent(t0, name, kind, "", sweep.bit_count()))
         self.events.append(ZoneEvent(t0 + d, name, "clear", "", sweep.bit_count()))
         self.paths.append(Motion(name, t0, claim.times, claim.q))
-        st.q, st.rest_zones, st.pending, st.folded = claim.q[-1].copy(), rest, None, False
+        st.q, st.pending, st.folded = claim.q[-1].copy(), None, False
         st.floor = t0 + d
         st.last_s = max(st.last_s, t0 + d)
         st.busy_s += d
@@ -434,9 +433,7 @@ class Conductor:
         fold = self._folded(name, st.q) if fold is None else fold
         ways = st.arm.retreat(st.q, fold)
         d = max(float(b.duration) for b in ways)
-        sweep = 0
-        for b in ways:
-            sweep |= self._sweep(name, b.times, b.q)
+        sweep = self._ways_swept(name, ways)
         back = ways[0]
         rest = self._rest(name, fold)
         t0 = claim.t
@@ -451,7 +448,7 @@ class Conductor:
         self.paths.append(Motion(name, t0, np.asarray(back.times), np.asarray(back.q), "retreat"))
         wait = t0 - claim.asked_s
         st.folds += 1
-        st.q, st.rest_zones, st.pending, st.folded = fold, rest, None, True
+        st.q, st.pending, st.folded = fold, None, True
         st.floor = t0 + d
         st.last_s = max(st.last_s, t0 + d)
         self._unstick(name)
