@@ -2,6 +2,7 @@
 what was measured, the verdicts against the simulator's truth, and the arm-arm contacts.
 
     .venv/bin/python bench/two_arm_runs.py [--seeds 0,7,31] [--limit N] [--part DIR] [--out FILE]
+        [--faults RATE] [--inject ARM:FAULT[@TARGET][:after=S] ...]
 
 For each seed, in a fresh runs directory (the stores of ITA_HOME: prepare both arms once
 first, `ita inspect --arms 2 --limit 1`, for warm figures): `ita inspect --seed S --json`
@@ -88,17 +89,22 @@ def main() -> None:
     parser.add_argument("--seeds", default="0,7,31")
     parser.add_argument("--limit", type=int, default=None, help="only the first N measurements (default all)")
     parser.add_argument("--part", type=Path, default=None)
+    parser.add_argument("--faults", type=float, default=0.0, help="--faults RATE of both commands")
+    parser.add_argument("--inject", action="append", default=[],
+                        help="--inject SCRIPT of the two-arm command (ARM:FAULT... hits that arm), repeatable")
     parser.add_argument("--out", type=Path, default=DEFAULT_OUT)
     args = parser.parse_args()
     extra = (["--limit", str(args.limit)] if args.limit else []) + (["--part", str(args.part)] if args.part else [])
+    extra += ["--faults", str(args.faults)] if args.faults else []
+    scripts = [x for s in args.inject for x in ("--inject", s)]
     rows = []
     with tempfile.TemporaryDirectory(prefix="ita-two-arms-") as tmp:
         for seed in [int(s) for s in args.seeds.split(",")]:
             runs = Path(tmp) / f"seed{seed}"
             one, one_wall, one_rc = run(["--seed", str(seed), *extra], runs)
-            two, two_wall, two_rc = run(["--arms", "2", "--seed", str(seed), *extra], runs)
+            two, two_wall, two_rc = run(["--arms", "2", "--seed", str(seed), *extra, *scripts], runs)
             r1, part_dir = results(runs, [one["run_id"]])
-            r2, _ = results(runs, list(two["runs"].values()))
+            r2, _ = results(runs, list(two["runs"].values()) + list(two.get("handover_runs", {}).values()))
             truth = true_values(part_dir)
             row = {"seed": seed,
                    "one_arm": {"run": one["run_id"], "exit": one_rc, "simulated_cycle_s": one["simulated_cycle_s"],
@@ -107,7 +113,8 @@ def main() -> None:
                                 "wall_s": round(two_wall, 1), "arm_arm_contacts": two["arm_arm_contacts"],
                                 "contact_check": two["contact_check"],
                                 "per_arm": {a: {k: v for k, v in p.items() if k in ("measured", "total", "simulated_cycle_s",
-                                                                                     "waiting_s", "folds", "refused")}
+                                                                                     "waiting_s", "folds", "refused",
+                                                                                     "handed_over", "handover")}
                                             for a, p in two["per_arm"].items()},
                                 "conductor_cpu_s": two.get("conductor_cpu_s"), **scored(r2, truth)},
                    "agreement": agreement(r1, r2)}
@@ -121,7 +128,8 @@ def main() -> None:
                   f"{two['arm_arm_contacts']} contacts | ratio cycle {row['cycle_ratio']}, wall {row['wall_ratio']} | "
                   f"decisions differ {row['agreement']['different_decision']} "
                   f"({row['agreement']['different_beyond_u']} beyond U)", flush=True)
-    out = {"machine": {"python": platform.python_version(), "cpus": os.cpu_count()}, "limit": args.limit, "seeds": rows}
+    out = {"machine": {"python": platform.python_version(), "cpus": os.cpu_count()}, "limit": args.limit,
+           "faults": args.faults, "inject": args.inject, "seeds": rows}
     args.out.parent.mkdir(parents=True, exist_ok=True)
     args.out.write_text(json.dumps(out, indent=1))
     print(f"written {args.out}")

@@ -7,6 +7,7 @@ from __future__ import annotations
 import itertools
 import math
 
+import click
 import numpy as np
 import pytest
 
@@ -184,7 +185,7 @@ def test_a_claim_waits_for_the_other_arms_motion_to_end(cell, poses) -> None:
     home_held = c.held(b, home_b)
     for qa, za in poses[a][:80]:
         sweep = c.swept(a, [0.0, MOVE_S], [home_a, qa])
-        if (sweep | za) & home_held:
+        if (sweep | za) & home_held or c._unsafe(a, qa) is not None:
             continue
         hit = next((q for q, z in poses[b]
                     if (want := z | c.swept(b, [0.0, MOVE_S], [home_b, q])) & sweep and not want & za), None)
@@ -227,3 +228,79 @@ def test_a_fact_no_one_is_left_to_post_is_none(cell) -> None:
     a, b = c.order
     c.receive(b, ("take", 2.0, "alignment"))
     assert c.receive(a, ("done", 10.0)) == [(b, (0.0, None))]
+
+
+def test_when_the_lower_arms_way_back_meets_the_first_arms_body_the_first_folds_first(cell, poses) -> None:
+    """Each arm waits for the other's body, and the second arm cannot fold (the first arm's
+    body stands on its way back): the first arm folds, and the second goes on."""
+    c = fresh(cell)
+    a, b = c.order
+    home_a, home_b = np.asarray(c.state[a].arm.home), np.asarray(c.state[b].arm.home)
+    at_home_a = c.body(a, home_a)
+
+    def way_back(arm: str, q) -> int:
+        st = c.state[arm]
+        fold = c._folded(arm, q)
+        zones = c.body(arm, fold)
+        for way in st.arm.retreat(q, fold):
+            zones |= c.swept(arm, way.times, way.q)
+        return zones
+
+    found = None
+    for qb, zb in poses[b][:60]:
+        if (c.swept(b, [0.0, MOVE_S], [home_b, qb]) | zb) & at_home_a:
+            continue
+        back_b = way_back(b, qb)
+        for qa, za in poses[a][:80]:
+            if (c.swept(a, [0.0, MOVE_S], [home_a, qa]) | za) & zb or not za & back_b or way_back(a, qa) & zb:
+                continue
+            qt = next((q for q, z in poses[a] if z & zb), None)          # where the first arm goes next
+            folded_a = c.body(a, c._folded(a, qa))
+            qs = next((q for q, z in poses[b]
+                       if z & za and not (z | c.swept(b, [0.0, MOVE_S], [qb, q])) & folded_a), None)
+            if qt is not None and qs is not None:
+                found = qa, qb, qt, qs
+                break
+        if found:
+            break
+    if found is None:
+        pytest.skip("no such poses among the sampled ones")
+    qa, qb, qt, qs = found
+    assert claim(c, b, 0.0, home_b, qb)[0][1][0] == "go"
+    c.receive(b, ("moved", MOVE_S, qb))
+    assert claim(c, a, MOVE_S, home_a, qa)[0][1][0] == "go"
+    c.receive(a, ("moved", 2 * MOVE_S, qa))
+    assert claim(c, a, 2 * MOVE_S, qa, qt) == []                  # decided when the second arm's clock is there
+    got = dict(claim(c, b, 2 * MOVE_S, qb, qs))
+    assert got[a][0] == "fold"                                    # the first arm folds first
+    if b not in got:                   # decided once the first arm says it has folded
+        fold = np.asarray(got[a][2])
+        d = max(w.duration for w in c.state[a].arm.retreat(qa, fold))
+        got = dict(c.receive(a, ("moved", 2 * MOVE_S + got[a][1] + d, fold)))
+    assert got[b][0] == "go"                                      # then the second arm goes on
+    assert c.state[a].refused == c.state[b].refused == 0
+    granted_apart(c)
+
+
+def test_an_inject_script_may_name_the_arm_it_hits() -> None:
+    from ita.cli.arms import scripts_of
+
+    got = scripts_of(["t3_b:controller_failed:after=600", "broken_probe@us_probe_1:after=120", "transient"],
+                     ["t3", "t3_b"])
+    assert got == {"t3": ["broken_probe@us_probe_1:after=120", "transient"],
+                   "t3_b": ["controller_failed:after=600", "broken_probe@us_probe_1:after=120", "transient"]}
+    with pytest.raises(click.UsageError, match="no arm 'robot9'"):
+        scripts_of(["robot9:controller_failed"], ["t3", "t3_b"])
+
+
+def test_claims_the_other_arm_refused_do_not_raise_the_alarm_of_failures_in_a_row() -> None:
+    from ita.robot.controller import REFUSED_BY_ZONES
+    from ita.toplevel.recording import FailuresInARow
+
+    row = FailuresInARow(3)
+    for k in range(5):
+        row.not_done(f"S{k}", f"exception: REJECTED: {REFUSED_BY_ZONES}: t3_b is done and stands in the way")
+    assert row.alarm == ""                  # the other arm stood in the way: not this arm failing
+    for k in range(3):
+        row.not_done(f"T{k}", "exception: TIMEOUT (no reply from the controller within 5.0 s)")
+    assert "3 measurements in a row" in row.alarm

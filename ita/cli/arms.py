@@ -31,7 +31,7 @@ from typing import Any
 import click
 import numpy as np
 
-from ita.archive import Archive, Event, archive_path
+from ita.archive import Archive, Event, Outcome, RunStatus, archive_path
 from ita.archive.store import new_run_id
 from ita.executive.conductor import Conductor, Motion, conducted_arms, zone_grid
 from ita.logic.bridge import KnowledgeBase
@@ -42,11 +42,27 @@ from ita.sequence.store import apply_tool_marks, load_tool_marks
 from ita.sim.arms import TwoArms
 from ita.workcell import Workcell
 
-__all__ = ["CONTACT_STEP_S", "arm_arm_contacts", "inspect_with_two_arms", "shares_of"]
+__all__ = ["CONTACT_STEP_S", "arm_arm_contacts", "inspect_with_two_arms", "scripts_of", "shares_of"]
 
 #: the contact check plays both arms' motions together at this step (s)
 CONTACT_STEP_S = 0.05
 NOT_FINISHED = 3
+
+
+def scripts_of(scripts: Sequence[str], arms: Sequence[str]) -> dict[str, list[str]]:
+    """Each arm's --inject scripts: ``ARM:FAULT...`` is that arm's alone, ``FAULT...``
+    each arm's.  UsageError for an arm the cell does not name."""
+    out: dict[str, list[str]] = {a: [] for a in arms}
+    for s in scripts:
+        head, colon, rest = s.partition(":")
+        if colon and "@" not in head and not rest.startswith("after="):
+            if head not in arms:
+                raise click.UsageError(f"--inject {s}: the cell has no arm {head!r} (its arms: {', '.join(arms)})")
+            out[head].append(rest)
+        else:
+            for a in arms:
+                out[a].append(s)
+    return out
 
 
 def shares_of(order: Sequence[str], assigned: dict[str, str], arms: Sequence[str]) -> dict[str, list[str]]:
@@ -123,7 +139,70 @@ class _Child:
         return found if isinstance(found, dict) else None
 
 
-def _serve(conductor: Conductor, children: Sequence[_Child], on_news: Callable[[], None]) -> None:
+class _HandOver:
+    """What an arm left, handed to the other (the high-level planner's re-allocation).
+
+    Each arm's process, its share worked, folds and asks for its hand-over
+    (``take("handover:ARM")``).  Once every arm has asked or its process has ended, the
+    measurements each arm's run did not measure (not done, or never reached when its run
+    stopped: an arm whose controller failed for good is down) go to the other arm when
+    the allocation says it can do them and its own run completed; posted at the latest
+    of the arms' clocks, so an arm that finished early waits in simulated time until
+    then.  One round: what a hand-over leaves stays not done."""
+
+    def __init__(self, conductor: Conductor, runs_dir: Path | None, runs: dict[str, str],
+                 able: dict[str, frozenset[str]]) -> None:
+        self.conductor = conductor
+        self.runs_dir = runs_dir
+        self.runs = runs
+        self.able = able
+        self.asked: dict[str, float] = {}
+        self.ended: set[str] = set()
+        self.posted = False
+        self.given: dict[str, list[str]] = {}
+        self.left: dict[str, list[str]] = {}
+
+    def saw(self, arm: str, message: tuple[Any, ...]) -> list[tuple[str, Any]]:
+        if message[0] == "take" and message[2] == f"handover:{arm}":
+            self.asked[arm] = float(message[1])
+        return self._due()
+
+    def gone(self, arm: str) -> list[tuple[str, Any]]:
+        self.ended.add(arm)
+        return self._due()
+
+    def _due(self) -> list[tuple[str, Any]]:
+        if self.posted or not self.asked or any(a not in self.asked and a not in self.ended for a in self.runs):
+            return []
+        self.posted = True
+        t = max([*self.asked.values(), *(self.conductor.state[a].last_s for a in self.ended)])
+        left, completed = self._left()
+        self.left = left
+        out: list[tuple[str, Any]] = []
+        for arm in self.asked:
+            mine = [i for other in self.runs if other != arm for i in left.get(other, [])
+                    if i in self.able.get(arm, frozenset())] if completed.get(arm) else []
+            self.given[arm] = mine
+            out += self.conductor.receive(arm, ("post", t, f"handover:{arm}", mine or None))
+        return out
+
+    def _left(self) -> tuple[dict[str, list[str]], dict[str, bool]]:
+        """Each arm's run's measurements not measured (in its order), and whether it completed."""
+        left: dict[str, list[str]] = {}
+        completed: dict[str, bool] = {}
+        with Archive.open(archive_path(self.runs_dir), create=False) as archive:
+            known = {r.id for r in archive.runs()}
+            for arm, run_id in self.runs.items():
+                if run_id not in known:
+                    continue
+                info = archive.run(run_id)
+                measured = {r.spec_id for r in archive.results(run_id) if r.outcome is Outcome.MEASURED}
+                left[arm] = [str(i) for i in info.settings.get("specs") or [] if i not in measured]
+                completed[arm] = info.status is RunStatus.COMPLETED
+        return left, completed
+
+
+def _serve(conductor: Conductor, children: Sequence[_Child], hand_over: _HandOver) -> None:
     """Answer the arms' claims until both processes have ended."""
     live: dict[Any, _Child] = {c.conn: c for c in children}
     while live:
@@ -133,10 +212,12 @@ def _serve(conductor: Conductor, children: Sequence[_Child], on_news: Callable[[
                 message = child.conn.recv()
             except (EOFError, OSError):
                 del live[ready]
-                replies = conductor.gone(child.arm)
+                replies = hand_over.gone(child.arm)          # (posted before the conductor lets it go)
+                replies += conductor.gone(child.arm)
             else:
                 t0 = time.process_time()
                 replies = conductor.receive(child.arm, message)
+                replies += hand_over.saw(child.arm, message)
                 conductor.cpu_s += time.process_time() - t0
                 if os.environ.get("ITA_CONDUCTOR_TRACE"):
                     state = {n: (None if st.pending is None else round(st.pending.t, 2), st.stuck_on, round(st.floor, 2))
@@ -148,7 +229,6 @@ def _serve(conductor: Conductor, children: Sequence[_Child], on_news: Callable[[
                     target.conn.send(reply)
                 except (BrokenPipeError, OSError):
                     pass
-            on_news()
 
 
 def inspect_with_two_arms(*, part_dir: Path | None, limit: int | None, seed: int, runs_dir: Path | None,
@@ -190,8 +270,7 @@ def inspect_with_two_arms(*, part_dir: Path | None, limit: int | None, seed: int
         common += ["--faults", str(fault_rate)]
     if fault_kinds:
         common += ["--fault-kinds", fault_kinds]
-    for s in scripts:
-        common += ["--inject", s]
+    own_scripts = scripts_of(scripts, arms)
     if operator is not None:
         common += ["--operator", operator]
     if alarm_after is not None:
@@ -211,11 +290,15 @@ def inspect_with_two_arms(*, part_dir: Path | None, limit: int | None, seed: int
                        "registers": arm == registrar})
             args = [sys.executable, "-m", "ita.cli", "inspect", "--arm", arm, "--run-id", runs[arm],
                     "--conductor-fd", str(theirs.fileno()), *common]
+            for s in own_scripts[arm]:
+                args += ["--inject", s]
             children.append(_Child(arm, args, conn, theirs))
-        for arm in arms:                     # an arm with nothing to do stays where it is, done
+        hand_over = _HandOver(conductor, runs_dir, {c.arm: runs[c.arm] for c in children},
+                              dict(allocation.able))
+        for arm in arms:                     # an arm with nothing to do folds out of the way, done
             if not shares[arm]:
-                conductor.gone(arm)
-        _serve(conductor, children, lambda: None)
+                conductor.idle(arm)
+        _serve(conductor, children, hand_over)
         codes = {c.arm: c.proc.wait() for c in children}
     finally:
         signal.signal(signal.SIGINT, old_int)
@@ -226,7 +309,14 @@ def inspect_with_two_arms(*, part_dir: Path | None, limit: int | None, seed: int
     note("playing both arms' motions together in the simulator (contacts)")
     contacts = arm_arm_contacts(cell, conductor.paths, {a.name: a.home for a in conducted_arms(cell)})
     zones = conductor.summary()
-    report = _report(group, runs, summaries, codes, zones, contacts, allocation.as_dict(), time.perf_counter() - wall0)
+    final = _final(runs_dir, [runs[c.arm] for c in children],
+                   [h["run_id"] for s in summaries.values() if s and (h := s.get("handover"))])
+    # an arm's run that did not complete is made good when all it left was handed over and done
+    made_good = {a for a in codes if codes[a] != 0 and hand_over.left.get(a) is not None
+                 and all(i in final["measured_ids"] for i in hand_over.left[a])}
+    codes = {a: 0 if a in made_good else c for a, c in codes.items()}
+    report = _report(group, runs, summaries, codes, zones, contacts, allocation.as_dict(), time.perf_counter() - wall0,
+                     final, hand_over.given)
     with Archive.open(archive_path(runs_dir)) as archive:
         for arm, run_id in runs.items():
             if arm in codes:
@@ -240,15 +330,45 @@ def inspect_with_two_arms(*, part_dir: Path | None, limit: int | None, seed: int
         raise SystemExit(NOT_FINISHED)
 
 
+def _final(runs_dir: Path | None, main: Sequence[str], handed: Sequence[str]) -> dict[str, Any]:
+    """The two-arm run's results as they stand: each spec's result in its arm's run, or in
+    a hand-over run when that measured it; counts by decision (or outcome)."""
+    last: dict[str, Any] = {}
+    todo: list[str] = []
+    with Archive.open(archive_path(runs_dir), create=False) as archive:
+        known = {r.id for r in archive.runs()}
+        for run_id in main:
+            if run_id in known:
+                todo += [str(i) for i in archive.run(run_id).settings.get("specs") or []]
+                last.update({r.spec_id: r for r in archive.results(run_id)})
+        for run_id in handed:
+            if run_id in known:
+                last.update({r.spec_id: r for r in archive.results(run_id)
+                             if r.outcome is Outcome.MEASURED or r.spec_id not in last})
+    counts: dict[str, int] = {}
+    for r in last.values():
+        key = r.decision.value if r.decision is not None else r.outcome.value
+        counts[key] = counts.get(key, 0) + 1
+    missing = len(set(todo) - set(last))
+    if missing:
+        counts["not_reached"] = missing
+    measured = {i for i, r in last.items() if r.outcome is Outcome.MEASURED}
+    return {"counts": counts, "measured": len(measured), "total": len(set(todo)), "measured_ids": measured}
+
+
 def _report(group: str, runs: dict[str, str], summaries: dict[str, dict[str, Any] | None], codes: dict[str, int],
-            zones: dict[str, Any], contacts: dict[str, Any], allocation: dict[str, Any], wall_s: float) -> dict[str, Any]:
+            zones: dict[str, Any], contacts: dict[str, Any], allocation: dict[str, Any], wall_s: float,
+            final: dict[str, Any], given: dict[str, list[str]]) -> dict[str, Any]:
     arms_z = zones["arms"]
     per_arm = {}
     for arm, s in summaries.items():
         z = arms_z.get(arm, {})
-        cycle = float(s["simulated_cycle_s"]) if s else math.nan
+        cycle = float(s.get("simulated_end_s", s["simulated_cycle_s"])) if s else math.nan
         own = (s or {}).get("zones", {})           # the arm's own clock: its waits and folds
-        waited = float(own.get("wait_s", 0.0)) + float(own.get("fold_s", 0.0))
+        # its waits for the other arm: for space (claims, folds) and for the hand-over
+        waited = float(own.get("wait_s", 0.0)) + float(own.get("fold_s", 0.0)) \
+            + float((s or {}).get("handover_wait_s", 0.0))
+        handed = (s or {}).get("handover")
         per_arm[arm] = {"run_id": runs[arm], "status": s["status"] if s else f"exit {codes.get(arm)}",
                         "measured": s["measured"] if s else 0, "total": s["total"] if s else 0,
                         "counts": s["counts"] if s else {}, "simulated_cycle_s": round(cycle, 3),
@@ -256,19 +376,18 @@ def _report(group: str, runs: dict[str, str], summaries: dict[str, dict[str, Any
                         "folds": int(own.get("folds", 0)),
                         "claims": z.get("claims", 0), "refused": int(own.get("refused", 0)),
                         "refusals": z.get("refusals", []),
-                        "exceptions": s["exceptions"] if s else None, "wall_s": s["wall_s"] if s else None}
-    counts: dict[str, int] = {}
-    for s in summaries.values():
-        for k, v in (s or {}).get("counts", {}).items():
-            counts[k] = counts.get(k, 0) + int(v)
+                        "exceptions": s["exceptions"] if s else None, "wall_s": s["wall_s"] if s else None,
+                        "handed_over": len(given.get(arm, [])),
+                        "handover": None if not handed else
+                        {k: handed.get(k) for k in ("run_id", "status", "measured", "total", "counts", "waited_s")}}
     cycles = [v["simulated_cycle_s"] for v in per_arm.values() if not math.isnan(v["simulated_cycle_s"])]
     return {"group": group, "arms": 2, "status": "completed" if all(c == 0 for c in codes.values()) else "not finished",
             "simulated_cycle_s": round(max(cycles), 3) if cycles else None,
-            "measured": sum(v["measured"] for v in per_arm.values()),
-            "total": sum(v["total"] for v in per_arm.values()), "counts": counts,
+            "measured": final["measured"], "total": final["total"], "counts": final["counts"],
             "arm_arm_contacts": contacts["arm_arm_contacts"], "contact_check": contacts,
             "per_arm": per_arm, "allocation": {k: allocation[k] for k in ("makespan_s", "bound_s", "one_arm_s")},
-            "conductor_cpu_s": zones.get("conductor_cpu_s"), "wall_s": round(wall_s, 1), "runs": runs}
+            "conductor_cpu_s": zones.get("conductor_cpu_s"), "wall_s": round(wall_s, 1), "runs": runs,
+            "handover_runs": {a: v["handover"]["run_id"] for a, v in per_arm.items() if v["handover"]}}
 
 
 def _text(report: dict[str, Any]) -> str:
@@ -280,6 +399,10 @@ def _text(report: dict[str, Any]) -> str:
         lines.append(f"  {arm:6s} run {a['run_id']}: {a['status']}, {a['measured']}/{a['total']} measured, "
                      f"cycle {a['simulated_cycle_s']} s, waited {a['waiting_s']} s for the other arm "
                      f"({a['folds']} folds, {a['refused']} claims refused)")
+        if a["handover"]:
+            h = a["handover"]
+            lines.append(f"         and run {h['run_id']}: {h['measured']}/{h['total']} the other arm left, "
+                         f"handed over (waited {h['waited_s']} s for it): {h['status']}")
     counts = ", ".join(f"{k} {v}" for k, v in sorted(report["counts"].items()))
     lines.append(f"  decisions: {counts}")
     lines.append("  each arm's results: ita results RUN (the runs above)")

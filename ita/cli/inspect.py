@@ -169,24 +169,53 @@ def _attach_injector(session: Any, archive: Any, run_id: str) -> None:
     session.arm.injector = session.slra.injector = injector
 
 
-def _run(session: Any, archive: Any, run_id: str, as_json: bool, view: LiveView, parked: bool = False) -> None:
-    from ita.toplevel import RunSignals, TopLevel
+def _run(session: Any, archive: Any, run_id: str, as_json: bool, view: LiveView, parked: bool = False,
+         settings: dict[str, Any] | None = None) -> None:
+    """Run `run_id` and print its summary; exit 3 unless it completed.  parked: one arm of a
+    two-arm run: at the end it folds out of the other's way, then waits until both arms'
+    shares are worked and does what the other arm left that it can (its hand-over: a run
+    of its own, `RUN-h`, with `settings`), then says it is done."""
+    from ita.toplevel import RunSignals, TopLevel, start_run
 
     _attach_injector(session, archive, run_id)
     with RunSignals(message=sys.stderr) as signals:
         summary = TopLevel(session, archive, run_id, signals).run(on_progress=view)
     extra: dict[str, Any] = {}
+    finished = summary.status == "completed"
     if parked:           # one arm of two: out of the other's way, and its zones given up
-        session.arm.controller.park()
-        stats = [session.arm.controller.zone_stats, session.slra.controller.zone_stats]
-        extra["zones"] = {k: round(sum(float(s[k]) for s in stats), 3) for k in stats[0]}
+        controller = session.arm.controller
+        controller.give_way()
         extra["simulated_parked_s"] = round(session.clock.now, 3)
+        wait, handed = controller.gate.take(session.clock.now, f"handover:{session.ctx.workcell.arm.name}")
+        session.clock.advance(wait)
+        extra["handover_wait_s"] = round(wait, 3)
+        if finished and isinstance(handed, list) and handed:
+            hid = start_run(session, archive, run_id=f"{run_id}-h", specs=[str(i) for i in handed],
+                            settings=dict(settings or {}) | {"handed_over_after_s": round(wait, 3)})
+            view.note(f"run {hid}: {archive.run(hid).total} measurements the other arm left (its hand-over)")
+            _attach_injector(session, archive, hid)
+            with RunSignals(message=sys.stderr) as signals:
+                more = TopLevel(session, archive, hid, signals).run(on_progress=view)
+            controller.give_way()
+            extra["handover"] = more.to_dict() | {"run_id": hid, "waited_s": round(wait, 3)}
+            finished = finished and more.status == "completed"
+        controller.park()
+        stats = [controller.zone_stats, session.slra.controller.zone_stats]
+        extra["zones"] = {k: round(sum(float(s[k]) for s in stats), 3) for k in stats[0]}
+        extra["simulated_end_s"] = round(session.clock.now, 3)
     if as_json:
         click.echo(json.dumps(summary.to_dict() | extra, indent=1))
     else:
         click.echo(_summary_text(summary))
-    if summary.status != "completed":
+    if not finished:
         raise SystemExit(NOT_FINISHED)     # the summary said how to continue
+
+
+def _unprefixed(script: str) -> str:
+    """An --inject script without its arm (``t3_b:controller_failed:after=600``: that
+    arm's alone, in a two-arm run)."""
+    head, colon, rest = script.partition(":")
+    return rest if colon and "@" not in head and not rest.startswith("after=") else script
 
 
 @dataclass(frozen=True)
@@ -251,8 +280,10 @@ def _closing(session: Any) -> Iterator[Any]:
 @click.option("--inject", "scripts", multiple=True, metavar="FAULT[@TARGET][:after=S]",
               help="Script one fault, e.g. broken_probe@us_probe_1:after=120 (simulated seconds); repeatable.  "
               "Besides the kinds above: position_drift, tilted_probe, slra_failed@SLRA (a laser or detector "
-              "failure that cleaning does not cure), part_displaced (the part knocked on its fixture).  A target the simulator cannot hit is refused with the "
-              "valid pairs.")
+              "failure that cleaning does not cure), part_displaced (the part knocked on its fixture), "
+              "controller_failed (the arm's controller fails for good: the arm is down).  A target the simulator "
+              "cannot hit is refused with the valid pairs.  With --arms 2, ARM:FAULT... hits that arm alone "
+              "(e.g. t3_b:controller_failed:after=600), FAULT... each arm.")
 @click.option("--run-id", default=None, help="The id to give the new run (the System Monitor names the runs "
               "it starts); default a fresh one.")
 @click.option("--alarm-after", type=click.IntRange(min=0), default=None, metavar="N",
@@ -316,7 +347,9 @@ def inspect(part_dir: Path | None, limit: int | None, seed: int, runs_dir: Path 
     from ita.task import open_session
     from ita.toplevel import earlier_results, start_run, tooling_specs, unproven
 
-    injection = InjectionPlan.parse(fault_rate, fault_kinds, scripts, seed)   # bad options fail before any work
+    # bad options fail before any work (with --arms 2 a script may name its arm: ARM:FAULT...)
+    injection = InjectionPlan.parse(fault_rate, fault_kinds, [_unprefixed(s) for s in scripts] if arms == 2 else scripts,
+                                    seed)
     if arms == 2:
         from ita.cli.arms import inspect_with_two_arms
 
@@ -389,7 +422,7 @@ def inspect(part_dir: Path | None, limit: int | None, seed: int, runs_dir: Path 
             run_id = start_run(session, archive, limit=limit, run_id=run_id, settings=settings, specs=specs)
             view.note(f"run {run_id}: {archive.run(run_id).total} measurements of {session.part.name} "
                       f"(set up in {session.setup_seconds:.1f} s)")
-            _run(session, archive, run_id, as_json, view, parked=conducted is not None)
+            _run(session, archive, run_id, as_json, view, parked=conducted is not None, settings=settings)
 
 
 @click.command("continue")

@@ -17,7 +17,8 @@ tests and repairs that are not a measurement.
 - CLEAN(Tool): wipe the window of the SLRA in hand (DIRTY_WINDOW goes).
 - QUERY(controller): re-home the arm and query the controller: ``READY``, or no reply
   at all from a silent controller (the executive times it out).
-- RESET(controller): power-cycle the controller (CONTROLLER_SILENT goes).
+- RESET(controller): power-cycle the controller (CONTROLLER_SILENT goes; CONTROLLER_FAILED,
+  a controller failed for good, stays).
 - RESEAT(Device): reseat the sensor's cable (SENSOR_GARBAGE goes).
 - RECALIBRATE(cal_block): touch off the arm on the block (its drift is zeroed, and stops).
 
@@ -98,7 +99,8 @@ class StationCommands:
 
     def _silent(self) -> bool:
 
-        return bool(self.world.faults.has(Fault.CONTROLLER_SILENT, CONTROLLER))
+        return bool(self.world.faults.has(Fault.CONTROLLER_SILENT, CONTROLLER)
+                    or self.world.faults.has(Fault.CONTROLLER_FAILED, CONTROLLER))
 
     def calibrate(self, command: Command) -> Reply | Completion:
         world = self.world

@@ -51,6 +51,10 @@ class MotionStatus(str, Enum):
     REJECTED = "rejected"
 
 
+#: what a REJECTED reply's message starts with when the zone conductor refused the claim
+#: (the other arm stands in the way: ita.executive.conductor)
+REFUSED_BY_ZONES = "the other arm's zones"
+
 @dataclass(frozen=True)
 class MotionReply:
     """The controller's answer to one command.
@@ -111,8 +115,11 @@ class RobotController:
                 command: str = "move") -> MotionReply:
         """Run `trajectory` from the arm's current joints; the MotionReply says how it went.
         With a gate (another arm in the cell), the motion's space is claimed first: the
-        arm waits for the grant, folds back when told to, and a refused claim is REJECTED."""
-        if self.gate is None:
+        arm waits for the grant, folds back when told to, and a refused claim is REJECTED.
+        A controller that does not answer claims nothing either (the command times out)."""
+        faults = self.world.faults
+        if self.gate is None or faults.has(Fault.TRANSIENT, CONTROLLER) \
+                or faults.has(Fault.CONTROLLER_SILENT, CONTROLLER) or faults.has(Fault.CONTROLLER_FAILED, CONTROLLER):
             return self._execute(trajectory, allowed=allowed, command=command)
         world, gate = self.world, self.gate
         t0 = world.clock.now
@@ -132,7 +139,7 @@ class RobotController:
         if grant.kind != "go":
             self.zone_stats["refused"] += 1
             return MotionReply(MotionStatus.REJECTED, command, world.clock.now - t0, tuple(map(float, world.q)),
-                               message=f"the other arm's zones: {grant.why}", waited_s=world.clock.now - t0)
+                               message=f"{REFUSED_BY_ZONES}: {grant.why}", waited_s=world.clock.now - t0)
         self._wait(grant.wait_s)
         if back is not None:
             reply = self._execute(back, allowed=allowed, command="return")
@@ -208,7 +215,7 @@ class RobotController:
         t0 = self.world.clock.now
         way = self._clear_way(retreat_paths(self.world.model, self.world.q, np.asarray(grant.fold)), allowed)
         reply = self._execute(way, allowed=allowed, command="retreat")
-        self.gate.moved(self.world.clock.now, self.world.q)
+        self.gate.moved(self.world.clock.now, self.world.q, (way.times, way.q))
         self.zone_stats["folds"] += 1
         self.zone_stats["fold_s"] += self.world.clock.now - t0
         return reply
@@ -219,7 +226,8 @@ class RobotController:
         glitch = world.faults.has(Fault.TRANSIENT, CONTROLLER)
         if glitch:                          # a one-off: this command is lost, the next is not
             world.faults = world.faults.without(Fault.TRANSIENT, CONTROLLER)
-        if glitch or world.faults.has(Fault.CONTROLLER_SILENT, CONTROLLER):
+        if glitch or world.faults.has(Fault.CONTROLLER_SILENT, CONTROLLER) \
+                or world.faults.has(Fault.CONTROLLER_FAILED, CONTROLLER):
             wait = trajectory.duration + self.reply_timeout_s
             world.clock.advance(wait)
             return MotionReply(MotionStatus.TIMEOUT, command, wait, None,

@@ -57,7 +57,7 @@ class MotionGate(Protocol):
 
     def claim(self, t: float, times: FloatArray, q: FloatArray) -> Grant: ...
 
-    def moved(self, t: float, q: FloatArray) -> None: ...
+    def moved(self, t: float, q: FloatArray, flown: tuple[FloatArray, FloatArray] | None = None) -> None: ...
 
     def park(self, t: float, q: FloatArray) -> Grant: ...
 
@@ -82,8 +82,13 @@ class RemoteGate:
     def claim(self, t: float, times: FloatArray, q: FloatArray) -> Grant:
         return self._ask(("claim", float(t), np.asarray(times, dtype=float), np.asarray(q, dtype=float)))
 
-    def moved(self, t: float, q: FloatArray) -> None:
-        self.connection.send(("moved", float(t), np.asarray(q, dtype=float)))
+    def moved(self, t: float, q: FloatArray, flown: tuple[FloatArray, FloatArray] | None = None) -> None:
+        """Where the arm is at `t` after its last motion; flown: the (times, joints) of the way
+        a fold took (of those the conductor claimed for it)."""
+        message: tuple[object, ...] = ("moved", float(t), np.asarray(q, dtype=float))
+        if flown is not None:
+            message += (np.asarray(flown[0], dtype=float), np.asarray(flown[1], dtype=float))
+        self.connection.send(message)
 
     def park(self, t: float, q: FloatArray) -> Grant:
         return self._ask(("park", float(t), np.asarray(q, dtype=float)))

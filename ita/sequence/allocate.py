@@ -38,7 +38,7 @@ one-arm sequence plan's groups (which tool class each measurement takes):
 from __future__ import annotations
 
 from collections.abc import Callable, Collection, Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -94,6 +94,10 @@ class Allocation:
     unassigned: tuple[tuple[str, str], ...]
     split: int
     dwell_s: float = DWELL_S
+    #: arm -> the measurements it can do (its reach, MKB, tools and configurations clear of
+    #: the other arm folded; a shared tool's group its owner's alone): whom work left by
+    #: the other arm may be handed to
+    able: Mapping[str, frozenset[str]] = field(default_factory=dict)
 
     @property
     def gap_percent(self) -> float:
@@ -235,7 +239,9 @@ def allocate(ctx: PlanningContext, plan: SequencePlan, dwell_s: float = DWELL_S,
     bound = max(sum(least.values()) / 2.0,
                 *(sum(least[i] for i, a in only.items() if a == arm) for arm in range(2)))
     one = sum(g.cost_s for g in plan.groups) + plan.transfer_s + dwell_s * len(every)
-    return Allocation(chosen, assigned, max(s.time_s for s in chosen), bound, one, unassigned, best, dwell_s)
+    able = {arms[a].name: frozenset(i for i in every if i not in lost and can[a][i] and forced.get(i, a) == a)
+            for a in range(2)}
+    return Allocation(chosen, assigned, max(s.time_s for s in chosen), bound, one, unassigned, best, dwell_s, able)
 
 
 def _stations_missed(ctx: PlanningContext, view: Workcell, mkb: MeasurementKB, tool: str) -> str:

@@ -10,6 +10,8 @@ hits; the empty target hits every one.
                        back-wall echo and reads double
     DRY_COUPLANT       the dispenser gives nothing (empty or dried): no coupling
     CONTROLLER_SILENT  the robot controller stops answering: commands time out
+    CONTROLLER_FAILED  the robot controller has failed for good: commands time out, and
+                       a reset does not bring it back (the arm is down; scripted only)
     SENSOR_GARBAGE     the gauge's replies are corrupt (out-of-domain values)
     POSITION_DRIFT     the arm's position drifts a little further with every move
     EMPTY_COUPLANT     the couplant station's reservoir is empty: no dispenser gives any
@@ -54,6 +56,7 @@ class Fault(str, Enum):
     WORN_PROBE = "worn_probe"
     DRY_COUPLANT = "dry_couplant"
     CONTROLLER_SILENT = "controller_silent"
+    CONTROLLER_FAILED = "controller_failed"
     SENSOR_GARBAGE = "sensor_garbage"
     POSITION_DRIFT = "position_drift"
     EMPTY_COUPLANT = "empty_couplant"

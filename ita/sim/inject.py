@@ -24,7 +24,9 @@ reports, so that only a check against a reference would find it), SENSOR_GARBAGE
 SLRA, TILTED_PROBE, PART_DISPLACED (``part_displaced:after=600`` knocks the part on its
 fixture: millimetres and tenths of a degree) and SLRA_FAILED (scripted only: ``tilted_probe:after=60`` tilts the
 probe in hand; ``slra_failed@slra_1:after=300`` fails slra_1's laser for good, and with
-``slra_failed@slra_2`` later both SLRAs are broken).
+``slra_failed@slra_2`` later both SLRAs are broken) and CONTROLLER_FAILED
+(``controller_failed:after=600``: the arm's controller fails for good, the arm is down;
+in a two-arm run its work left is handed to the other arm).
 """
 
 from __future__ import annotations
@@ -53,7 +55,8 @@ INJECTABLE = {
 CAUSE_OF = {
     "broken_probe": "broken_probe", "worn_probe": "worn_probe", "dry_couplant": "dry_couplant",
     "empty_couplant": "empty_couplant_station", "sensor_garbage": "sensor_cable_fault",
-    "transient": "transient_glitch", "controller_silent": "controller_not_answering", "obstacle": "obstacle",
+    "transient": "transient_glitch", "controller_silent": "controller_not_answering",
+    "controller_failed": "controller_not_answering", "obstacle": "obstacle",
     "dirty_window": "dirty_window", "position_drift": "arm_drift", "tilted_probe": "tilted_probe",
     "slra_failed": "slra_failed", "part_displaced": "part_displaced",
 }
@@ -138,7 +141,7 @@ def valid_targets(probes: list[str], slras: list[str]) -> dict[str, tuple[str, .
             "tilted_probe": tuple(probes), "dirty_window": tuple(slras), "slra_failed": tuple(slras),
             "empty_couplant": (STATION,),
             "sensor_garbage": (GAUGE,), "transient": (GAUGE, CONTROLLER), "controller_silent": (CONTROLLER,),
-            "position_drift": (CONTROLLER,), "part_displaced": (PART,), "obstacle": None}
+            "controller_failed": (CONTROLLER,), "position_drift": (CONTROLLER,), "part_displaced": (PART,), "obstacle": None}
 
 
 def injected_log(runs_dir: Path, run_id: str) -> Path:
@@ -202,7 +205,7 @@ class FaultInjector:
             return GAUGE
         if fault == "transient":
             return GAUGE if kind == "gauge" else CONTROLLER
-        if fault in ("controller_silent", "position_drift"):
+        if fault in ("controller_silent", "controller_failed", "position_drift"):
             return CONTROLLER
         if fault == "part_displaced":
             return PART

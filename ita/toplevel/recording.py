@@ -29,6 +29,7 @@ from typing import TYPE_CHECKING
 from ita.archive import Decision, Event, Outcome, Result, StoredFrame
 from ita.devices.data import MeasuredValue
 from ita.logic.json_value import JsonValue
+from ita.robot.controller import REFUSED_BY_ZONES
 
 if TYPE_CHECKING:
     from ita.archive import Archive
@@ -94,6 +95,8 @@ class FailuresInARow:
         self.reasons = []
 
     def not_done(self, spec_id: str, reason: str | None) -> None:
+        if reason and REFUSED_BY_ZONES in reason:
+            return          # the other arm of a two-arm run stood in the way: not this arm failing
         self.reasons.append(f"{spec_id}: {reason or 'not done'}")
 
     @property
