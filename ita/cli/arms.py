@@ -6,7 +6,9 @@ and tools); each arm then works its share as a run of its own, in a process of i
 with the other arm's own tools out of its reach; every motion of either arm is claimed
 from this process's zone conductor first (ita.executive.conductor, over a socket pair:
 ita.robot.gate), which grants, delays (WAIT, CONTINUE) or folds the arms in simulated
-time.  At the end the simulator plays both arms' motions together (ita.sim.arms, their
+time.  When both shares are worked (or an arm is down), what each arm's run left goes to
+the other arm where the allocation says it can do it (:class:`_HandOver`), in a run of
+its own.  At the end the simulator plays both arms' motions together (ita.sim.arms, their
 URDF bodies in pybullet) and counts the moments they touch.
 
     inspect_with_two_arms(part_dir=None, limit=None, seed=0, ...)     # prints the summary
