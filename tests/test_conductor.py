@@ -31,7 +31,7 @@ def poses(cell):
     for arm in cell.arms():
         lo, hi = np.asarray(arm.joints.lower), np.asarray(arm.joints.upper)
         qs = lo + (hi - lo) * rng.random((160, len(lo)))
-        out[arm.name] = [(q, conductor.held(arm.name, q)) for q in qs]
+        out[arm.name] = [(q, conductor.body(arm.name, q)) for q in qs]
     return out
 
 
@@ -67,8 +67,8 @@ def across(cell, poses):
     each clear of the other arm folded (the allocation's rule)."""
     c = fresh(cell)
     a, b = c.order
-    home = {n: c.held(n, c.state[n].arm.home) for n in c.order}
-    folded = {n: c.held(n, c._folded(n, np.asarray(c.state[n].arm.home))) for n in c.order}
+    home = {n: c.body(n, c.state[n].arm.home) for n in c.order}
+    folded = {n: c.body(n, c._folded(n, np.asarray(c.state[n].arm.home))) for n in c.order}
     for qa, za in poses[a]:
         if not (za & home[b]) or za & folded[b]:
             continue
@@ -167,7 +167,7 @@ def test_random_work_of_both_arms_ends_without_deadlock_and_apart(cell, poses, s
     other arm folded): every one reached or, outside the rules, refused; never stuck."""
     c0 = fresh(cell)
     a, b = c0.order
-    folded = {n: c0.held(n, c0._folded(n, np.asarray(c0.state[n].arm.home))) for n in (a, b)}
+    folded = {n: c0.body(n, c0._folded(n, np.asarray(c0.state[n].arm.home))) for n in (a, b)}
     rng = np.random.default_rng(seed)
     ok = {n: [q for q, z in poses[n] if not z & folded[c0.order[1 - c0.order.index(n)]]] for n in (a, b)}
     targets = {n: [ok[n][i] for i in rng.choice(len(ok[n]), 6, replace=False)] for n in (a, b)}
@@ -182,7 +182,7 @@ def test_a_claim_waits_for_the_other_arms_motion_to_end(cell, poses) -> None:
     home_a, home_b = c.state[a].arm.home, c.state[b].arm.home
     # a motion of the first arm, and one of the second whose space meets the first's sweep,
     # not where the first then rests
-    home_held = c.held(b, home_b)
+    home_held = c.body(b, home_b)
     for qa, za in poses[a][:80]:
         sweep = c.swept(a, [0.0, MOVE_S], [home_a, qa])
         if (sweep | za) & home_held or c._unsafe(a, qa) is not None:

@@ -99,8 +99,7 @@ class StationCommands:
 
     def _silent(self) -> bool:
 
-        return bool(self.world.faults.has(Fault.CONTROLLER_SILENT, CONTROLLER)
-                    or self.world.faults.has(Fault.CONTROLLER_FAILED, CONTROLLER))
+        return self.world.faults.controller_silent
 
     def calibrate(self, command: Command) -> Reply | Completion:
         world = self.world

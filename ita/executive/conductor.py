@@ -235,12 +235,6 @@ class Conductor:
         """The zones of arm `name`'s body (and tools) at joints `q`."""
         return self._rest(name, np.asarray(q, dtype=float))
 
-    def held(self, name: str, q: Sequence[float]) -> Zones:
-        """The zones arm `name` holds at rest at joints `q`: its body's (its way back is not
-        held: when it must fold and the other arm's body stands on that way, the other folds
-        first, :meth:`_give_way`)."""
-        return self._rest(name, np.asarray(q, dtype=float))
-
     def swept(self, name: str, times: Sequence[float], q: Sequence[Sequence[float]]) -> Zones:
         """The zones a motion of arm `name` (knots' times and joints) sweeps."""
         return self._sweep(name, np.asarray(times, dtype=float), np.asarray(q, dtype=float))

@@ -118,8 +118,7 @@ class RobotController:
         arm waits for the grant, folds back when told to, and a refused claim is REJECTED.
         A controller that does not answer claims nothing either (the command times out)."""
         faults = self.world.faults
-        if self.gate is None or faults.has(Fault.TRANSIENT, CONTROLLER) \
-                or faults.has(Fault.CONTROLLER_SILENT, CONTROLLER) or faults.has(Fault.CONTROLLER_FAILED, CONTROLLER):
+        if self.gate is None or faults.has(Fault.TRANSIENT, CONTROLLER) or faults.controller_silent:
             return self._execute(trajectory, allowed=allowed, command=command)
         world, gate = self.world, self.gate
         t0 = world.clock.now
@@ -226,8 +225,7 @@ class RobotController:
         glitch = world.faults.has(Fault.TRANSIENT, CONTROLLER)
         if glitch:                          # a one-off: this command is lost, the next is not
             world.faults = world.faults.without(Fault.TRANSIENT, CONTROLLER)
-        if glitch or world.faults.has(Fault.CONTROLLER_SILENT, CONTROLLER) \
-                or world.faults.has(Fault.CONTROLLER_FAILED, CONTROLLER):
+        if glitch or world.faults.controller_silent:
             wait = trajectory.duration + self.reply_timeout_s
             world.clock.advance(wait)
             return MotionReply(MotionStatus.TIMEOUT, command, wait, None,

@@ -92,18 +92,18 @@ def from_waypoints(model: ArmModel, waypoints: ArrayLike, knot_period: float = K
 RETREAT_BACK_M = 0.2
 
 
-def retreat_paths(model: ArmModel, q: ArrayLike, fold: ArrayLike, back_m: float = RETREAT_BACK_M,
-                  tcp: ArrayLike | None = None) -> list[TimedTrajectory]:
+def retreat_paths(model: ArmModel, q: ArrayLike, fold: ArrayLike,
+                  back_m: float = RETREAT_BACK_M) -> list[TimedTrajectory]:
     """The ways an arm may retreat from joints `q` to `fold` (rest-to-rest trajectories),
-    the first preferred: the tool (TCP `tcp` in the flange frame; the flange without)
-    backed straight out along its axis `back_m` keeping its orientation, then straight
+    the first preferred: the flange backed straight out along its axis `back_m` keeping
+    its orientation, then straight
     in joint space to the fold (when the joints allow); and straight in joint space
     alone.  The controller flies the first its world finds clear, and the zone conductor
     claims them all (ita.robot.controller, ita.executive.conductor)."""
     q0 = np.asarray(q, dtype=float)
     goal = np.asarray(fold, dtype=float)
-    frame = np.eye(4) if tcp is None else np.asarray(tcp, dtype=float)
-    axis = (flange_poses(model, q0[None])[0] @ frame)[:3, 2]
+    frame = np.eye(4)
+    axis = flange_poses(model, q0[None])[0][:3, 2]
     backed = q0 + joint_translation(model, q0, frame, -back_m * axis / np.linalg.norm(axis))
     inside = bool(np.all(backed >= np.asarray(model.lower) - 1e-9) and np.all(backed <= np.asarray(model.upper) + 1e-9))
     ways = []

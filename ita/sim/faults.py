@@ -94,6 +94,11 @@ class FaultSet:
         f = Fault(fault)
         return (f, "") in self.active or (target != "" and (f, target) in self.active)
 
+    @property
+    def controller_silent(self) -> bool:
+        """Whether the robot controller does not answer (silent for now, or failed for good)."""
+        return self.has(Fault.CONTROLLER_SILENT, CONTROLLER) or self.has(Fault.CONTROLLER_FAILED, CONTROLLER)
+
     def __bool__(self) -> bool:
         return bool(self.active)
 
