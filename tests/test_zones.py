@@ -91,6 +91,21 @@ def test_a_target_at_the_other_arms_base_is_refused_not_waited_for_ever() -> Non
         coordinate(ZoneGrid.around([A, B, (1.7, -2.5), (1.7, -0.5)]), jobs)
 
 
+def test_a_tool_change_a_downed_arm_bars_bars_the_moves_made_with_that_tool() -> None:
+    """The downed arm b stands at (1.0, -1.0): a taking a tool from a slot beside it is
+    barred, and with it every measurement of that tool, up to its next tool change."""
+    down = ArmJob("b", B, (1.0, -1.0), (), down=True)
+    moves = (Move((1.7, 0.6), 1.0, 2.0, "a0"),
+             Move((1.0, -0.9), 1.0, 0.0, "pick up t2", tool_change=True),     # beside the downed arm
+             Move((1.7, 0.4), 1.0, 2.0, "a1"), Move((1.7, 0.2), 1.0, 2.0, "a2"),
+             Move((0.3, 0.8), 1.0, 0.0, "pick up t3", tool_change=True),
+             Move((1.7, 0.5), 1.0, 2.0, "a3"))
+    jobs = [ArmJob("a", A, (0.5, 0.0), moves), down]
+    s = coordinate(ZoneGrid.around([A, B, *(m.target for m in moves), down.start]), jobs)
+    assert s.skipped["a"] == ("pick up t2", "a1", "a2")
+    assert [row[-1] for row in s.timeline["a"]] == ["a0", "pick up t3", "a3"]
+
+
 def test_segment_distance() -> None:
     p = lambda x, y: np.array([x, y], dtype=float)  # noqa: E731
     assert segment_distance(p(0, 0), p(2, 0), p(1, -1), p(1, 1)) == 0.0          # crossing

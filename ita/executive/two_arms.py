@@ -59,7 +59,8 @@ def arm_jobs(ctx: PlanningContext, allocation: Allocation) -> list[ArmJob]:
             slot = slot_position(view, tool)
             at_slot = (float(slot[0]), float(slot[1]))
             q_slot = tuple(map(float, rack_configurations(view, model, tool)[0]))
-            moves.append(Move(at_slot, ctx.cost_model.transfer(view, held, tool), 0.0, f"pick up {tool}", q_slot))
+            moves.append(Move(at_slot, ctx.cost_model.transfer(view, held, tool), 0.0, f"pick up {tool}", q_slot,
+                              tool_change=True))
             held = tool
             specs = [ctx.spec(i) for i in order]
             xy = tool_points_world(view, view.tool(tool), specs)[:, :2]
@@ -70,7 +71,7 @@ def arm_jobs(ctx: PlanningContext, allocation: Allocation) -> list[ArmJob]:
             moves.append(Move(at_slot, legs[-1], 0.0, f"back to {tool}'s slot", q_slot))
         if held is not None:
             moves.append(Move(moves[-1].target, ctx.cost_model.transfer(view, held, None), 0.0, f"put down {held}",
-                              moves[-1].q))
+                              moves[-1].q, tool_change=True))
             # done: the arm folds on its base, out of the other's way (a move like any other;
             # the first arm by way of its home, turned away from the other, the others on
             # their own base ray: their way back is theirs)
@@ -169,8 +170,10 @@ def hand_over(ctx: PlanningContext, plan: SequencePlan, allocation: Allocation, 
     the move it is making, then makes the rest of its own work and what the downed arm
     had not made that it can (ita.sequence.allocate.alone: its reach, its MKB, its own
     tools, a twinless tool unless in the downed hand, its body clear of the downed arm's
-    zones), from its rack (the tool it holds put back first), played through the zones
-    with the downed arm frozen (a move its body bars is skipped, and lost)."""
+    zones), going on with the tool it holds when it has work for it, then from its rack
+    (else the tool it holds put back first), played through the zones with the downed arm
+    frozen (a move its body bars is skipped, and lost; a tool change it bars, with the
+    moves made with that tool)."""
     names = [j.name for j in jobs]
     if down not in names:
         raise ValueError(f"no arm {down!r} in the plan (its arms: {', '.join(names)})")
@@ -201,19 +204,28 @@ def hand_over(ctx: PlanningContext, plan: SequencePlan, allocation: Allocation, 
     todo = [i for i in allocation.assigned if i not in done_set]
     share, lost = alone(ctx, plan, other, todo, keep_clear, allocation.dwell_s, mkbs,
                         unavailable=() if held is None else (held,))
+    in_hand = held_by(schedule, other, resume)
+    keep = [k for k, (t, _o, _c) in enumerate(share.groups) if t == in_hand][:1]
+    if keep:                                        # the work with the tool in its hand first
+        ks = keep + [k for k in range(len(share.groups)) if k not in keep]
+        share = replace(share, groups=tuple(share.groups[k] for k in ks), legs=tuple(share.legs[k] for k in ks))
     empty = replace(next(s for s in allocation.shares if s.arm == down), groups=(), legs=(), count=0, time_s=0.0)
     shares = tuple(share if s.arm == other else empty for s in allocation.shares)
     again = {j.name: j for j in arm_jobs(ctx, replace(allocation, shares=shares))}
     view = ctx.workcell.seen_by(other)
     tip = body_other(q_other[None])[0, -1]
     mine = again[other]
-    in_hand = held_by(schedule, other, resume)
-    if mine.moves and in_hand is not None:          # its tool back to the rack first (at the TCP's top speed)
+    if mine.moves and in_hand is not None:
         first = mine.moves[0]
-        back = float(np.hypot(tip[0] - first.target[0], tip[1] - first.target[1])) / RETREAT_SPEED
-        tool = first.label[len("pick up "):]
-        mine = replace(mine, moves=(replace(first, move_s=back + ctx.cost_model.transfer(view, in_hand, tool)),
-                                    *mine.moves[1:]))
+        if keep:     # it goes on with the tool it holds, straight to its first point (at the TCP's top speed)
+            to = mine.moves[1]
+            mine = replace(mine, moves=(replace(to, move_s=max(to.move_s, float(
+                np.hypot(tip[0] - to.target[0], tip[1] - to.target[1])) / RETREAT_SPEED)), *mine.moves[2:]))
+        else:        # its tool back to the rack first (at the TCP's top speed)
+            back = float(np.hypot(tip[0] - first.target[0], tip[1] - first.target[1])) / RETREAT_SPEED
+            tool = first.label[len("pick up "):]
+            mine = replace(mine, moves=(replace(first, move_s=back + ctx.cost_model.transfer(view, in_hand, tool)),
+                                        *mine.moves[1:]))
     mine = replace(mine, start=(float(tip[0]), float(tip[1])), home=tuple(map(float, q_other)))
     tip_down = body_down(q_down[None])[0, -1]
     stopped = replace(by[down], start=(float(tip_down[0]), float(tip_down[1])), moves=(),

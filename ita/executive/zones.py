@@ -70,7 +70,9 @@ SAMPLE_M = 0.05
 class Move:
     """One step of an arm's work: move its tool to ``target`` (world x, y) in ``move_s``,
     then stay there ``dwell_s`` (measuring, a tool change); ``label`` names it; ``q``
-    the configuration it takes there (for a check of the bodies in 3-D)."""
+    the configuration it takes there (for a check of the bodies in 3-D); ``tool_change``:
+    it takes or puts down a tool, so when a downed arm bars it, the moves up to the next
+    tool change (made with that tool) are barred with it."""
 
     target: Point
     move_s: float
@@ -78,6 +80,7 @@ class Move:
     label: str = ""
     q: tuple[float, ...] = ()        # the arm's configuration there (rad), when known
     via: tuple[float, ...] = ()      # a configuration to pass through, tried before the other ways
+    tool_change: bool = False
 
 
 @dataclass(frozen=True)
@@ -370,10 +373,15 @@ def coordinate(grid: ZoneGrid, jobs: Sequence[ArmJob], max_steps: int = 1_000_00
             blocked[name] = True
         until, other = found
         if math.isinf(until) and by_name[other].down:       # a downed arm's body in the way for good
-            events.append(ZoneEvent(t0, name, "skip", move.label))
-            skipped[name].append(move.label)
+            barred = [move]
+            while move.tool_change and nxt[name] + len(barred) < len(job.moves) \
+                    and not job.moves[nxt[name] + len(barred)].tool_change:
+                barred.append(job.moves[nxt[name] + len(barred)])     # made with the tool it could not take
+            for m in barred:
+                events.append(ZoneEvent(t0, name, "skip", m.label))
+                skipped[name].append(m.label)
             blocked[name] = False
-            nxt[name] += 1
+            nxt[name] += len(barred)
             continue
         if not math.isinf(until):                           # cleared at a known time: wait for it
             waiting[name] += until - t0
@@ -418,6 +426,8 @@ def configurations_at(schedule: Schedule, jobs: Sequence[ArmJob], times: np.ndar
                 q_to = np.asarray(job.fold, dtype=float).copy()
                 q_to[0] = q_prev[0]
             else:
+                while job.moves[k].label != label:  # a move a downed arm barred is not in the timeline
+                    k += 1
                 q_to = np.asarray(job.moves[k].q, dtype=float)
                 k += 1
             if n in vias:                          # by way of a stop: half the time to it, half from it
