@@ -14,6 +14,7 @@ from ita.logic.world import WorldModel
 from ita.sequence.allocate import allocate
 from ita.sequence.plan import build_plan, planning_context
 from ita.sim.arms import TwoArms
+from ita.specs.model import Tool
 from ita.workcell import reach_report
 from ita.workcell.reach import Reach
 
@@ -51,6 +52,25 @@ def test_each_measurement_goes_to_an_arm_that_reaches_it_with_a_tool_of_its_own(
             assert all(v is Reach.REACHABLE for v in report.verdicts), (share.arm, tool)
     tools = [{t for t, _o, _c in s.groups} for s in a.shares]
     assert not tools[0] & tools[1]                       # no tool in both hands
+    for share in a.shares:                               # only the tools each arm is fitted for
+        arm = cell.seen_by(share.arm).arm
+        assert all(arm.works_with(cell.tool(t).tool_class.value) for t in tools[a.shares.index(share)])
+
+
+def test_an_arm_gets_work_of_the_tool_classes_it_is_fitted_for_alone(allocated) -> None:
+    """The default cell's second arm works with the SLRA alone: no probe work, and the
+    probe work it could reach says why; fitted for every class, it takes probe work too."""
+    ctx, plan, a = allocated
+    second = ctx.workcell.second_arm
+    assert second is not None and second.tool_classes == ("slra_tool",)
+    b_tools = {ctx.workcell.tool(t).tool_class for s in a.shares if s.arm == second.name for t, _o, _c in s.groups}
+    assert b_tools == {Tool.SLRA}
+    probe_work = {i for g in plan.groups if ctx.workcell.tool(g.tool).tool_class.ultrasonic for i in g.order}
+    assert probe_work and not a.able[second.name] & probe_work      # not even handed over
+    every = replace(ctx, workcell=replace(ctx.workcell, second_arm=replace(second, tool_classes=None)))
+    b = allocate(every, plan)
+    assert any(every.workcell.tool(t).tool_class.ultrasonic for s in b.shares if s.arm == second.name
+               for t, _o, _c in s.groups)
 
 
 def test_the_makespan_lies_between_its_bound_and_the_one_arm_time(allocated) -> None:

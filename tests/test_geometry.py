@@ -193,6 +193,21 @@ def test_resolver_turns_plan_terms_into_numbers(prepared) -> None:
             reasoner.resolve(_meas("approach_point", bad.spec_id))
 
 
+def test_a_station_pose_is_one_the_cell_s_check_finds_free(prepared) -> None:
+    """With the cell's check of configurations (the path planner's, in a run), the pose
+    over a station is the quickest of the free ones, not the quickest of all: here a
+    check that refuses the quickest gets another; one that refuses all, the quickest."""
+    ctx, _, mkb, _ = prepared
+    reasoner = GeometricReasoner(mkb, ctx.workcell, ctx.specs)
+    quickest = reasoner.station("cal_block", "us_probe_1").q
+    reasoner.check_with(lambda q, tool: ~np.all(np.isclose(q, quickest), axis=1))
+    other = reasoner.station("cal_block", "us_probe_1").q
+    assert not np.allclose(other, quickest)
+    assert np.allclose(reasoner.station("cal_block", "us_probe_1", contact=True).q[:3], other[:3], atol=0.2)
+    reasoner.check_with(lambda q, tool: np.zeros(len(q), dtype=bool))
+    assert np.allclose(reasoner.station("cal_block", "us_probe_1").q, quickest)
+
+
 def test_mkb_is_stored_keyed_by_digest(prepared, tmp_path) -> None:
     _, _, mkb, _ = prepared
     path = save_mkb(mkb, tmp_path / "m.json")

@@ -258,6 +258,9 @@ def _write_variant(tmp_path: Path, old: str, new: str) -> Path:
         ('name = "t3_b"', 'name = "t3"', "robot_b.name"),
         ("base_position = [1.4, 2.35, 0.6]\n", "", "robot_b.base_position"),
         ("size = [0.8, 0.8, 0.6]", "size = [0.8, -0.8, 0.6]", "robot_b.pedestal.size"),
+        ("center = [2.25, 2.1, 0.925]", "center = [2.25, 2.1]", "robot_b.cal_block.center"),
+        ('tool_classes = ["slra_tool"]', 'tool_classes = ["laser"]', "robot_b.tool_classes"),
+        ("[robot_b.cal_block]\ncenter = [2.25, 2.1, 0.925]\nsize = [0.15, 0.1, 0.05]\n", "", "robot_b.cal_block"),
     ],
 )
 def test_bad_values_name_the_field(tmp_path: Path, old: str, new: str, field: str) -> None:
@@ -327,3 +330,20 @@ def test_the_second_arm_is_the_first_seen_from_its_own_base(cell: Workcell) -> N
     assert cell.second_pedestal not in cell.static_boxes()           # one-arm runs leave it out
     with pytest.raises(KeyError):
         cell.seen_by("t4")
+
+
+def test_the_second_arm_works_at_its_own_stations(cell: Workcell) -> None:
+    """Its couplant station and calibration block are its own (within its reach) in its
+    view; like its pedestal, they are outside the first arm's world, and the first arm's
+    are outside its own."""
+    b = cell.seen_by("t3_b")
+    assert cell.second_stations is not None
+    assert b.cal_block == cell.second_stations.cal_block and b.couplant_station == cell.second_stations.couplant_station
+    assert b.cal_block.pose.position != cell.cal_block.pose.position
+    assert b.second_stations is not None and b.second_stations.cal_block == cell.cal_block
+    positions = lambda boxes: {x.pose.position for x in boxes}  # noqa: E731
+    assert not positions(cell.second_stations.stands + (b.cal_block, b.couplant_station)) & positions(cell.static_boxes())
+    assert not positions(cell.stands + (cell.cal_block,)) & positions(b.static_boxes())
+    for view in (cell, b):                       # each arm reaches its own stations
+        reach = np.linalg.norm(np.subtract(view.cal_block.pose.position[:2], view.arm.base.position[:2]))
+        assert reach < 2.0

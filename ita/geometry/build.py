@@ -115,7 +115,7 @@ def mkb_digest(specs_digest: str, cell: Workcell) -> str:
     raster = f"{MIN_HOLE_PIXELS},{RASTER_STEP},{MAX_RASTER},{SHORT_APPROACH_M},{COUPLANT_OFFSET_M},{APPROACH_MARGIN_M}"
     rules = hashlib.sha256(b"".join(Path(_source_file(m)).read_bytes()
                                     for m in (scan_rules, context_rules, collision_rules, cover_rules))).hexdigest()
-    alone = replace(cell, second_arm=None, second_pedestal=None)
+    alone = replace(cell, second_arm=None, second_pedestal=None, second_stations=None)
     text = f"{MKB_VERSION}|{PRESS_M}|{GROUP_GROWTH}|{raster}|{rules}|{specs_digest}|{alone!r}"
     return hashlib.sha256(text.encode()).hexdigest()
 

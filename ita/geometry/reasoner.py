@@ -7,8 +7,8 @@ qualitative parameters of a plan from the MKB (:mod:`ita.geometry.build` makes i
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from dataclasses import dataclass
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -76,6 +76,10 @@ class GeometricReasoner:
         self.specs = {s.id: s for s in specs}
         self.home = np.asarray(cell.arm.home, dtype=float)
         self._stations: dict[tuple[str, str | None, bool], Target] = {}
+        #: the cell's check of configurations ((n, 6), the tool in hand or None -> (n,)
+        #: bool, True where free of collision) when the run has one: a station's pose is
+        #: then one the arm can take without touching the cell (see :meth:`check_with`)
+        self._free: Callable[[FloatArray, str | None], NDArray[np.bool_]] | None = None
         #: where the part was registered (ita.task.align; None: at its nominal placement) and
         #: the world motion from the nominal part to it, applied to every pose on the part
         self.placement: PartPlacement | None = None
@@ -168,12 +172,19 @@ class GeometricReasoner:
                 return self.station(str(place), tool)
         raise KeyError(f"the Geometric Reasoner does not know {term!r}")
 
+    def check_with(self, free: Callable[[FloatArray, str | None], NDArray[np.bool_]]) -> None:
+        """Choose stations' poses among the configurations ``free`` accepts (the path
+        planner's collision check of the cell); the poses chosen before are forgotten."""
+        self._free = free
+        self._stations.clear()
+
     def station(self, name: str, tool: str | None, *, contact: bool = False) -> Target:
         """The pose over station `name` (``cal_block``, ``couplant_station``) for `tool` in
         hand, looking straight down on its top face: the probe's tip its approach distance
         above it (pressed :data:`~ita.geometry.build.PRESS_M` into it with `contact`), the
         SLRA at its nominal stand-off, the bare flange :data:`STATION_CLEARANCE_M` above.
-        The configuration quickest from home over :data:`STATION_ROLLS` rolls.  KeyError
+        The configuration quickest from home over :data:`STATION_ROLLS` rolls (of those
+        free of the cell, when the reasoner has a check: :meth:`check_with`).  KeyError
         when the arm cannot take it."""
         key = (name, tool, contact)
         if key not in self._stations:
@@ -199,7 +210,13 @@ class GeometricReasoner:
         poses[:, :3, 3] = top + np.array([0.0, 0.0, up])
         model = arm_model(self.cell.arm)
         ref = self.station(name, tool).q if contact else self.home     # contact: straight down from the approach
-        q, found = choose_nearest(model, ik_tool(model, poses[None], tcp).flatten_batch(), ref)
+        solutions = ik_tool(model, poses[None], tcp).flatten_batch()
+        if self._free is not None and not contact and solutions.valid.any():
+            free = np.zeros_like(solutions.valid)
+            free[solutions.valid] = self._free(solutions.q[solutions.valid], tool)
+            if free.any():                 # else the quickest: its move says what it hits
+                solutions = replace(solutions, valid=free)
+        q, found = choose_nearest(model, solutions, ref)
         if not found[0]:
             raise KeyError(f"the arm cannot reach {name} with {tool or 'no tool'}")
         return Target(np.asarray(q[0], dtype=float), None)

@@ -166,6 +166,9 @@ def allocate(ctx: PlanningContext, plan: SequencePlan, dwell_s: float = DWELL_S,
             tool = cell.tool(own if own is not None else t)
             mkb = None if mkbs is None else mkbs.get(arms[a].name)
             ok = _placeable(ctx, views[a], tool, ids, mkb, why)
+            if ok and not arms[a].works_with(tool.tool_class.value):
+                why.update({i: f"{arms[a].name}: not fitted for {tool.tool_class.value} (its tool_classes)" for i in ok})
+                ok = []
             if ok and mkb is not None and tool.tool_class.ultrasonic:
                 missed = _stations_missed(ctx, views[a], mkb, tool.name)
                 if missed:                      # a probe is calibrated on the block and wetted at the station
@@ -299,6 +302,9 @@ def alone(ctx: PlanningContext, plan: SequencePlan, arm: str, spec_ids: Collecti
             why.update({i: f"{own}, the one tool of its class, is in the other arm's hand" for i in ids})
             continue
         tool = view.tool(own)
+        if not view.arm.works_with(tool.tool_class.value):
+            why.update({i: f"{arm}: not fitted for {tool.tool_class.value} (its tool_classes)" for i in ids})
+            continue
         ok = _placeable(ctx, view, tool, ids, None if mkbs is None else mkbs.get(arm), why)
         try:
             rack_configurations(view, model, own)

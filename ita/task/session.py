@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
+from numpy.typing import NDArray
 
 from ita.devices import ArmDevice, GaugeCommands, PersonDevice, SlraDevice
 from ita.devices.stations import StationCommands
@@ -28,7 +29,7 @@ from ita.offline.prepare import prepare_inspection
 from ita.part.serials import design_params, serial_asbuilt
 from ita.part.specfile import check_measurable
 from ita.part.store import load_part
-from ita.path import planners_for
+from ita.path import PathPlanner, planners_for
 from ita.planning import OperationPlanner, store_path
 from ita.robot.gate import MotionGate
 from ita.sensors.ultrasonic import UltrasonicGauge
@@ -51,6 +52,7 @@ if TYPE_CHECKING:
     from ita.part.model import Part
     from ita.planning import OperationPlanner
     from ita.sequence.plan import PlanningContext, SequencePlan
+    from ita.workcell import ToolSpec
     from ita.sim.world import SimWorld, simulated_part
     from ita.specs.model import MeasurementSpec
 
@@ -182,6 +184,7 @@ def open_session(part_dir: Path | None = None, *, seed: int = 0,
         ut = UltrasonicGauge(gauge_sim)
         gauge = GaugeCommands(ut, specs)
         arm_device = ArmDevice(world, reasoner, planners_for(cell, part), extra=gauge.handlers)
+        reasoner.check_with(lambda q, tool: _free(arm_device.planner_for(tool), q))     # the planners of now
         arm_device.add_handlers(StationCommands(world, reasoner, arm_device.controller, gauge_sim, gauge=ut).handlers, "station_s")
         slra_tools = [t for t in cell.tools if t.tool_class.value == "slra_tool"]
         vctx = vision_context(part, cell, tool=slra_tools[0].name if slra_tools else "slra_1",
@@ -197,3 +200,8 @@ def open_session(part_dir: Path | None = None, *, seed: int = 0,
     return Session(kb, part, None if part_dir is None else str(Path(part_dir).resolve()), ctx, plan, mkb,
                    reasoner, world, arm_device, slra, person, executive, op, seed, time.perf_counter() - t0, simulated.source,
                    asbuilt_dir)
+
+
+def _free(planner: tuple[PathPlanner, ToolSpec | None], q: FloatArray) -> NDArray[np.bool_]:
+    """Which configurations ``q`` (n, 6) the planner for the tool in hand finds free."""
+    return planner[0].config_free(q, planner[1])

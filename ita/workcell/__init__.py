@@ -19,6 +19,7 @@ from ita.workcell.model import (
     Rack,
     RackSlot,
     ReachParams,
+    Stations,
     ToolSpec,
     Workcell,
 )
@@ -36,6 +37,7 @@ __all__ = [
     "Reach",
     "ReachParams",
     "ReachReport",
+    "Stations",
     "ToolSpec",
     "Workcell",
     "default_workcell_path",

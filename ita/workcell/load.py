@@ -35,6 +35,7 @@ from ita.workcell.model import (
     Rack,
     RackSlot,
     ReachParams,
+    Stations,
     ToolSpec,
     Vec3,
     Workcell,
@@ -165,11 +166,11 @@ class _Reader:
         size = self.vec3(data, "size", f"{field}.size", positive=True)
         return Box(box_name, pose, size)
 
-    def boxes(self, data: dict[str, Any], key: str) -> tuple[Box, ...]:
+    def boxes(self, data: dict[str, Any], key: str, within: str = "") -> tuple[Box, ...]:
         out = []
-        for i, entry in enumerate(self.tables(data, key, key)):
+        for i, entry in enumerate(self.tables(data, key, within + key)):
             label = entry.get("name") if isinstance(entry.get("name"), str) else i
-            out.append(self.box(entry, f"{key}[{label}]"))
+            out.append(self.box(entry, f"{within}{key}[{label}]"))
         return tuple(out)
 
 
@@ -184,6 +185,7 @@ def _read_workcell(r: _Reader, data: dict[str, Any], path: Path) -> Workcell | N
         r.fail("fixture", "at least one [[fixture]] box is needed")
     reach = _read_reach(r, r.table(data, "reach", "reach"))
     second, second_pedestal = _read_second_arm(r, data, robot, path.parent, arm)
+    second_stations = _read_second_stations(r, data) if second is not None else None
     cell = Workcell(
         source=path,
         arm=arm,  # type: ignore[arg-type]
@@ -200,6 +202,7 @@ def _read_workcell(r: _Reader, data: dict[str, Any], path: Path) -> Workcell | N
         reach=reach,
         second_arm=second,
         second_pedestal=second_pedestal,
+        second_stations=second_stations,
     )
     _check_unique_names(r, cell)
     if second is not None and second.name == cell.arm.name:
@@ -219,19 +222,45 @@ def _read_second_arm(r: _Reader, data: dict[str, Any], robot: dict[str, Any], ba
         if key not in own:
             r.fail(f"robot_b.{key}", "the second arm needs its own name and base pose")
     merged = {**{k: v for k, v in robot.items() if k not in ("name", "base_position", "base_rpy_deg")},
-              **{k: v for k, v in own.items() if k != "pedestal"}}
-    same_model = set(own) <= {"name", "base_position", "base_rpy_deg", "home_rad", "pedestal"}   # the first's model
+              **{k: v for k, v in own.items() if k not in _SECOND_ARM_EQUIPMENT}}
+    same_model = set(own) <= {"name", "base_position", "base_rpy_deg", "home_rad", "tool_classes",
+                              *_SECOND_ARM_EQUIPMENT}
     if same_model and first is None:
         return None, None
     if same_model and first is not None:
         base = r.pose(own, "robot_b", position_key="base_position", rpy_key="base_rpy_deg")
         home = (r.vector(merged, "home_rad", "robot_b.home_rad", n=len(ARM_JOINTS))
                 if "home_rad" in merged else first.home)
-        arm: ArmSpec | None = replace(first, name=r.text(own, "name", "robot_b.name"), base=base, home=tuple(home))
+        arm: ArmSpec | None = replace(first, name=r.text(own, "name", "robot_b.name"), base=base, home=tuple(home),
+                                      tool_classes=_tool_classes(r, own, "robot_b") if "tool_classes" in own
+                                      else first.tool_classes)
     else:
         arm = _read_arm(r, merged, base_dir, table="robot_b")
     pedestal = r.box(r.table(own, "pedestal", "robot_b.pedestal"), "robot_b.pedestal", f"pedestal_{own.get('name', 'b')}")
     return arm, pedestal
+
+
+_SECOND_ARM_EQUIPMENT = ("pedestal", "couplant_station", "cal_block", "stand")   # [robot_b.*] tables, not arm keys
+
+
+def _read_second_stations(r: _Reader, data: dict[str, Any]) -> Stations | None:
+    """The second arm's own couplant station and calibration block
+    (``[robot_b.couplant_station]``, ``[robot_b.cal_block]``, ``[[robot_b.stand]]``), both
+    or neither: without them it shares the first arm's."""
+    own = data.get("robot_b")
+    if not isinstance(own, dict) or ("couplant_station" not in own and "cal_block" not in own):
+        return None
+    if not ("couplant_station" in own and "cal_block" in own):
+        missing = "cal_block" if "couplant_station" in own else "couplant_station"
+        r.fail(f"robot_b.{missing}", "the second arm's own stations are a couplant station and a calibration "
+                                     "block, both (or neither: it shares the first arm's)")
+        return None
+    return Stations(
+        couplant_station=r.box(r.table(own, "couplant_station", "robot_b.couplant_station"),
+                               "robot_b.couplant_station", "couplant_station"),
+        cal_block=r.box(r.table(own, "cal_block", "robot_b.cal_block"), "robot_b.cal_block", "cal_block"),
+        stands=r.boxes(own, "stand", within="robot_b."),
+    )
 
 
 def _read_arm(r: _Reader, robot: dict[str, Any], base_dir: Path, table: str = "robot") -> ArmSpec | None:
@@ -252,7 +281,20 @@ def _read_arm(r: _Reader, robot: dict[str, Any], base_dir: Path, table: str = "r
         return None
     limits, kinematics = parsed
     joints = JointLimits(limits.names, limits.lower, limits.upper, limits.velocity, accel, limits.effort)
-    return ArmSpec(name, urdf, base, joints, kinematics, flange, payload, repeat_mm / 1000.0, speed, tuple(home))
+    return ArmSpec(name, urdf, base, joints, kinematics, flange, payload, repeat_mm / 1000.0, speed, tuple(home),
+                   _tool_classes(r, robot, table))
+
+
+def _tool_classes(r: _Reader, robot: dict[str, Any], table: str) -> tuple[str, ...] | None:
+    """``tool_classes``: the tool classes the arm is fitted to work with (None: every one)."""
+    if "tool_classes" not in robot:
+        return None
+    value = robot["tool_classes"]
+    known = [c.value for c in Tool]
+    if not isinstance(value, list) or not value or not all(isinstance(v, str) and v in known for v in value):
+        r.fail(f"{table}.tool_classes", f"must be a non-empty list of tool classes ({', '.join(known)}), got {value!r}")
+        return None
+    return tuple(value)
 
 
 def _read_urdf(r: _Reader, urdf: Path, flange: str) -> tuple[JointLimits, ArmKinematics] | None:

@@ -114,7 +114,9 @@ class ArmKinematics:
 @dataclass(frozen=True)
 class ArmSpec:
     """The 6-DOF arm `t3`: its model file, base pose, limits and performance; home: the
-    configuration (rad) it starts and parks in, folded back clear of the cell."""
+    configuration (rad) it starts and parks in, folded back clear of the cell;
+    tool_classes: the classes of tool it is fitted to work with (``tool_classes`` in
+    workcell.toml; None: every class): a two-arm allocation gives it no other work."""
 
     name: str
     urdf: Path
@@ -126,6 +128,11 @@ class ArmSpec:
     repeatability_m: float
     max_tool_speed: float
     home: tuple[float, ...] = HOME_Q
+    tool_classes: tuple[str, ...] | None = None
+
+    def works_with(self, tool_class: str) -> bool:
+        """Whether the arm is fitted to work with tools of this class."""
+        return self.tool_classes is None or tool_class in self.tool_classes
 
 
 @dataclass(frozen=True)
@@ -315,6 +322,15 @@ class ReachParams:
 
 
 @dataclass(frozen=True)
+class Stations:
+    """A couplant station and a calibration block, and the stands they sit on."""
+
+    couplant_station: Box
+    cal_block: Box
+    stands: tuple[Box, ...]
+
+
+@dataclass(frozen=True)
 class Workcell:
     """Everything in the cell: arm, part placement, fixture, rack, tools, stations.
 
@@ -322,6 +338,9 @@ class Workcell:
     safety fence's walls; pedestal: the riser under the arm's base.  second_arm and
     second_pedestal: a second arm (``[robot_b]``) that a two-arm plan may use; the one-arm
     system leaves it out of the cell (it is not among :meth:`static_boxes`).
+    second_stations: the second arm's own couplant station and calibration block, when it
+    has them (else it shares the first's); like its pedestal, they are the second arm's
+    equipment, outside the first arm's world.
     """
 
     source: Path
@@ -339,20 +358,27 @@ class Workcell:
     reach: ReachParams
     second_arm: ArmSpec | None = None
     second_pedestal: Box | None = None
+    second_stations: Stations | None = None
 
     def arms(self) -> tuple[ArmSpec, ...]:
         """The cell's arms: the first, then the second when there is one."""
         return (self.arm,) if self.second_arm is None else (self.arm, self.second_arm)
 
     def seen_by(self, arm_name: str) -> "Workcell":
-        """The cell as arm `arm_name` works it: that arm (and its pedestal) in the first
-        place, so reach, kinematics and paths apply to it; KeyError for no such arm."""
+        """The cell as arm `arm_name` works it: that arm (and its pedestal, and its own
+        stations when it has them) in the first place, so reach, kinematics, paths and the
+        stations it calibrates and wets its probe at apply to it; KeyError for no such arm."""
         if arm_name == self.arm.name:
             return self
         if self.second_arm is None or self.second_pedestal is None or arm_name != self.second_arm.name:
             raise KeyError(arm_name)
-        return replace(self, arm=self.second_arm, pedestal=self.second_pedestal,
+        view = replace(self, arm=self.second_arm, pedestal=self.second_pedestal,
                        second_arm=self.arm, second_pedestal=self.pedestal)
+        own = self.second_stations
+        if own is None:
+            return view
+        return replace(view, couplant_station=own.couplant_station, cal_block=own.cal_block, stands=own.stands,
+                       second_stations=Stations(self.couplant_station, self.cal_block, self.stands))
 
     def tool(self, name: str) -> ToolSpec:
         """The tool named `name`; KeyError if there is none."""
