@@ -158,3 +158,20 @@ def test_an_arm_down_mid_plan_hands_its_remaining_work_to_the_other(allocated, p
     with TwoArms(ctx.workcell) as arms:
         gaps = arms.gaps(q[jobs[0].name], q[jobs[1].name])
     assert gaps.min() > 0.0                               # the moving arm never touches the stopped one
+
+
+def test_the_allocation_is_kept_between_runs_and_a_damaged_store_is_made_again(allocated) -> None:
+    from ita.sequence.allocation_store import allocation_path, stored_allocation
+
+    ctx, plan, a = allocated
+    path = allocation_path(ctx.part_name)
+    path.unlink(missing_ok=True)
+    first, kept = stored_allocation(ctx, plan)
+    assert not kept and first == a and path.exists()
+    again, kept = stored_allocation(ctx, plan)
+    assert kept and again == first                                  # the same, to the last bit
+    path.write_text('{"format": 1, "digest": "x", "shares": [', encoding="utf-8")
+    third, kept = stored_allocation(ctx, plan)
+    assert not kept and third == first
+    other = replace(ctx, specs=ctx.specs[:-1], _facts_cache={})     # another plan: not the stored one
+    assert stored_allocation(other, build_plan(other))[1] is False

@@ -39,7 +39,7 @@ from ita.executive.conductor import Conductor, Motion, conducted_arms, zone_grid
 from ita.logic.bridge import KnowledgeBase
 from ita.offline.prepare import prepared_arms
 from ita.part.store import load_part
-from ita.sequence.allocate import allocate
+from ita.sequence.allocation_store import stored_allocation
 from ita.sequence.store import apply_tool_marks, load_tool_marks
 from ita.sim.arms import TwoArms
 from ita.workcell import Workcell
@@ -252,7 +252,9 @@ def inspect_with_two_arms(*, part_dir: Path | None, limit: int | None, seed: int
         raise click.UsageError(f"--arms 2: the workcell ({cell.source}) names one arm; a second is a [robot_b] "
                                "table in its workcell.toml")
     note("allocating the measurements between the arms")
-    allocation = allocate(ctx, plan, mkbs=mkbs)
+    allocation, kept = stored_allocation(ctx, plan, mkbs=mkbs)
+    if kept:
+        note("the stored allocation is current: kept")
     order = [i for g in plan.groups for i in g.order]
     todo = order[:limit] if limit is not None else order + [i for i, _ in plan.cannot]
     shares = shares_of(todo, dict(allocation.assigned), arms)
