@@ -24,7 +24,8 @@ class FakeDevice:
     not match the pattern).  exceptions: step ->
     exception payload, replied instead of the normal reply at the end of the command.
     silent: steps the device never answers.  resolver: a :class:`PoseResolver` asked
-    for each qualitative parameter of each command started.
+    for each qualitative parameter of each command started.  held_up: step -> seconds
+    the device waits (the other arm's zones) before it begins, within its duration.
 
     Records what it was told: `queued` (now, items) per begin, `started` (now, step),
     `stopped` (now), `resolved` (step, term, value).
@@ -43,7 +44,9 @@ class FakeDevice:
         exceptions: Mapping[int, Any] | None = None,
         silent: Sequence[int] = (),
         resolver: PoseResolver | None = None,
+        held_up: Mapping[int, float] | None = None,
     ) -> None:
+        self.held_up = dict(held_up or {})
         self.lookahead = lookahead
         self.durations = dict(durations or {})
         self.default_s = default_s
@@ -82,7 +85,7 @@ class FakeDevice:
         else:
             value = self.values.get(command.name, 0.0)
             payload = instantiate(command.reply, dict.fromkeys(_variables(command.reply), value))
-        return Completion(now + duration, Reply.normal(payload))
+        return Completion(now + duration, Reply.normal(payload), self.held_up.get(command.step, 0.0))
 
     def stop(self, now: float) -> None:
         self.stopped.append(now)

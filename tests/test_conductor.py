@@ -282,6 +282,64 @@ def test_when_the_lower_arms_way_back_meets_the_first_arms_body_the_first_folds_
     granted_apart(c)
 
 
+def test_an_arm_whose_probe_is_on_the_part_is_never_told_to_fold(cell, poses) -> None:
+    """Each arm waits for the other's body; the second would fold (the lower arm gives
+    way), but its claim is pinned (a retract: its probe is pressed on the part, and a fold
+    would drag it): the first arm folds instead, and the second takes its probe off."""
+    c0 = fresh(cell)
+    a, b = c0.order
+    home_a, home_b = np.asarray(c0.state[a].arm.home), np.asarray(c0.state[b].arm.home)
+
+    def way_back(c: Conductor, arm: str, q) -> int:
+        fold = c._folded(arm, q)
+        zones = c.body(arm, fold)
+        for way in c.state[arm].arm.retreat(q, fold):
+            zones |= c.swept(arm, way.times, way.q)
+        return zones
+
+    found = None
+    for qb, zb in poses[b][:60]:
+        if (c0.swept(b, [0.0, MOVE_S], [home_b, qb]) | zb) & c0.body(a, home_a) or way_back(c0, b, qb) & c0.body(a, home_a):
+            continue
+        for qa, za in poses[a][:80]:
+            if (c0.swept(a, [0.0, MOVE_S], [home_a, qa]) | za) & zb or way_back(c0, a, qa) & zb \
+                    or way_back(c0, b, qb) & za:
+                continue
+            qt = next((q for q, z in poses[a] if z & zb), None)
+            qs = next((q for q, z in poses[b] if z & za and not z & c0.body(a, c0._folded(a, qa))
+                       and not c0.swept(b, [0.0, MOVE_S], [qb, q]) & c0.body(a, c0._folded(a, qa))), None)
+            if qt is not None and qs is not None:
+                found = qa, qb, qt, qs
+                break
+        if found:
+            break
+    if found is None:
+        pytest.skip("no such poses among the sampled ones")
+    qa, qb, qt, qs = found
+
+    def play(pinned: bool) -> tuple[Conductor, dict]:
+        c = fresh(cell)
+        assert claim(c, b, 0.0, home_b, qb)[0][1][0] == "go"
+        c.receive(b, ("moved", MOVE_S, qb))
+        assert claim(c, a, MOVE_S, home_a, qa)[0][1][0] == "go"
+        c.receive(a, ("moved", 2 * MOVE_S, qa))
+        assert claim(c, a, 2 * MOVE_S, qa, qt) == []
+        return c, dict(c.receive(b, ("claim", 2 * MOVE_S, np.array([0.0, MOVE_S]), np.stack([qb, qs]), pinned)))
+
+    _c, free = play(pinned=False)
+    assert free[b][0] == "fold"                                   # the rule: the lower arm gives way
+    c, got = play(pinned=True)
+    assert b not in got or got[b][0] != "fold"
+    assert got[a][0] == "fold"                                    # the first arm folds instead
+    if b not in got:
+        fold = np.asarray(got[a][2])
+        d = max(w.duration for w in c.state[a].arm.retreat(qa, fold))
+        got = dict(c.receive(a, ("moved", 2 * MOVE_S + got[a][1] + d, fold)))
+    assert got[b][0] == "go"
+    assert c.state[b].folds == 0
+    granted_apart(c)
+
+
 def test_an_inject_script_may_name_the_arm_it_hits() -> None:
     from ita.cli.arms import scripts_of
 

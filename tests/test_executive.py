@@ -341,6 +341,17 @@ def test_a_late_reply_is_a_time_out_at_the_deadline(knowledge_base, figure_4_pla
     assert [o.step for o in report.outcomes] == [1, 2, 3, 4]
 
 
+def test_a_wait_for_the_other_arm_s_zones_before_the_device_begins_is_not_timed(knowledge_base, figure_4_plan):
+    """45 s from start to reply against a 40 s time-out: a time-out when the device was
+    busy all along, a reply when it first waited 10 s for the other arm's zones."""
+    late = FakeDevice(lookahead=True, durations={5: 45.0})
+    assert executive(knowledge_base, late, FakeDevice(), timeouts={"MEASURE": 40.0}).execute(
+        figure_4_plan).failure.kind is FailureKind.TIMEOUT
+    held = FakeDevice(lookahead=True, durations={5: 45.0}, held_up={5: 10.0})
+    report = executive(knowledge_base, held, FakeDevice(), timeouts={"MEASURE": 40.0}).execute(figure_4_plan)
+    assert report.failure is None and 5 in [o.step for o in report.outcomes]
+
+
 def test_an_exception_reply_stops_the_plan_and_cancels_the_rest(knowledge_base):
     bump = Term("BUMP", ("link_3", "bulkhead"))
     arm = FakeDevice(lookahead=True, durations={"MOVE": 2.0}, exceptions={3: bump})

@@ -296,3 +296,39 @@ def test_checks_skipped_by_the_swept_bound_find_the_first_contact_of_checking_ev
     assert skipped.status is every.status is MotionStatus.BUMP
     assert skipped == every
     assert n_skipped < len(checks) - n_skipped        # far fewer checks than periods
+
+
+class _FoldingGate:
+    """A conductor that tells the arm to fold at its first claim, then refuses."""
+
+    def __init__(self, fold) -> None:
+        self.fold, self.claims, self.moves = tuple(fold), [], []
+
+    def claim(self, t, times, q, pinned=False):
+        from ita.robot.gate import Grant
+
+        self.claims.append(pinned)
+        return Grant("fold", 0.0, self.fold) if len(self.claims) == 1 else Grant("refuse", 0.0, None, "test")
+
+    def moved(self, t, q, flown=None):
+        self.moves.append(np.array(q))
+
+
+def test_an_arm_told_to_fold_where_every_way_back_touches_the_cell_stays_and_asks_again(ctl):
+    """Its probe deep in a pocket (here: the arm pressed on the part after a bump), a fold
+    would drag it along the part: it stays where it is, says so (the conductor then never
+    asks it to fold from there again), and asks for its motion again."""
+    world = ctl.world
+    assert ctl.execute(from_waypoints(world.model, [READY, INTO_PART])).status is MotionStatus.BUMP
+    stuck = np.array(world.q)
+    assert world.contacts()
+    gate = _FoldingGate(np.array([0.0, -0.236, -1.321, 0.0, 0.0, 0.0]))
+    ctl.gate = gate
+    try:
+        reply = ctl.execute(from_waypoints(world.model, [stuck, READY]))
+    finally:
+        ctl.gate = None
+    assert len(gate.claims) == 2 and not any(gate.claims)
+    assert len(gate.moves) == 1 and np.allclose(gate.moves[0], stuck)       # a fold that stopped where it began
+    assert reply.status is MotionStatus.REJECTED and "test" in reply.message
+    np.testing.assert_allclose(world.q, stuck)                           # never dragged along the part

@@ -169,6 +169,18 @@ def _attach_injector(session: Any, archive: Any, run_id: str) -> None:
     session.arm.injector = session.slra.injector = injector
 
 
+def _park_away(session: Any) -> bool:
+    """One arm of two, its share worked: fold turned away from the other arm's base."""
+    from ita.executive.conductor import conducted_arms  # start-up: only a two-arm run's arm needs it
+
+    cell = session.ctx.workcell
+    if cell.second_arm is None:
+        return False
+    fold = next(a.fold for a in conducted_arms(cell) if a.name == cell.arm.name)
+    other = cell.second_arm.base.position
+    return bool(session.arm.park_away(fold, (float(other[0]), float(other[1]))))
+
+
 def _run(session: Any, archive: Any, run_id: str, as_json: bool, view: LiveView, parked: bool = False,
          settings: dict[str, Any] | None = None) -> None:
     """Run `run_id` and print its summary; exit 3 unless it completed.  parked: one arm of a
@@ -182,9 +194,10 @@ def _run(session: Any, archive: Any, run_id: str, as_json: bool, view: LiveView,
         summary = TopLevel(session, archive, run_id, signals).run(on_progress=view)
     extra: dict[str, Any] = {}
     finished = summary.status == "completed"
-    if parked:           # one arm of two: out of the other's way, and its zones given up
+    if parked:           # one arm of two: out of the other's way (folded, turned away from it), its zones given up
         controller = session.arm.controller
-        controller.give_way()
+        if not _park_away(session):
+            controller.give_way()
         extra["simulated_parked_s"] = round(session.clock.now, 3)
         wait, handed = controller.gate.take(session.clock.now, f"handover:{session.ctx.workcell.arm.name}")
         session.clock.advance(wait)

@@ -25,8 +25,10 @@ with the tool the arm holds.
 
 from __future__ import annotations
 
+import math
 import time
 from collections.abc import Callable, Mapping, Sequence
+from dataclasses import replace
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -117,6 +119,12 @@ class ArmDevice:
             self.injector.before(command, "arm")
         if command.step in self._ready:
             return self._ready.pop(command.step)
+        held_up = self.controller.held_up_s
+        done = self._start(command, now)
+        waited = self.controller.held_up_s - held_up      # the other arm's zones, before it began
+        return replace(done, waited_s=waited) if waited > 0 else done
+
+    def _start(self, command: Command, now: float) -> Completion:
         if command.name == "MOVE":
             return self._moves(command)
         entry = self.handlers.get(command.name)
@@ -158,6 +166,34 @@ class ArmDevice:
         self.world.clock.advance(RECOVER_SECONDS)
         self.controller.jogged()
         return True
+
+    def park_away(self, fold: Sequence[float], away_from: tuple[float, float]) -> bool:
+        """Fly the arm folded (``fold``'s joints, the base joint aside) with its base joint
+        turned away from ``away_from`` (world x, y: the other arm's base), or as near that
+        as a free path goes (turns of 30 degrees either side tried in turn): a planned path,
+        claimed like any motion.  Whether it got there."""
+        world = self.world
+        base = np.asarray(world.model.base, dtype=float)
+        yaw = math.atan2(base[1, 0], base[0, 0])
+        away = math.atan2(base[1, 3] - away_from[1], base[0, 3] - away_from[0]) - yaw
+        lower, upper = np.asarray(world.model.lower), np.asarray(world.model.upper)
+        planner, tool = self.planner_for(world.held)
+        for turn in (0.0, 30.0, -30.0, 60.0, -60.0, 90.0, -90.0):
+            j1 = math.remainder(away + math.radians(turn), 2.0 * math.pi)
+            q = np.asarray(fold, dtype=float).copy()
+            q[0] = j1
+            if not (lower[0] <= j1 <= upper[0]) or not planner.config_free(q[None], tool)[0]:
+                continue
+            if np.max(np.abs(q - world.q)) <= _SAME_Q:
+                return True
+            _results, traj = planner.plan_queue(world.q, [q], tool)
+            if traj is None:
+                continue
+            reply = self.controller.execute(traj, command="move")
+            if reply.ok:
+                self.last_free_q = np.array(world.q)
+            return reply.ok
+        return False
 
     def _backed_off(self, q: np.ndarray) -> list[np.ndarray]:
         """Configurations with the tool moved straight back along its axis, away from the

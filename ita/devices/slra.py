@@ -185,7 +185,10 @@ class SlraDevice:
         if handler is None:
             return Completion(now, exception_reply("UNSUPPORTED", f"the SLRA cannot {command.text}",
                                                    command.name.lower()))
-        return handler(command, now)
+        held_up = self.controller.held_up_s
+        done = handler(command, now)
+        waited = self.controller.held_up_s - held_up      # the other arm's zones, before it began
+        return replace(done, waited_s=waited) if waited > 0 else done
 
     def stop(self, now: float) -> None:
         pass

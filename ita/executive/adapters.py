@@ -78,10 +78,13 @@ class PoseResolver(Protocol):
 @dataclass(frozen=True)
 class Completion:
     """When a started command ends (simulated seconds, absolute) and the device's reply;
-    `reply` None: the device never answers (the executor times the command out)."""
+    `reply` None: the device never answers (the executor times the command out).
+    waited_s: how long the device waited before it began (the other arm's zones: a WAIT
+    for their release, a fold to give way), which its time-out does not count."""
 
     at: float
     reply: Reply | None
+    waited_s: float = 0.0
 
 
 @runtime_checkable

@@ -120,6 +120,7 @@ class _Claim:
     q: FloatArray
     park: bool = False
     zones: tuple[Zones, Zones] | None = None     # (swept, held after), once computed
+    pinned: bool = False    # the arm cannot fold before this motion (its probe pressed on the part)
 
 
 @dataclass
@@ -245,8 +246,10 @@ class Conductor:
         st = self.state[name]
         kind = message[0]
         if kind == "claim":
-            _, t, times, q = message
-            st.pending = _Claim(float(t), float(t), np.asarray(times, dtype=float), np.asarray(q, dtype=float))
+            t, times, q = message[1:4]
+            pinned = len(message) > 4 and bool(message[4])
+            st.pending = _Claim(float(t), float(t), np.asarray(times, dtype=float), np.asarray(q, dtype=float),
+                                pinned=pinned)
             st.floor = float(t)
             st.claims += 1
         elif kind == "park":
@@ -483,11 +486,15 @@ class Conductor:
     def _try_fold(self, name: str, claim: _Claim, to: FloatArray | None = None) -> Reply | str:
         """Fold `name` back from its pose now, on its own base ray (its claim stays to be
         asked again), after the other arms' motions on its way have ended; or, when another
-        arm's body stands on its way back, that arm's name.  to: back to these joints
-        instead (the same ways, ita.robot.waypoints.retreat_paths)."""
+        arm's body stands on its way back, that arm's name, and its own when it cannot fold
+        from where it stands (a fold stopped short there, or its claim is pinned: its probe
+        is pressed on the part).  to: back to these joints instead (the same ways,
+        ita.robot.waypoints.retreat_paths)."""
         st = self.state[name]
         if to is None and st.no_fold_at is not None and np.allclose(st.no_fold_at, st.q, atol=1e-6):
             return name                                  # it tried from here and stopped short
+        if to is None and claim.pinned:
+            return name                                  # its probe is on the part: off it first
         fold = self._folded(name, st.q) if to is None else np.asarray(to, dtype=float)
         ways = st.arm.retreat(st.q, fold)
         d = max(float(b.duration) for b in ways)

@@ -430,7 +430,7 @@ def _advance(run: _Stream, now: float, completed: set[int], pending: list[_Pendi
         if completion.at < now:
             raise ExecutiveError(f"{run.commands.stream}: step {item.step} ends at {completion.at} "
                                  f"before it started at {now}")
-        deadline = now + item.timeout_s
+        deadline = now + completion.waited_s + item.timeout_s      # from when the device began
         if completion.reply is None or completion.at > deadline:
             heapq.heappush(pending, (deadline, run.index, item.step, item, None))
         else:

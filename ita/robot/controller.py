@@ -105,6 +105,9 @@ class RobotController:
         self.gate: MotionGate | None = None
         #: seconds waited for the other arm's zones, folds made to give way, motions refused
         self.zone_stats: dict[str, float] = {"wait_s": 0.0, "folds": 0, "fold_s": 0.0, "refused": 0}
+        #: seconds its motions were held up by the other arm before they set off (waits,
+        #: folds, the ways back), in all: a device's time-outs do not count them
+        self.held_up_s = 0.0
 
     @property
     def period(self) -> float:
@@ -122,15 +125,24 @@ class RobotController:
             return self._execute(trajectory, allowed=allowed, command=command)
         world, gate = self.world, self.gate
         t0 = world.clock.now
-        grant = gate.claim(t0, trajectory.times, trajectory.q)
+        # a retract starts with the probe pressed on the part: no fold before it (it would drag the probe)
+        pinned = command == "retract"
+        grant = gate.claim(t0, trajectory.times, trajectory.q, pinned=pinned)
         back: TimedTrajectory | None = None
         allowed = tuple(allowed)
         while grant.kind == "fold" and grant.fold is not None:
             folded = self._fold(grant, allowed)
+            if folded is None:       # no way back clear of the cell: it stays, and asks again (the
+                grant = gate.claim(world.clock.now, trajectory.times, trajectory.q, pinned=pinned)  # conductor
+                continue             # does not tell it to fold from here again)
             if not folded.ok:
                 return replace(folded, time_s=world.clock.now - t0, waited_s=world.clock.now - t0)
             # back the way a retreat goes, the other way round: out in front of where it was, then in
             out = self._clear_way(retreat_paths(world.model, trajectory.start, world.q), allowed)
+            if out is None:
+                return MotionReply(MotionStatus.REJECTED, command, world.clock.now - t0, tuple(map(float, world.q)),
+                                   message="folded to give way, it finds no way back clear of the cell",
+                                   waited_s=world.clock.now - t0)
             back = TimedTrajectory(out.duration - out.times[::-1], out.q[::-1])
             both = np.concatenate([back.q, trajectory.q[1:]]) if len(trajectory.q) > 1 else back.q
             times = np.concatenate([back.times, back.duration + trajectory.times[1:]])
@@ -146,6 +158,7 @@ class RobotController:
                 gate.moved(world.clock.now, world.q)
                 return replace(reply, time_s=world.clock.now - t0, waited_s=world.clock.now - t0)
         started = world.clock.now
+        self.held_up_s += started - t0
         reply = self._execute(trajectory, allowed=allowed, command=command)
         gate.moved(world.clock.now, world.q)
         return replace(reply, time_s=reply.time_s + started - t0, waited_s=started - t0)
@@ -183,13 +196,13 @@ class RobotController:
         if self.gate is not None:
             self.gate.moved(self.world.clock.now, self.world.q)
 
-    def _clear_way(self, ways: list[TimedTrajectory], allowed: tuple[str, ...]) -> TimedTrajectory:
+    def _clear_way(self, ways: list[TimedTrajectory], allowed: tuple[str, ...]) -> TimedTrajectory | None:
         """The first of `ways` the arm can fly without touching the cell (checked every
-        control period, the arm put back after); the last when none is."""
+        control period, the arm put back after); None when none is."""
         world = self.world
         q_now = np.array(world.q)
         try:
-            for way in ways[:-1]:
+            for way in ways:
                 steps = max(2, int(np.ceil(way.duration * self.rate_hz)))
                 for q in way.sample(np.linspace(0.0, way.duration, steps)):
                     world.set_q(q)
@@ -199,20 +212,26 @@ class RobotController:
                     return way
         finally:
             world.set_q(q_now)
-        return ways[-1]
+        return None
 
     def _wait(self, seconds: float) -> None:
         if seconds > 0:
             self.world.clock.advance(seconds)
             self.zone_stats["wait_s"] += seconds
 
-    def _fold(self, grant: Grant, allowed: tuple[str, ...] = ()) -> MotionReply:
+    def _fold(self, grant: Grant, allowed: tuple[str, ...] = ()) -> MotionReply | None:
         """Fold back as the conductor told (after its wait) and say where the arm ended;
-        `allowed`: what the motion it makes way for may touch (a tool just let go)."""
+        `allowed`: what the motion it makes way for may touch (a tool just let go).  None
+        when every way back would touch the cell (a probe deep in a pocket): it stays, and
+        says so (a fold that stopped where it started)."""
         assert self.gate is not None and grant.fold is not None
         self._wait(grant.wait_s)
         t0 = self.world.clock.now
         way = self._clear_way(retreat_paths(self.world.model, self.world.q, np.asarray(grant.fold)), allowed)
+        if way is None:
+            q = np.array(self.world.q)
+            self.gate.moved(t0, q, (np.array([0.0, 1e-3]), np.stack([q, q])))
+            return None
         reply = self._execute(way, allowed=allowed, command="retreat")
         self.gate.moved(self.world.clock.now, self.world.q, (way.times, way.q))
         self.zone_stats["folds"] += 1

@@ -55,7 +55,7 @@ class Grant:
 class MotionGate(Protocol):
     """What the robot controller asks before and tells after each motion."""
 
-    def claim(self, t: float, times: FloatArray, q: FloatArray) -> Grant: ...
+    def claim(self, t: float, times: FloatArray, q: FloatArray, pinned: bool = False) -> Grant: ...
 
     def moved(self, t: float, q: FloatArray, flown: tuple[FloatArray, FloatArray] | None = None) -> None: ...
 
@@ -79,8 +79,10 @@ class RemoteGate:
         kind, wait_s, fold, why = self.connection.recv()
         return Grant(str(kind), float(wait_s), None if fold is None else tuple(map(float, fold)), str(why))
 
-    def claim(self, t: float, times: FloatArray, q: FloatArray) -> Grant:
-        return self._ask(("claim", float(t), np.asarray(times, dtype=float), np.asarray(q, dtype=float)))
+    def claim(self, t: float, times: FloatArray, q: FloatArray, pinned: bool = False) -> Grant:
+        """Ask for the zones of a motion; pinned: the arm cannot fold before it (its probe
+        is pressed on the part: this motion takes it off)."""
+        return self._ask(("claim", float(t), np.asarray(times, dtype=float), np.asarray(q, dtype=float), bool(pinned)))
 
     def moved(self, t: float, q: FloatArray, flown: tuple[FloatArray, FloatArray] | None = None) -> None:
         """Where the arm is at `t` after its last motion; flown: the (times, joints) of the way
