@@ -230,56 +230,75 @@ def test_a_fact_no_one_is_left_to_post_is_none(cell) -> None:
     assert c.receive(a, ("done", 10.0)) == [(b, (0.0, None))]
 
 
-def test_when_the_lower_arms_way_back_meets_the_first_arms_body_the_first_folds_first(cell, poses) -> None:
-    """Each arm waits for the other's body, and the second arm cannot fold (the first arm's
-    body stands on its way back): the first arm folds, and the second goes on."""
-    c = fresh(cell)
+def way_back(c: Conductor, arm: str, q) -> int:
+    """The zones of `arm` folding from `q`, every way, and folded there."""
+    fold = c._folded(arm, q)
+    zones = c.body(arm, fold)
+    for way in c.state[arm].arm.retreat(q, fold):
+        zones |= c.swept(arm, way.times, way.q)
+    return zones
+
+
+def waiting_on_each_other(c: Conductor, poses, b_ok, a_ok, s_ok):
+    """Poses where each arm will wait for the other's body: the second arm at qb, the first
+    at qa, the first's next target qt meeting the second's body there and the second's
+    next target qs meeting the first's, each reached from home, with the further tests
+    given (b_ok(qb, zb), a_ok(qa, za, qb, zb), s_ok(qs, zs, qa, qb)); None when the sample
+    has none."""
     a, b = c.order
     home_a, home_b = np.asarray(c.state[a].arm.home), np.asarray(c.state[b].arm.home)
-    at_home_a = c.body(a, home_a)
-
-    def way_back(arm: str, q) -> int:
-        st = c.state[arm]
-        fold = c._folded(arm, q)
-        zones = c.body(arm, fold)
-        for way in st.arm.retreat(q, fold):
-            zones |= c.swept(arm, way.times, way.q)
-        return zones
-
-    found = None
     for qb, zb in poses[b][:60]:
-        if (c.swept(b, [0.0, MOVE_S], [home_b, qb]) | zb) & at_home_a:
+        if (c.swept(b, [0.0, MOVE_S], [home_b, qb]) | zb) & c.body(a, home_a) or not b_ok(qb, zb):
             continue
-        back_b = way_back(b, qb)
         for qa, za in poses[a][:80]:
-            if (c.swept(a, [0.0, MOVE_S], [home_a, qa]) | za) & zb or not za & back_b or way_back(a, qa) & zb:
+            if (c.swept(a, [0.0, MOVE_S], [home_a, qa]) | za) & zb or not a_ok(qa, za, qb, zb):
                 continue
             qt = next((q for q, z in poses[a] if z & zb), None)          # where the first arm goes next
-            folded_a = c.body(a, c._folded(a, qa))
-            qs = next((q for q, z in poses[b]
-                       if z & za and not (z | c.swept(b, [0.0, MOVE_S], [qb, q])) & folded_a), None)
+            qs = next((q for q, z in poses[b] if z & za and s_ok(q, z, qa, qb)), None)
             if qt is not None and qs is not None:
-                found = qa, qb, qt, qs
-                break
-        if found:
-            break
-    if found is None:
-        pytest.skip("no such poses among the sampled ones")
-    qa, qb, qt, qs = found
+                return qa, qb, qt, qs
+    return None
+
+
+def start_waiting(c: Conductor, qa, qb, qt, qs, pinned: bool = False) -> dict:
+    """Both arms to their poses, the first claims qt (decided later), then the second
+    claims qs: the replies then due, by arm."""
+    a, b = c.order
+    home_a, home_b = np.asarray(c.state[a].arm.home), np.asarray(c.state[b].arm.home)
     assert claim(c, b, 0.0, home_b, qb)[0][1][0] == "go"
     c.receive(b, ("moved", MOVE_S, qb))
     assert claim(c, a, MOVE_S, home_a, qa)[0][1][0] == "go"
     c.receive(a, ("moved", 2 * MOVE_S, qa))
     assert claim(c, a, 2 * MOVE_S, qa, qt) == []                  # decided when the second arm's clock is there
-    got = dict(claim(c, b, 2 * MOVE_S, qb, qs))
+    return dict(c.receive(b, ("claim", 2 * MOVE_S, np.array([0.0, MOVE_S]), np.stack([qb, qs]), pinned)))
+
+
+def first_folds_then_second_goes(c: Conductor, got: dict, qa) -> None:
+    a, b = c.order
+    assert b not in got or got[b][0] != "fold"
     assert got[a][0] == "fold"                                    # the first arm folds first
     if b not in got:                   # decided once the first arm says it has folded
         fold = np.asarray(got[a][2])
         d = max(w.duration for w in c.state[a].arm.retreat(qa, fold))
         got = dict(c.receive(a, ("moved", 2 * MOVE_S + got[a][1] + d, fold)))
     assert got[b][0] == "go"                                      # then the second arm goes on
-    assert c.state[a].refused == c.state[b].refused == 0
+    assert c.state[a].refused == c.state[b].refused == 0 and c.state[b].folds == 0
     granted_apart(c)
+
+
+def test_when_the_lower_arms_way_back_meets_the_first_arms_body_the_first_folds_first(cell, poses) -> None:
+    """Each arm waits for the other's body, and the second arm cannot fold (the first arm's
+    body stands on its way back): the first arm folds, and the second goes on."""
+    c = fresh(cell)
+    a, b = c.order
+    found = waiting_on_each_other(
+        c, poses, lambda qb, zb: True,
+        lambda qa, za, qb, zb: za & way_back(c, b, qb) and not way_back(c, a, qa) & zb,
+        lambda qs, zs, qa, qb: not (zs | c.swept(b, [0.0, MOVE_S], [qb, qs])) & c.body(a, c._folded(a, qa)))
+    if found is None:
+        pytest.skip("no such poses among the sampled ones")
+    qa, qb, qt, qs = found
+    first_folds_then_second_goes(c, start_waiting(c, qa, qb, qt, qs), qa)
 
 
 def test_an_arm_whose_probe_is_on_the_part_is_never_told_to_fold(cell, poses) -> None:
@@ -288,56 +307,16 @@ def test_an_arm_whose_probe_is_on_the_part_is_never_told_to_fold(cell, poses) ->
     would drag it): the first arm folds instead, and the second takes its probe off."""
     c0 = fresh(cell)
     a, b = c0.order
-    home_a, home_b = np.asarray(c0.state[a].arm.home), np.asarray(c0.state[b].arm.home)
-
-    def way_back(c: Conductor, arm: str, q) -> int:
-        fold = c._folded(arm, q)
-        zones = c.body(arm, fold)
-        for way in c.state[arm].arm.retreat(q, fold):
-            zones |= c.swept(arm, way.times, way.q)
-        return zones
-
-    found = None
-    for qb, zb in poses[b][:60]:
-        if (c0.swept(b, [0.0, MOVE_S], [home_b, qb]) | zb) & c0.body(a, home_a) or way_back(c0, b, qb) & c0.body(a, home_a):
-            continue
-        for qa, za in poses[a][:80]:
-            if (c0.swept(a, [0.0, MOVE_S], [home_a, qa]) | za) & zb or way_back(c0, a, qa) & zb \
-                    or way_back(c0, b, qb) & za:
-                continue
-            qt = next((q for q, z in poses[a] if z & zb), None)
-            qs = next((q for q, z in poses[b] if z & za and not z & c0.body(a, c0._folded(a, qa))
-                       and not c0.swept(b, [0.0, MOVE_S], [qb, q]) & c0.body(a, c0._folded(a, qa))), None)
-            if qt is not None and qs is not None:
-                found = qa, qb, qt, qs
-                break
-        if found:
-            break
+    found = waiting_on_each_other(
+        c0, poses, lambda qb, zb: not way_back(c0, b, qb) & c0.body(a, np.asarray(c0.state[a].arm.home)),
+        lambda qa, za, qb, zb: not way_back(c0, a, qa) & zb and not way_back(c0, b, qb) & za,
+        lambda qs, zs, qa, qb: not (zs | c0.swept(b, [0.0, MOVE_S], [qb, qs])) & c0.body(a, c0._folded(a, qa)))
     if found is None:
         pytest.skip("no such poses among the sampled ones")
     qa, qb, qt, qs = found
-
-    def play(pinned: bool) -> tuple[Conductor, dict]:
-        c = fresh(cell)
-        assert claim(c, b, 0.0, home_b, qb)[0][1][0] == "go"
-        c.receive(b, ("moved", MOVE_S, qb))
-        assert claim(c, a, MOVE_S, home_a, qa)[0][1][0] == "go"
-        c.receive(a, ("moved", 2 * MOVE_S, qa))
-        assert claim(c, a, 2 * MOVE_S, qa, qt) == []
-        return c, dict(c.receive(b, ("claim", 2 * MOVE_S, np.array([0.0, MOVE_S]), np.stack([qb, qs]), pinned)))
-
-    _c, free = play(pinned=False)
-    assert free[b][0] == "fold"                                   # the rule: the lower arm gives way
-    c, got = play(pinned=True)
-    assert b not in got or got[b][0] != "fold"
-    assert got[a][0] == "fold"                                    # the first arm folds instead
-    if b not in got:
-        fold = np.asarray(got[a][2])
-        d = max(w.duration for w in c.state[a].arm.retreat(qa, fold))
-        got = dict(c.receive(a, ("moved", 2 * MOVE_S + got[a][1] + d, fold)))
-    assert got[b][0] == "go"
-    assert c.state[b].folds == 0
-    granted_apart(c)
+    assert start_waiting(fresh(cell), qa, qb, qt, qs)[b][0] == "fold"      # the rule: the lower arm gives way
+    c = fresh(cell)
+    first_folds_then_second_goes(c, start_waiting(c, qa, qb, qt, qs, pinned=True), qa)
 
 
 def test_an_inject_script_may_name_the_arm_it_hits() -> None:
