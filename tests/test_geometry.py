@@ -208,6 +208,25 @@ def test_a_station_pose_is_one_the_cell_s_check_finds_free(prepared) -> None:
     assert np.allclose(reasoner.station("cal_block", "us_probe_1").q, quickest)
 
 
+def test_an_slra_pose_moved_with_the_registered_part_that_meets_the_cell_is_the_mkb_s(prepared) -> None:
+    """On a registered part the poses move with it; an SLRA pose that then meets the cell
+    (the MKB's was at its edge) is the MKB's own, when that one is free."""
+    from dataclasses import replace
+
+    ctx, _, mkb, _ = prepared
+    reasoner = GeometricReasoner(mkb, ctx.workcell, ctx.specs)
+    e = next(e for e in mkb.entries.values() if e.ok and e.group is not None)
+    x, y, z = ctx.workcell.part.translation
+    reasoner.register(replace(ctx.workcell.part, translation=(x + 0.0005, y, z)))
+    moved = reasoner.resolve(_meas("viewing_pose", e.spec_id))
+    assert not np.allclose(moved.q, e.q)
+    reasoner.check_with(lambda q, tool: np.all(np.isclose(q, e.q), axis=1))     # the MKB's alone is free
+    kept = reasoner.resolve(_meas("viewing_pose", e.spec_id))
+    assert np.allclose(kept.q, e.q) and np.allclose(kept.pose, e.pose)
+    reasoner.check_with(lambda q, tool: np.ones(len(q), dtype=bool))           # all free: it moves
+    assert np.allclose(reasoner.resolve(_meas("viewing_pose", e.spec_id)).q, moved.q)
+
+
 def test_mkb_is_stored_keyed_by_digest(prepared, tmp_path) -> None:
     _, _, mkb, _ = prepared
     path = save_mkb(mkb, tmp_path / "m.json")

@@ -16,7 +16,7 @@ from numpy.typing import NDArray
 
 from ita.geometry.build import PRESS_M
 from ita.geometry.mkb import MeasurementKB, MkbEntry
-from ita.kinematics import arm_model, choose_nearest, ik_tool
+from ita.kinematics import IKSolutions, arm_model, choose_nearest, ik_tool
 from ita.logic.terms import Term
 from ita.specs.model import MeasurementSpec
 
@@ -113,7 +113,20 @@ class GeometricReasoner:
             pose = self._motion @ np.asarray(target.pose, dtype=float)
             model = arm_model(self.cell.arm)
             tcp = self.cell.tool(tool_name).tcp.matrix()
-            q, found = choose_nearest(model, ik_tool(model, pose[None], tcp), target.q)
+            solutions = ik_tool(model, pose[None], tcp)
+            q, found = choose_nearest(model, solutions, target.q)
+            if found[0] and self.cell.tool(tool_name).standoff_nominal > 0 and self._free is not None \
+                    and not self._free(q[:1], tool_name)[0]:
+                # an SLRA's pose moved with the part meets the cell (the MKB's was at the edge
+                # of the arm touching itself): the nearest free solution, else the MKB's own
+                # pose when free (the view then off by the registration's sub-millimetre
+                # motion; the frame is read from where the sensor is).  A probe's approach
+                # and contact poses keep the MKB's branch: the straight move between them
+                # needs it.
+                q, found = choose_nearest(model, self._free_only(solutions, tool_name), target.q)
+                if not self._free(q[:1], tool_name)[0] and self._free(np.asarray(target.q)[None], tool_name)[0]:
+                    self._moved[key] = target
+                    return target
             if not found[0]:
                 raise KeyError(f"{spec_id}: the arm cannot reach its {kind} on the part where it was registered")
             self._moved[key] = Target(np.asarray(q[0], dtype=float), pose, target.press_m)
@@ -172,11 +185,22 @@ class GeometricReasoner:
                 return self.station(str(place), tool)
         raise KeyError(f"the Geometric Reasoner does not know {term!r}")
 
+    def _free_only(self, solutions: IKSolutions, tool: str | None) -> IKSolutions:
+        """The solutions the cell's check finds free, when there is a check and any is (else
+        all: the move to the one chosen then says what it hits)."""
+        if self._free is None or not solutions.valid.any():
+            return solutions
+        free = np.zeros_like(solutions.valid)
+        free[solutions.valid] = self._free(solutions.q[solutions.valid], tool)
+        return replace(solutions, valid=free) if free.any() else solutions
+
     def check_with(self, free: Callable[[FloatArray, str | None], NDArray[np.bool_]]) -> None:
-        """Choose stations' poses among the configurations ``free`` accepts (the path
-        planner's collision check of the cell); the poses chosen before are forgotten."""
+        """Choose stations' poses, and poses on a registered part, among the configurations
+        ``free`` accepts (the path planner's collision check of the cell); the poses
+        chosen before are forgotten."""
         self._free = free
         self._stations.clear()
+        self._moved.clear()
 
     def station(self, name: str, tool: str | None, *, contact: bool = False) -> Target:
         """The pose over station `name` (``cal_block``, ``couplant_station``) for `tool` in
@@ -211,12 +235,7 @@ class GeometricReasoner:
         model = arm_model(self.cell.arm)
         ref = self.station(name, tool).q if contact else self.home     # contact: straight down from the approach
         solutions = ik_tool(model, poses[None], tcp).flatten_batch()
-        if self._free is not None and not contact and solutions.valid.any():
-            free = np.zeros_like(solutions.valid)
-            free[solutions.valid] = self._free(solutions.q[solutions.valid], tool)
-            if free.any():                 # else the quickest: its move says what it hits
-                solutions = replace(solutions, valid=free)
-        q, found = choose_nearest(model, solutions, ref)
+        q, found = choose_nearest(model, solutions if contact else self._free_only(solutions, tool), ref)
         if not found[0]:
             raise KeyError(f"the arm cannot reach {name} with {tool or 'no tool'}")
         return Target(np.asarray(q[0], dtype=float), None)
