@@ -128,6 +128,9 @@ def test_two_arms_inspect_at_once_each_its_share_with_its_own_tools_and_never_to
 
 @pytest.mark.slow       # about 2 min: both arms prepared, then a two-arm run of 420 measurements, one arm down
 def test_an_arm_down_for_good_hands_what_it_left_to_the_other_arm_and_they_never_touch(builtin_part) -> None:
+    """The second arm's controller fails for good: its run stops on its alarm, a person
+    moves it by hand out of the way (once the conductor grants the space), and the first
+    arm makes its own share and everything the downed arm left; the arms never touch."""
     result = CliRunner().invoke(main, ["inspect", "--arms", "2", "--limit", "420", "--json",
                                        "--inject", "t3_b:controller_failed:after=150"])
     report = json.loads(result.stdout)
@@ -135,16 +138,17 @@ def test_an_arm_down_for_good_hands_what_it_left_to_the_other_arm_and_they_never
     down, up = report["per_arm"]["t3_b"], report["per_arm"]["t3"]
     assert down["status"] == "stopped" and down["measured"] < down["total"]     # its controller failed: the alarm
     assert up["status"] == "completed" and up["handed_over"] > 50                 # what it left, to the other arm
-    assert up["handover"]["measured"] > 0.5 * up["handed_over"]
     assert report["measured"] == down["measured"] + up["measured"] + up["handover"]["measured"]
     from ita.archive import Archive, archive_path
 
     with Archive.open(archive_path(), create=False) as archive:
+        faults = [e.payload for e in archive.events(down["run_id"], kinds=["diagnosis"])]
+        moved = [e.payload["update"] for e in archive.events(down["run_id"], kinds=["world_update"])]
         left = [r for run in (up["run_id"], up["handover"]["run_id"]) for r in archive.results(run)
                 if r.outcome.value != "measured"]
-        faults = [e.payload for e in archive.events(down["run_id"], kinds=["diagnosis"])]
-    # what the first arm did not make, the downed arm's body kept it from (its claims refused)
-    assert left and all("the other arm's zones" in (r.reason or "") for r in left)
     assert any(d.get("cause") == "controller_not_answering" for d in faults)
-    # the run is not finished: some of what the downed arm left could not be made
-    assert result.exit_code == 3 and report["status"] == "not finished"
+    assert any("a person moved the arm" in m for m in moved)
+    # everything the fault-free run makes is made; what is not would say the other arm's zones kept it
+    assert all("the other arm's zones" in (r.reason or "") for r in left)
+    assert report["measured"] == 420 - len(left)
+    assert (result.exit_code, report["status"]) == ((0, "completed") if not left else (3, "not finished"))

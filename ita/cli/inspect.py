@@ -26,6 +26,7 @@ from typing import Any
 
 import click
 
+from ita.archive import Event
 from ita.cli.common import (
     FiniteFloatRange,
     arm_option,
@@ -169,6 +170,43 @@ def _attach_injector(session: Any, archive: Any, run_id: str) -> None:
     session.arm.injector = session.slra.injector = injector
 
 
+#: seconds a person takes to move an arm whose controller is down out of the other arm's
+#: way (lock the cell's gate, release the brakes, walk the arm to its fold)
+PERSON_MOVES_ARM_S = 300.0
+
+
+def _moved_by_a_person(session: Any) -> bool:
+    """One arm of two whose controller is down for good: a person moves it by hand to its
+    fold on its base ray, out of the other arm's way, once the conductor grants the space
+    (the other arm's motions there ended); else it stays where it stopped."""
+    import numpy as np
+
+    from ita.executive.conductor import conducted_arms  # start-up: only a two-arm run's arm needs it
+    from ita.robot.waypoints import retreat_paths  # start-up: the same
+
+    cell = session.ctx.workcell
+    fold = np.asarray(next(a.fold for a in conducted_arms(cell) if a.name == cell.arm.name), dtype=float)
+    fold[0] = float(session.world.q[0])
+    gate, world = session.arm.controller.gate, session.world
+    if gate is None:
+        return False
+    q0 = np.array(world.q)
+    grant = gate.claim(world.clock.now, np.array([0.0, PERSON_MOVES_ARM_S]), np.stack([q0, fold]))
+    if grant.kind not in ("go", "fold"):          # "fold": the conductor's own fold, the same by hand
+        return False
+    if grant.kind == "go" or grant.fold is None:          # the straight way it claimed
+        to = fold
+        times, path = np.array([0.0, PERSON_MOVES_ARM_S]), np.stack([q0, to])
+    else:                                                 # the conductor's fold: its first way, at a person's pace
+        to = np.asarray(grant.fold, dtype=float)
+        way = retreat_paths(world.model, q0, to)[0]
+        times, path = np.asarray(way.times) * (PERSON_MOVES_ARM_S / max(float(way.duration), 1e-9)), np.asarray(way.q)
+    world.clock.advance(grant.wait_s + PERSON_MOVES_ARM_S)
+    world.set_q(to)
+    gate.moved(world.clock.now, np.array(to), (times, path))
+    return True
+
+
 def _park_away(session: Any) -> bool:
     """One arm of two, its share worked: fold turned away from the other arm's base."""
     from ita.executive.conductor import conducted_arms  # start-up: only a two-arm run's arm needs it
@@ -196,7 +234,12 @@ def _run(session: Any, archive: Any, run_id: str, as_json: bool, view: LiveView,
     finished = summary.status == "completed"
     if parked:           # one arm of two: out of the other's way (folded, turned away from it), its zones given up
         controller = session.arm.controller
-        if not _park_away(session):
+        if session.world.faults.controller_silent:
+            moved = _moved_by_a_person(session)
+            archive.record_event(run_id, Event("world_update", "top", session.clock.now, {"update": (
+                "a person moved the arm out of the other's way by hand (its controller is down)" if moved else
+                "the arm's controller is down and the other arm's zones kept a person from moving it")}))
+        elif not _park_away(session):
             controller.give_way()
         extra["simulated_parked_s"] = round(session.clock.now, 3)
         wait, handed = controller.gate.take(session.clock.now, f"handover:{session.ctx.workcell.arm.name}")
