@@ -332,3 +332,37 @@ def test_an_arm_told_to_fold_where_every_way_back_touches_the_cell_stays_and_ask
     assert len(gate.moves) == 1 and np.allclose(gate.moves[0], stuck)       # a fold that stopped where it began
     assert reply.status is MotionStatus.REJECTED and "test" in reply.message
     np.testing.assert_allclose(world.q, stuck)                           # never dragged along the part
+
+
+class _AnsweringGate(_FoldingGate):
+    """A conductor that answers every claim with `kind`."""
+
+    def __init__(self, kind: str) -> None:
+        super().__init__(np.zeros(6))
+        self.kind = kind
+
+    def claim(self, t, times, q, pinned=False):
+        from ita.robot.gate import Grant
+
+        self.claims.append(pinned)
+        return Grant(self.kind, 2.0, None, "test")
+
+
+def test_a_person_moves_an_arm_whose_controller_is_down_once_the_space_is_granted(ctl):
+    """Its controller failed for good: a person walks it to the target by hand, after the
+    conductor's wait, and the conductor is told where it ended; refused, it stays."""
+    world = ctl.world
+    world.faults = FaultSet().with_fault(Fault.CONTROLLER_SILENT)
+    target = np.array([0.0, -0.236, -1.321, 0.0, 0.0, 0.0])
+    ctl.gate = _AnsweringGate("refuse")
+    try:
+        assert not ctl.moved_by_hand(target, 300.0)
+        np.testing.assert_allclose(world.q, READY)
+        ctl.gate = gate = _AnsweringGate("go")
+        t0 = world.clock.now
+        assert ctl.moved_by_hand(target, 300.0)
+    finally:
+        ctl.gate = None
+    np.testing.assert_allclose(world.q, target)
+    assert world.clock.now == pytest.approx(t0 + 2.0 + 300.0)
+    assert len(gate.moves) == 1 and np.allclose(gate.moves[0], target)

@@ -178,33 +178,15 @@ PERSON_MOVES_ARM_S = 300.0
 def _moved_by_a_person(session: Any) -> bool:
     """One arm of two whose controller is down for good: a person moves it by hand to its
     fold on its base ray, out of the other arm's way, once the conductor grants the space
-    (the other arm's motions there ended); else it stays where it stopped."""
+    (RobotController.moved_by_hand); else it stays where it stopped."""
     import numpy as np
 
     from ita.executive.conductor import conducted_arms  # start-up: only a two-arm run's arm needs it
-    from ita.robot.waypoints import retreat_paths  # start-up: the same
 
     cell = session.ctx.workcell
     fold = np.asarray(next(a.fold for a in conducted_arms(cell) if a.name == cell.arm.name), dtype=float)
     fold[0] = float(session.world.q[0])
-    gate, world = session.arm.controller.gate, session.world
-    if gate is None:
-        return False
-    q0 = np.array(world.q)
-    grant = gate.claim(world.clock.now, np.array([0.0, PERSON_MOVES_ARM_S]), np.stack([q0, fold]))
-    if grant.kind not in ("go", "fold"):          # "fold": the conductor's own fold, the same by hand
-        return False
-    if grant.kind == "go" or grant.fold is None:          # the straight way it claimed
-        to = fold
-        times, path = np.array([0.0, PERSON_MOVES_ARM_S]), np.stack([q0, to])
-    else:                                                 # the conductor's fold: its first way, at a person's pace
-        to = np.asarray(grant.fold, dtype=float)
-        way = retreat_paths(world.model, q0, to)[0]
-        times, path = np.asarray(way.times) * (PERSON_MOVES_ARM_S / max(float(way.duration), 1e-9)), np.asarray(way.q)
-    world.clock.advance(grant.wait_s + PERSON_MOVES_ARM_S)
-    world.set_q(to)
-    gate.moved(world.clock.now, np.array(to), (times, path))
-    return True
+    return bool(session.arm.controller.moved_by_hand(fold, PERSON_MOVES_ARM_S))
 
 
 def _park_away(session: Any) -> bool:

@@ -191,6 +191,28 @@ class RobotController:
         self._wait(grant.wait_s)
         return True
 
+    def moved_by_hand(self, target: NDArray[np.float64], seconds: float) -> bool:
+        """A person moves the arm by hand to ``target`` taking ``seconds`` (its controller
+        down for good: nothing it commands moves it), once the other arm's conductor grants
+        the space; told to fold instead, the person folds it there the same way.  Whether
+        the arm was moved (always, without a gate)."""
+        world, gate = self.world, self.gate
+        q0 = np.array(world.q)
+        times, path = np.array([0.0, seconds]), np.stack([q0, np.asarray(target, dtype=float)])
+        if gate is not None:
+            grant = gate.claim(world.clock.now, times, path)
+            if grant.kind not in ("go", "fold"):
+                return False
+            world.clock.advance(grant.wait_s)
+            if grant.kind == "fold" and grant.fold is not None:      # the conductor's fold: its first way
+                way = retreat_paths(world.model, q0, np.asarray(grant.fold))[0]
+                times, path = np.asarray(way.times) * (seconds / max(float(way.duration), 1e-9)), np.asarray(way.q)
+        world.clock.advance(seconds)
+        world.set_q(path[-1])
+        if gate is not None:
+            gate.moved(world.clock.now, np.array(path[-1]), (times, path))
+        return True
+
     def jogged(self) -> None:
         """After a jog claimed with :meth:`claim_jog`: where the arm is now."""
         if self.gate is not None:
