@@ -181,24 +181,25 @@ def _moved_by_a_person(session: Any) -> bool:
     (RobotController.moved_by_hand); else it stays where it stopped."""
     import numpy as np
 
-    from ita.executive.conductor import conducted_arms  # start-up: only a two-arm run's arm needs it
-
-    cell = session.ctx.workcell
-    fold = np.asarray(next(a.fold for a in conducted_arms(cell) if a.name == cell.arm.name), dtype=float)
+    fold = np.asarray(_fold_of(session.ctx.workcell), dtype=float)
     fold[0] = float(session.world.q[0])
     return bool(session.arm.controller.moved_by_hand(fold, PERSON_MOVES_ARM_S))
 
 
-def _park_away(session: Any) -> bool:
-    """One arm of two, its share worked: fold turned away from the other arm's base."""
+def _fold_of(cell: Any) -> tuple[float, ...]:
+    """The joints the cell's working arm folds to (the zone conductor's: ConductedArm.fold)."""
     from ita.executive.conductor import conducted_arms  # start-up: only a two-arm run's arm needs it
 
+    return next(a.fold for a in conducted_arms(cell) if a.name == cell.arm.name)
+
+
+def _park_away(session: Any) -> bool:
+    """One arm of two, its share worked: fold turned away from the other arm's base."""
     cell = session.ctx.workcell
     if cell.second_arm is None:
         return False
-    fold = next(a.fold for a in conducted_arms(cell) if a.name == cell.arm.name)
     other = cell.second_arm.base.position
-    return bool(session.arm.park_away(fold, (float(other[0]), float(other[1]))))
+    return bool(session.arm.park_away(_fold_of(cell), (float(other[0]), float(other[1]))))
 
 
 def _run(session: Any, archive: Any, run_id: str, as_json: bool, view: LiveView, parked: bool = False,
