@@ -319,6 +319,52 @@ def test_an_arm_whose_probe_is_on_the_part_is_never_told_to_fold(cell, poses) ->
     first_folds_then_second_goes(c, start_waiting(c, qa, qb, qt, qs, pinned=True), qa)
 
 
+def test_a_lower_arm_that_cannot_fold_for_the_first_arms_body_has_the_first_fold_first(cell, poses) -> None:
+    """The first arm waits for the second's body; the second's next claim would leave it in
+    the first's way still, so it should give way, but the first arm's body stands on its
+    way back: the first arm folds (once), instead of the second going on with its claims
+    while the first waits for its whole share; then the second gives way."""
+    c0 = fresh(cell)
+    a, b = c0.order
+    home_a, home_b = np.asarray(c0.state[a].arm.home), np.asarray(c0.state[b].arm.home)
+    found = None
+    for qb, zb in poses[b][:60]:
+        if (c0.swept(b, [0.0, MOVE_S], [home_b, qb]) | zb) & c0.body(a, home_a):
+            continue
+        for qa, za in poses[a][:80]:
+            if ((c0.swept(a, [0.0, MOVE_S], [home_a, qa]) | za) & zb or not za & way_back(c0, b, qb)
+                    or way_back(c0, a, qa) & zb):
+                continue
+            qt = next((q for q, z in poses[a] if z & zb), None)           # the first arm's next pose: in the way
+            if qt is None:
+                continue
+            wanted = c0.swept(a, [0.0, MOVE_S], [qa, qt]) | c0.body(a, qt)
+            folded_a = c0.body(a, c0._folded(a, qa))
+            if way_back(c0, b, qb) & folded_a:
+                continue
+            qs = next((q for q, z in poses[b] if (c0.swept(b, [0.0, MOVE_S], [qb, q]) | z) & wanted
+                       and not (c0.swept(b, [0.0, MOVE_S], [qb, q]) | z) & (za | folded_a)), None)
+            if qs is not None:
+                found = (qa, qb, qt, qs)
+                break
+        if found:
+            break
+    if found is None:
+        pytest.skip("no such poses among the sampled ones")
+    qa, qb, qt, qs = found
+    c = fresh(cell)
+    got = start_waiting(c, qa, qb, qt, qs)
+    assert a in got and got[a][0] == "fold" and b not in got       # the first arm folds; the second's claim waits
+    fold = np.asarray(got[a][2])
+    d = max(w.duration for w in c.state[a].arm.retreat(qa, fold))
+    t = 2 * MOVE_S + got[a][1] + d
+    assert c.receive(a, ("moved", t, fold)) == []                   # the second waits for its next claim
+    got = dict(claim(c, a, t, fold, qt))
+    assert got == {b: got[b]} and got[b][0] == "fold"               # then the second gives way
+    assert c.state[a].folds == c.state[b].folds == 1 and c.state[a].refused == c.state[b].refused == 0
+    granted_apart(c)
+
+
 def test_an_inject_script_may_name_the_arm_it_hits() -> None:
     from ita.cli.arms import scripts_of
 

@@ -425,7 +425,8 @@ def inspect(part_dir: Path | None, limit: int | None, seed: int, runs_dir: Path 
         specs = list(conducted.specs)
     session = open_session(part_dir, seed=seed, progress=lambda m: view.note(f"{m} ..."), serial=serial,
                            shifts=shifts, placement_error=placement == "fixture", arm=arm,
-                           away_tools=conducted.away_tools if conducted is not None else None)
+                           away_tools=conducted.away_tools if conducted is not None else None,
+                           others_folded=conducted is not None)
     if conducted is not None:
         session.arm.controller.gate = session.slra.controller.gate = session.peer = conducted.gate
         session.registers = conducted.registers

@@ -154,6 +154,21 @@ class Revolved:
         beyond = np.maximum(0.0, np.maximum(-P[:, 2], P[:, 2] - (self.field.shape[1] - 1) * self.step))
         return np.asarray(out - self.step * math.sqrt(0.5) - beyond)
 
+    def bands(self, margin: float, band_m: float = 0.2) -> list[tuple[float, float, float]]:
+        """The ground as upright cylinders about the axis, one per height band of ``band_m``:
+        ``(z_low, z_high, radius)``, each holding every point of its band whose
+        :meth:`clearance` is ``margin`` or less (bands holding none left out)."""
+        rows_per = max(1, int(round(band_m / self.step)))
+        near = (self.field - self.step * math.sqrt(0.5)) <= margin            # (R, Z)
+        out = []
+        for j0 in range(0, near.shape[1], rows_per):
+            inside = np.nonzero(near[:, j0:j0 + rows_per].any(axis=1))[0]
+            if len(inside):
+                z0 = max(0.0, (j0 - 0.5) * self.step)
+                z1 = (min(j0 + rows_per, near.shape[1]) - 0.5) * self.step
+                out.append((z0, z1, float(inside.max() + 1) * self.step))
+        return out
+
     def clear_of(self, body: ArmBody, q: np.ndarray, gap: float) -> np.ndarray:
         """``(n,)``: whether the arm ``body`` at each configuration ``(n, 6)`` keeps every
         tube more than ``gap`` beyond its radius from the folded arm."""

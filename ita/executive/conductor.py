@@ -57,14 +57,15 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ita.collision.zones import ArmBody, ZoneGrid, Zones, arm_body, folded_configuration
+from ita.collision.tree import Regions
+from ita.collision.zones import ArmBody, Revolved, ZoneGrid, Zones, arm_body, folded_configuration
 from ita.executive.zones import ZoneEvent, ZoneTable
 from ita.kinematics import arm_model
 from ita.path.trajectory import TimedTrajectory
 from ita.robot.waypoints import retreat_paths
 from ita.workcell import Workcell
 
-__all__ = ["GRID_MARGIN_M", "ConductedArm", "Conductor", "Motion", "conducted_arms", "zone_grid"]
+__all__ = ["GRID_MARGIN_M", "ConductedArm", "Conductor", "Motion", "conducted_arms", "folded_ground", "zone_grid"]
 
 #: the zones reach this far (m) around the arms' bases: farther than either arm with a tool
 GRID_MARGIN_M = 3.5
@@ -158,6 +159,30 @@ def conducted_arms(cell: Workcell) -> list[ConductedArm]:
 
         out.append(ConductedArm(arm.name, body, tuple(map(float, fold)), tuple(map(float, view.arm.home)), retreat))
     return out
+
+
+def folded_ground(cell: Workcell, margin: float | None = None) -> Regions:
+    """Where each other arm of `cell` (the cell as its working arm sees it) may stand
+    folded on its base, whatever its base joint (its fold as the conductor orders it,
+    ita.collision.zones.Revolved), grown by `margin` (default: a zone's full diagonal, so
+    that a body outside it never shares a zone with the folded arm): upright tubes about
+    its base axis, a band of heights each.  The working arm's Path Planner keeps clear of
+    it in a two-arm run: with the other arm folded, every motion of this one is then
+    granted (the allocation keeps its measuring poses clear of the same ground)."""
+    grid = zone_grid(cell)
+    gap = 2.0 * grid.cell * math.sqrt(0.75) if margin is None else margin
+    tubes: list[tuple[tuple[float, float, float], tuple[float, float, float], float]] = []
+    for other in conducted_arms(cell):
+        if other.name == cell.arm.name:
+            continue
+        base = next(a for a in cell.arms() if a.name == other.name).base.position
+        ground = Revolved.of(other.body, np.asarray(other.fold, dtype=float), (float(base[0]), float(base[1])),
+                             grid.z_high)
+        tubes += [((ground.axis[0], ground.axis[1], z0), (ground.axis[0], ground.axis[1], z1), r)
+                  for z0, z1, r in ground.bands(gap)]
+    if not tubes:
+        return Regions.empty()
+    return Regions.tubes([a for a, _b, _r in tubes], [b for _a, b, _r in tubes], [r for _a, _b, r in tubes])
 
 
 def zone_grid(cell: Workcell) -> ZoneGrid:
@@ -395,8 +420,14 @@ class Conductor:
                 reply = self._try_fold(name, claim)
                 if not isinstance(reply, str):
                     return [(name, reply)]
-                # its way back meets the waiting arm's body: it goes on with its claim (it
-                # moves, so the other's wait ends) rather than stand in the way
+                # its way back meets the waiting arm's body: that arm folds first when it
+                # can (this claim is decided again after), so that this one can fold at its
+                # next claim; else it goes on with its claim (it moves, so the other's wait
+                # ends) rather than stand in the way
+                first = self._fold_first(reply, waiting)
+                if first is not None:
+                    st.stuck_on = reply          # and this claim waits for that arm's next one
+                    return [(reply, first)]
             return [(name, self._grant(name, claim, sweep, rest))]
         until, other = found
         if not math.isinf(until):                        # the other's motion ends then: wait for it
@@ -411,6 +442,20 @@ class Conductor:
             return self._give_way(name, claim, other)
         st.stuck_on = other                              # wait for the other's next claim
         return []
+
+    def _fold_first(self, blocker: str, waiting: Sequence[str]) -> Reply | None:
+        """Arm `blocker`, of those `waiting` for a lower arm's body, stands on that arm's way
+        back: it folds first, once (not when it is folded already or its claim is pinned);
+        None when it does not.  Without this the lower arm went on with its claims, never
+        able to fold, and the first waited for its whole share (two probing arms: a tool
+        change of the first arm waited 2,500 s)."""
+        if blocker not in waiting:
+            return None
+        bst = self.state[blocker]
+        if bst.folded or bst.pending is None or bst.pending.park:
+            return None
+        reply = self._try_fold(blocker, bst.pending)
+        return None if isinstance(reply, str) else reply
 
     def _way_back(self, name: str, q: FloatArray) -> Zones:
         """The zones of arm `name` folding from `q` (every way it may take) and folded there."""

@@ -45,6 +45,7 @@ from numpy.typing import ArrayLike, NDArray
 from ita.collision import (
     ArmChecker,
     ArmTubes,
+    Regions,
     RegionTree,
     arm_tubes,
     build_tree,
@@ -460,24 +461,34 @@ class PathPlanner:
                           np.zeros((0, 3)), None, time.perf_counter() - t0, stats or {})
 
 
-def planners_for(cell: Workcell, part: Any | None, settings: PlannerSettings | None = None
-                 ) -> Callable[[str | None], tuple[PathPlanner, ToolSpec | None]]:
-    """A cached `held tool name -> (PathPlanner, ToolSpec)` for one workcell and part."""
+#: the region tree's object for ground the planner keeps clear of besides the cell's
+KEEP_CLEAR = "keep_clear"
+
+
+def planners_for(cell: Workcell, part: Any | None, settings: PlannerSettings | None = None,
+                 keep_clear: Regions | None = None) -> Callable[[str | None], tuple[PathPlanner, ToolSpec | None]]:
+    """A cached `held tool name -> (PathPlanner, ToolSpec)` for one workcell and part
+    (keep_clear: as :func:`workcell_planner`)."""
     cache: dict[str | None, tuple[PathPlanner, ToolSpec | None]] = {}
 
     def planner_for(held: str | None) -> tuple[PathPlanner, ToolSpec | None]:
         if held not in cache:
-            cache[held] = workcell_planner(cell, part, held, settings)
+            cache[held] = workcell_planner(cell, part, held, settings, keep_clear)
         return cache[held]
 
     return planner_for
 
 
 def workcell_planner(cell: Workcell, part: Any | None, held: str | None = None,
-                     settings: PlannerSettings | None = None) -> tuple[PathPlanner, ToolSpec | None]:
+                     settings: PlannerSettings | None = None,
+                     keep_clear: Regions | None = None) -> tuple[PathPlanner, ToolSpec | None]:
     """A planner over the workcell and part with tool `held` in the gripper (its parked
-    copy taken out of the tree), and that tool."""
+    copy taken out of the tree), and that tool.  keep_clear: regions the arm keeps out of
+    besides the cell (in a two-arm run, where the other arm may stand folded:
+    ita.executive.conductor.folded_ground)."""
     tree = build_tree(cell, part)
+    if keep_clear is not None and len(keep_clear):
+        tree.add(KEEP_CLEAR, keep_clear)
     tool = None
     if held is not None:
         tool = cell.tool(held)

@@ -19,7 +19,9 @@ from numpy.typing import NDArray
 
 from ita.devices import ArmDevice, GaugeCommands, PersonDevice, SlraDevice
 from ita.devices.stations import StationCommands
+from ita.collision import Regions
 from ita.executive import PlanExecutive
+from ita.executive.conductor import folded_ground
 from ita.geometry import GeometricReasoner
 from ita.kinematics import ArmModel
 from ita.kinematics.fk import FloatArray
@@ -93,6 +95,8 @@ class Session:
     peer: MotionGate | None = None
     #: whether this arm registers the part (else it takes the other arm's registration)
     registers: bool = True
+    #: ground the Path Planner keeps the arm out of besides the cell (open_session's others_folded)
+    keep_clear: Regions | None = None
     _specs: dict[str, MeasurementSpec] = field(default_factory=dict, repr=False)
     _specs_of: PlanningContext | None = field(default=None, repr=False)   # the context _specs are of
 
@@ -140,7 +144,8 @@ class Session:
 def open_session(part_dir: Path | None = None, *, seed: int = 0,
                  progress: Callable[[str], None] = lambda _m: None, serial: str | None = None,
                  shifts: Mapping[str, float] | None = None, placement_error: bool = False,
-                 arm: str | None = None, away_tools: Mapping[str, str] | None = None) -> Session:
+                 arm: str | None = None, away_tools: Mapping[str, str] | None = None,
+                 others_folded: bool = False) -> Session:
     """Load everything a run needs; prepare the part first (sequence plan, MKB, MACROPs)
     when what is stored is missing or stale.  serial: the simulator holds that serial's own
     as-built part of a generated design (shifts: special causes asked, spec id -> mm;
@@ -150,7 +155,9 @@ def open_session(part_dir: Path | None = None, *, seed: int = 0,
     arm: the cell's arm that works (default its first; the second works the cell alone,
     with its own plan, MKB and MACROPs: ita.sequence.plan.planning_context).  away_tools:
     tool -> the arm it is kept for (the other arm's own, in a two-arm run): reserved to
-    this session's world model (kb/world.pl reserved/2), so this arm never takes it."""
+    this session's world model (kb/world.pl reserved/2), so this arm never takes it.
+    others_folded: the Path Planner keeps this arm out of the ground where the cell's other
+    arm may stand folded (a two-arm run: ita.executive.conductor.folded_ground)."""
 
     t0 = time.perf_counter()
     progress("loading the knowledge bases and the part")
@@ -168,6 +175,7 @@ def open_session(part_dir: Path | None = None, *, seed: int = 0,
     else:
         simulated = simulated_part(part.directory, part.mesh)  # a bad as-built mesh is named before preparing
     ctx = planning_context(part_dir, kb=kb, part=part, arm=arm)
+    keep_clear = folded_ground(ctx.workcell) if others_folded else None
     plan, mkb, _ = prepare_inspection(ctx, part, progress=progress, warm=False)
     ctx = with_mkb(ctx, mkb)              # a resequencing keeps what the MKB could not place
     specs = {s.id: s for s in ctx.specs}
@@ -183,7 +191,7 @@ def open_session(part_dir: Path | None = None, *, seed: int = 0,
         gauge_sim = UltrasonicSim(world)
         ut = UltrasonicGauge(gauge_sim)
         gauge = GaugeCommands(ut, specs)
-        arm_device = ArmDevice(world, reasoner, planners_for(cell, part), extra=gauge.handlers)
+        arm_device = ArmDevice(world, reasoner, planners_for(cell, part, keep_clear=keep_clear), extra=gauge.handlers)
         reasoner.check_with(lambda q, tool: _free(arm_device.planner_for(tool), q))     # the planners of now
         arm_device.add_handlers(StationCommands(world, reasoner, arm_device.controller, gauge_sim, gauge=ut).handlers, "station_s")
         slra_tools = [t for t in cell.tools if t.tool_class.value == "slra_tool"]
@@ -199,7 +207,7 @@ def open_session(part_dir: Path | None = None, *, seed: int = 0,
         raise
     return Session(kb, part, None if part_dir is None else str(Path(part_dir).resolve()), ctx, plan, mkb,
                    reasoner, world, arm_device, slra, person, executive, op, seed, time.perf_counter() - t0, simulated.source,
-                   asbuilt_dir)
+                   asbuilt_dir, keep_clear=keep_clear)
 
 
 def _free(planner: tuple[PathPlanner, ToolSpec | None], q: FloatArray) -> NDArray[np.bool_]:
