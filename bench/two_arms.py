@@ -65,7 +65,7 @@ def main() -> None:
     one = allocation.one_arm_s
     print(f"part {ctx.part_name}: {len(plan.groups)} tool groups, "
           f"{sum(len(g.order) for g in plan.groups)} measurements; seconds are planned (motion, rack, "
-          f"{allocation.dwell_s:.1f} s dwell per measurement)")
+          f"a dwell per measurement: {', '.join(f'{c} {d:.2f} s' for c, d in sorted(allocation.dwell_s.items()))})")
     print(f"one arm                      {one:8.1f} s")
     for share in allocation.shares:
         print(f"  {share.arm:8s} share       {share.time_s:8.1f} s  {share.count:5d} measurements "

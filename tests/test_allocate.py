@@ -11,7 +11,7 @@ import pytest
 from ita.executive.two_arms import coordinated
 from ita.executive.zones import configurations_at
 from ita.logic.world import WorldModel
-from ita.sequence.allocate import allocate
+from ita.sequence.allocate import DWELL_S, allocate
 from ita.sequence.plan import build_plan, planning_context
 from ita.sim.arms import TwoArms
 from ita.specs.model import Tool
@@ -58,19 +58,24 @@ def test_each_measurement_goes_to_an_arm_that_reaches_it_with_a_tool_of_its_own(
 
 
 def test_an_arm_gets_work_of_the_tool_classes_it_is_fitted_for_alone(allocated) -> None:
-    """The default cell's second arm works with the SLRA alone: no probe work, and the
-    probe work it could reach says why; fitted for every class, it takes probe work too."""
+    """The default cell's second arm probes and scans; fitted for the SLRA alone, it gets
+    no probe work, not even by a hand-over."""
     ctx, plan, a = allocated
     second = ctx.workcell.second_arm
-    assert second is not None and second.tool_classes == ("slra_tool",)
+    assert second is not None and second.tool_classes is None
     b_tools = {ctx.workcell.tool(t).tool_class for s in a.shares if s.arm == second.name for t, _o, _c in s.groups}
-    assert b_tools == {Tool.SLRA}
+    assert any(t.ultrasonic for t in b_tools) and Tool.SLRA in b_tools
     probe_work = {i for g in plan.groups if ctx.workcell.tool(g.tool).tool_class.ultrasonic for i in g.order}
-    assert probe_work and not a.able[second.name] & probe_work      # not even handed over
-    every = replace(ctx, workcell=replace(ctx.workcell, second_arm=replace(second, tool_classes=None)))
-    b = allocate(every, plan)
-    assert any(every.workcell.tool(t).tool_class.ultrasonic for s in b.shares if s.arm == second.name
-               for t, _o, _c in s.groups)
+    scanner = replace(ctx, workcell=replace(ctx.workcell, second_arm=replace(second, tool_classes=("slra_tool",))))
+    b = allocate(scanner, plan)
+    assert {scanner.workcell.tool(t).tool_class for s in b.shares if s.arm == second.name
+            for t, _o, _c in s.groups} == {Tool.SLRA}
+    assert probe_work and not b.able[second.name] & probe_work      # not even handed over
+
+
+def test_every_tool_class_has_a_dwell() -> None:
+    assert all(c.family.value in DWELL_S for c in Tool)
+    assert DWELL_S[Tool.ULTRASONIC.value] > DWELL_S[Tool.SLRA.value]     # a probe presses, pulses, lifts off
 
 
 def test_the_makespan_lies_between_its_bound_and_the_one_arm_time(allocated) -> None:

@@ -227,6 +227,34 @@ def test_an_slra_pose_moved_with_the_registered_part_that_meets_the_cell_is_the_
     assert np.allclose(reasoner.resolve(_meas("viewing_pose", e.spec_id)).q, moved.q)
 
 
+def test_a_probe_pose_moved_with_the_registered_part_that_meets_the_cell_rolls_about_the_probe(prepared) -> None:
+    """A probe's approach moved with the registered part that meets the cell (or the arm
+    itself) is turned about the probe's axis, with its contact pose by the same roll: the
+    tip touches the same spot, square to the surface, and the approach is free."""
+    from dataclasses import replace
+
+    ctx, _, mkb, _ = prepared
+    e = next(e for e in mkb.entries.values()
+             if e.ok and e.q_approach is not None and ctx.workcell.tool(e.tool).tool_class.ultrasonic)
+    reasoner = GeometricReasoner(mkb, ctx.workcell, ctx.specs)
+    x, y, z = ctx.workcell.part.translation
+    reasoner.register(replace(ctx.workcell.part, translation=(x + 0.0005, y, z)))
+    approach = reasoner.resolve(_meas("approach_point", e.spec_id))
+    contact = reasoner.resolve(_meas("in_contact_point", e.spec_id))
+    reasoner.check_with(lambda q, tool: ~np.all(np.isclose(q, approach.q), axis=1))   # the moved approach is not free
+    rolled = reasoner.resolve(_meas("approach_point", e.spec_id))
+    touch = reasoner.resolve(_meas("in_contact_point", e.spec_id))
+    assert not np.allclose(rolled.q, approach.q)
+    for before, after in ((approach, rolled), (contact, touch)):
+        assert np.allclose(after.pose[:3, 3], before.pose[:3, 3], atol=1e-9)          # the same spot
+        assert np.allclose(after.pose[:3, 2], before.pose[:3, 2], atol=1e-9)          # the same axis
+        angle = np.degrees(np.arccos(np.clip(after.pose[:3, 0] @ before.pose[:3, 0], -1.0, 1.0)))
+        assert 4.0 < angle < 46.0
+    assert np.allclose(touch.pose[:3, :3], rolled.pose[:3, :3] @ approach.pose[:3, :3].T @ contact.pose[:3, :3],
+                       atol=1e-9)                                                     # one roll for both
+    assert touch.press_m == contact.press_m
+
+
 def test_mkb_is_stored_keyed_by_digest(prepared, tmp_path) -> None:
     _, _, mkb, _ = prepared
     path = save_mkb(mkb, tmp_path / "m.json")

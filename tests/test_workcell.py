@@ -259,7 +259,7 @@ def _write_variant(tmp_path: Path, old: str, new: str) -> Path:
         ("base_position = [1.4, 2.35, 0.6]\n", "", "robot_b.base_position"),
         ("size = [0.8, 0.8, 0.6]", "size = [0.8, -0.8, 0.6]", "robot_b.pedestal.size"),
         ("center = [2.25, 2.1, 0.925]", "center = [2.25, 2.1]", "robot_b.cal_block.center"),
-        ('tool_classes = ["slra_tool"]', 'tool_classes = ["laser"]', "robot_b.tool_classes"),
+        ('name = "t3_b"\n', 'name = "t3_b"\ntool_classes = ["laser"]\n', "robot_b.tool_classes"),
         ("[robot_b.cal_block]\ncenter = [2.25, 2.1, 0.925]\nsize = [0.15, 0.1, 0.05]\n", "", "robot_b.cal_block"),
     ],
 )

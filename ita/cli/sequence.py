@@ -228,12 +228,12 @@ def allocate(part_dir: Path | None, as_json: bool, down: tuple[str, float] | Non
     tool of its class (a tool with no twin to one arm), its body clear of the other arm
     folded on its base; the split
     between the arms' bases that makes the larger arm time least.  Prints each arm's share and time (planned motion, the rack and
-    a dwell per measurement), the makespan, a lower bound and the one-arm time; then the
+    a dwell per measurement by tool class), the makespan, a lower bound and the one-arm time; then the
     two arms' moves played through the interference zones (claims, waits, retreats): the
     coordinated makespan and each arm's busy and waiting seconds, and both arms checked for
     contact in 3-D.  With --down, the hand-over: what was made by then, what the other arm
-    takes over, what is lost and why, the new makespan.  A plan, not a run: two-arm
-    inspection runs are not built yet.
+    takes over, what is lost and why, the new makespan.  A plan, not a run (the run is
+    `ita inspect --arms 2`).
     """
     import numpy as np
 

@@ -30,8 +30,11 @@ cell's first arm first).
 - A claim that meets another arm's motion waits for that motion's end.  A claim that
   meets another arm's body waits for that arm's next claim; if that arm is of lower
   priority, and its next claim would still leave it in the way, it folds back instead
-  (it gives way; when the first arm's body stands on its way back, it goes on with its
-  claim instead, and so moves).
+  (it gives way; when the first arm's body stands on its way back, the first arm folds
+  first, once, and the lower arm's claim waits for the first's next claim; when the first
+  cannot or has folded already, the lower goes on with its claim instead, and so moves).
+  Each arm's Path Planner keeps clear of where the other may stand folded
+  (:func:`folded_ground`), so with the other folded, an arm's claims are granted.
 - If each waits for the other's body, the one of lower priority folds; when its way
   back meets the other's body (or it is folded already), the other folds first.  The
   allocation (ita.sequence.allocate) keeps every measuring pose of each arm, and its way

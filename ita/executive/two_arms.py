@@ -65,8 +65,9 @@ def arm_jobs(ctx: PlanningContext, allocation: Allocation) -> list[ArmJob]:
             specs = [ctx.spec(i) for i in order]
             xy = tool_points_world(view, view.tool(tool), specs)[:, :2]
             q = measurement_configurations(view, model, view.tool(tool), specs).q
+            dwell = allocation.dwell_s[view.tool(tool).tool_class.family.value]
             for k, spec_id in enumerate(order):
-                moves.append(Move((float(xy[k, 0]), float(xy[k, 1])), legs[k], allocation.dwell_s, spec_id,
+                moves.append(Move((float(xy[k, 0]), float(xy[k, 1])), legs[k], dwell, spec_id,
                                   tuple(map(float, q[k]))))
             moves.append(Move(at_slot, legs[-1], 0.0, f"back to {tool}'s slot", q_slot))
         if held is not None:

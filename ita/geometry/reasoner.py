@@ -33,6 +33,9 @@ STATIONS = ("cal_block", "couplant_station")
 STATION_CLEARANCE_M = 0.15
 #: rolls about the vertical tried for a pose over a station
 STATION_ROLLS = 12
+#: rolls (degrees, each way) about a probe's axis tried when its poses moved with the
+#: registered part meet the cell or the arm itself (GeometricReasoner._probe_on_part)
+PROBE_ROLLS_DEG = (5.0, 10.0, 15.0, 20.0, 30.0, 45.0)
 
 
 @dataclass(frozen=True, eq=False)
@@ -163,6 +166,10 @@ class GeometricReasoner:
                 part = self.placement or self.cell.part
                 return part.to_world(np.asarray(spec.point, dtype=float)[None])[0]
             e = self.entry(spec_id, tool)
+            if kind in ("approach_point", "in_contact_point") and e.q_approach is not None \
+                    and self.cell.tool(e.tool).standoff_nominal <= 0:
+                approach, contact = self._probe_on_part(spec_id, tool, e)
+                return approach if kind == "approach_point" else contact
             if kind == "approach_point":
                 return self._on_part(spec_id, kind, tool, Target(_configuration(spec_id, e.q_approach),
                                                                  e.pose_approach), e.tool)
@@ -184,6 +191,48 @@ class GeometricReasoner:
             if place in STATIONS:
                 return self.station(str(place), tool)
         raise KeyError(f"the Geometric Reasoner does not know {term!r}")
+
+    def _probe_on_part(self, spec_id: str, tool: str | None, e: MkbEntry) -> tuple[Target, Target]:
+        """A probe's approach and contact targets moved with the registered part.  When the
+        arm there meets the cell or itself (the MKB's pose was at the edge of the wrist
+        touching itself, and the registration tipped it over), both poses are turned by
+        one roll about the probe's axis (the tip touches the same spot, square to the
+        surface): the least of :data:`PROBE_ROLLS_DEG` that leaves the approach free (the
+        contact touches the part by design; its straight move is checked as it is made), each the
+        solution nearest the MKB's (the straight move between them needs one branch); with
+        none, the moved poses as they are (the move then says what it hits)."""
+        approach = Target(_configuration(spec_id, e.q_approach), e.pose_approach)
+        contact = Target(_configuration(spec_id, e.q), e.pose, e.press_m)
+        if self._motion is None or approach.pose is None or contact.pose is None:
+            return approach, contact
+        key = (spec_id, "probe", tool)
+        if key not in self._moved:
+            model = arm_model(self.cell.arm)
+            tcp = self.cell.tool(e.tool).tcp.matrix()
+            moved = [self._motion @ np.asarray(t.pose, dtype=float) for t in (approach, contact)]
+            chosen: list[Target] | None = None
+            for deg in (0.0, *(s * d for d in PROBE_ROLLS_DEG for s in (1.0, -1.0))):
+                roll = np.eye(4)
+                c, s_ = np.cos(np.radians(deg)), np.sin(np.radians(deg))
+                roll[:2, :2] = [[c, -s_], [s_, c]]
+                poses = [m @ roll for m in moved]
+                got = [choose_nearest(model, ik_tool(model, p[None], tcp), np.asarray(t.q)) for p, t in
+                       zip(poses, (approach, contact))]
+                if not all(f[0] for _q, f in got):
+                    continue
+                qs = [q[0] for q, _f in got]
+                targets = [Target(np.asarray(qs[0], dtype=float), poses[0]),
+                           Target(np.asarray(qs[1], dtype=float), poses[1], contact.press_m)]
+                if chosen is None:
+                    chosen = targets                       # unrolled (or the least roll found): kept when none is free
+                if self._free is None or bool(self._free(qs[0][None], e.tool)[0]):     # (the contact touches the part)
+                    chosen = targets
+                    break
+            if chosen is None:
+                raise KeyError(f"{spec_id}: the arm cannot reach its probe poses on the part where it was registered")
+            self._moved[key] = chosen[0]
+            self._moved[(spec_id, "probe_contact", tool)] = chosen[1]
+        return self._moved[key], self._moved[(spec_id, "probe_contact", tool)]
 
     def _free_only(self, solutions: IKSolutions, tool: str | None) -> IKSolutions:
         """The solutions the cell's check finds free, when there is a check and any is (else

@@ -22,7 +22,7 @@ one-arm sequence plan's groups (which tool class each measurement takes):
    (seen from above) they are to the first arm's base than to the second's; a split
    point sends those before it to the first arm, the rest to the second.  Each arm's time is its tours
    (the default ordering on the cost model's motion-time matrices, per tool) plus a
-   dwell per measurement; the split that minimises the larger of the two is found by
+   dwell per measurement (by tool class); the split that minimises the larger of the two is found by
    bisection (the first arm's time grows with the split, the second's shrinks), then its
    neighbours are tried.
 4. **The bound.**  Every measurement costs at least its dwell plus the cheapest way into
@@ -39,6 +39,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Collection, Mapping, Sequence
 from dataclasses import dataclass, field
+from types import MappingProxyType
 
 import numpy as np
 
@@ -61,9 +62,14 @@ from ita.workcell.reach import Reach
 
 __all__ = ["DWELL_S", "Allocation", "ArmShare", "allocate", "alone"]
 
-#: seconds an arm spends at a measurement besides moving to it: the one-arm whole-bulkhead
-#: run's 1,410 s for 1,076 measurements less its 330 s of planned motion, per measurement
-DWELL_S = 1.0
+#: seconds an arm spends at a measurement besides moving to it, by tool family (every
+#: ultrasonic probe's is us_tool's): a probe
+#: squirts couplant (0.4 s), presses on (about 0.4 s), pulses (1.2 s) and lifts off (about
+#: 0.4 s); the SLRA scans a view (about 0.55 s, a view to about one measurement in the
+#: bulkhead's plan) and measures in the range image (about 0.2 s).  From a two-arm
+#: whole-bulkhead run's commands (seed 0); one second for every measurement, as before,
+#: under-priced the probe work by more than half and so split it unevenly.
+DWELL_S: Mapping[str, float] = MappingProxyType({"us_tool": 2.4, "slra_tool": 0.75})
 #: poses sampled on an arm's way from a measurement back to its fold
 FOLD_SAMPLES = 9
 
@@ -93,7 +99,7 @@ class Allocation:
     one_arm_s: float
     unassigned: tuple[tuple[str, str], ...]
     split: int
-    dwell_s: float = DWELL_S
+    dwell_s: Mapping[str, float] = field(default_factory=lambda: DWELL_S)
     #: arm -> the measurements it can do (its reach, MKB, tools and configurations clear of
     #: the other arm folded; a shared tool's group its owner's alone): whom work left by
     #: the other arm may be handed to
@@ -124,7 +130,7 @@ def _tools(cell: Workcell, plan_tool: str, arm_index: int) -> str | None:
     return spare[0] if spare else None
 
 
-def allocate(ctx: PlanningContext, plan: SequencePlan, dwell_s: float = DWELL_S,
+def allocate(ctx: PlanningContext, plan: SequencePlan, dwell_s: Mapping[str, float] = DWELL_S,
              mkbs: Mapping[str, MeasurementKB] | None = None) -> Allocation:
     """Split the one-arm `plan`'s measurements between the two arms of ``ctx.workcell``
     (see the module docstring).  mkbs: arm name -> the MKB made for the cell as that arm
@@ -238,10 +244,11 @@ def allocate(ctx: PlanningContext, plan: SequencePlan, dwell_s: float = DWELL_S,
                 kept, M = matrices[a][tool_of[i]]
                 k = kept.index(i) + 1
                 costs.append(float(np.min(np.delete(M[:, k], k))))
-        least[i] = dwell_s + min(costs)
+        least[i] = dwell_s[cell.tool(tool_of[i]).tool_class.family.value] + min(costs)
     bound = max(sum(least.values()) / 2.0,
                 *(sum(least[i] for i, a in only.items() if a == arm) for arm in range(2)))
-    one = sum(g.cost_s for g in plan.groups) + plan.transfer_s + dwell_s * len(every)
+    one = (sum(g.cost_s for g in plan.groups) + plan.transfer_s
+           + sum(dwell_s[cell.tool(t).tool_class.family.value] * len(ids) for t, ids in groups))
     able = {arms[a].name: frozenset(i for i in every if i not in lost and can[a][i] and forced.get(i, a) == a)
             for a in range(2)}
     return Allocation(chosen, assigned, max(s.time_s for s in chosen), bound, one, unassigned, best, dwell_s, able)
@@ -278,7 +285,7 @@ def _placeable(ctx: PlanningContext, view: Workcell, tool: ToolSpec, ids: Sequen
 
 
 def alone(ctx: PlanningContext, plan: SequencePlan, arm: str, spec_ids: Collection[str],
-          keep_clear: Callable[[np.ndarray], np.ndarray], dwell_s: float = DWELL_S,
+          keep_clear: Callable[[np.ndarray], np.ndarray], dwell_s: Mapping[str, float] = DWELL_S,
           mkbs: Mapping[str, MeasurementKB] | None = None,
           unavailable: Collection[str] = ()) -> tuple[ArmShare, tuple[tuple[str, str], ...]]:
     """One arm of the cell working ``spec_ids`` (of the one-arm ``plan``'s groups) alone,
@@ -357,7 +364,7 @@ def _matrix(ctx: PlanningContext, view: Workcell, tool: str, ids: Sequence[str],
 
 
 def _share(arm: str, a: int, side: Mapping[str, int], groups: Sequence[tuple[str, list[str]]],
-           matrices: Mapping[str, tuple[list[str], np.ndarray]], dwell_s: float, view: Workcell,
+           matrices: Mapping[str, tuple[list[str], np.ndarray]], dwell_s: Mapping[str, float], view: Workcell,
            transfer: Callable[[Workcell, str | None, str | None], float]) -> ArmShare:
     """The arm's tours (one per tool group it has work in, in the plan's group order), each
     named by the tool the arm uses, with the seconds of each leg and at the rack."""
@@ -378,7 +385,7 @@ def _share(arm: str, a: int, side: Mapping[str, int], groups: Sequence[tuple[str
         held = tool
         out.append((tool, order, float(tour.cost)))
         legs.append(tuple(float(M[u, v]) for u, v in zip(stops, stops[1:])))
-        total += float(tour.cost) + dwell_s * len(mine)
+        total += float(tour.cost) + dwell_s[view.tool(tool).tool_class.family.value] * len(mine)
         count += len(mine)
     if held is not None:
         rack += transfer(view, held, None)

@@ -34,14 +34,14 @@ def allocation_path(part_name: str) -> Path:
     return plans_dir() / f"{store_name(part_name)}@allocation.json"
 
 
-def allocation_digest(ctx: PlanningContext, plan: SequencePlan, dwell_s: float,
+def allocation_digest(ctx: PlanningContext, plan: SequencePlan, dwell_s: Mapping[str, float],
                       mkbs: Mapping[str, MeasurementKB] | None) -> str:
     """Digest of what :func:`ita.sequence.allocate.allocate` reads."""
     h = hashlib.sha256()
     stored = {k: v for k, v in plan_to_dict(plan).items()      # the plan, not its progress
               if k not in ("created", "build_seconds", "done", "handed_out", "history")}
     h.update(json.dumps(stored, sort_keys=True).encode())
-    h.update(repr((ctx.workcell, ctx.specs_digest, ctx.cost_model.name, dwell_s)).encode())
+    h.update(repr((ctx.workcell, ctx.specs_digest, ctx.cost_model.name, sorted(dwell_s.items()))).encode())
     h.update(repr(sorted((arm, m.digest) for arm, m in (mkbs or {}).items())).encode())
     for package in _SOURCES:
         for path in sorted((_ROOT / package).rglob("*.py")):
@@ -50,7 +50,7 @@ def allocation_digest(ctx: PlanningContext, plan: SequencePlan, dwell_s: float,
     return h.hexdigest()
 
 
-def stored_allocation(ctx: PlanningContext, plan: SequencePlan, dwell_s: float = DWELL_S,
+def stored_allocation(ctx: PlanningContext, plan: SequencePlan, dwell_s: Mapping[str, float] = DWELL_S,
                       mkbs: Mapping[str, MeasurementKB] | None = None) -> tuple[Allocation, bool]:
     """The allocation of ``plan`` (:func:`~ita.sequence.allocate.allocate`), the stored one
     when current; and whether it was stored."""
@@ -69,7 +69,7 @@ def _to_dict(a: Allocation) -> dict[str, Any]:
         "shares": [{"arm": s.arm, "groups": [[t, list(o), c] for t, o, c in s.groups], "time_s": s.time_s,
                     "count": s.count, "legs": [list(leg) for leg in s.legs], "rack_s": s.rack_s} for s in a.shares],
         "assigned": dict(a.assigned), "makespan_s": a.makespan_s, "bound_s": a.bound_s, "one_arm_s": a.one_arm_s,
-        "unassigned": [[i, w] for i, w in a.unassigned], "split": a.split, "dwell_s": a.dwell_s,
+        "unassigned": [[i, w] for i, w in a.unassigned], "split": a.split, "dwell_s": dict(a.dwell_s),
         "able": {arm: sorted(ids) for arm, ids in a.able.items()},
     }
 
@@ -86,6 +86,6 @@ def _load(path: Path, digest: str) -> Allocation | None:
         return Allocation(shares, {str(k): str(v) for k, v in data["assigned"].items()}, float(data["makespan_s"]),
                           float(data["bound_s"]), float(data["one_arm_s"]),
                           tuple((str(i), str(w)) for i, w in data["unassigned"]), int(data["split"]),
-                          float(data["dwell_s"]), {str(a): frozenset(map(str, ids)) for a, ids in data["able"].items()})
+                          {str(k): float(v) for k, v in data["dwell_s"].items()}, {str(a): frozenset(map(str, ids)) for a, ids in data["able"].items()})
     except (OSError, ValueError, KeyError, TypeError, AttributeError):
         return None
