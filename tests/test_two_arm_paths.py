@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from ita.executive.conductor import Conductor, conducted_arms, folded_ground, zone_grid
+from ita.executive.conductor import Conductor, conducted_arms, folded_ground, standing_ground, zone_grid
 from ita.geometry.configurations import measurement_configurations
 from ita.kinematics import arm_model, tcp_poses
 from ita.path import planners_for
@@ -72,3 +72,23 @@ def test_a_path_to_the_rack_keeps_out_of_the_zones_of_the_other_arm_folded(cell)
     bare, held = planners_for(cell, None)("us_probe_1")
     before = bare.plan(above, goal, held)
     assert before.ok and meets_folded(before.trajectory)             # the case the ground is for
+
+
+def test_a_hand_over_plans_around_the_other_arm_where_it_stands(cell) -> None:
+    """Once the other arm stands still for good (a hand-over), the Path Planner keeps clear
+    of its body there, not of every place it might fold to: a configuration inside the
+    folded ground but clear of the standing body is free again."""
+    other = next(a for a in conducted_arms(cell) if a.name != cell.arm.name)
+    stands = np.asarray(other.fold, dtype=float).copy()
+    stands[0] = np.pi / 2                                       # folded, turned to one side
+    standing = standing_ground(cell, {other.name: stands})
+    ends = other.body.tubes(stands[None])[0]
+    assert len(standing) == len(ends) and np.all(standing.rad > np.asarray(other.body.radii))
+    folded, _ = planners_for(cell, None, keep_clear=folded_ground(cell))(None)
+    around, _ = planners_for(cell, None, keep_clear=standing)(None)
+    rng = np.random.default_rng(3)
+    lo, hi = np.asarray(cell.arm.joints.lower), np.asarray(cell.arm.joints.upper)
+    q = lo + (hi - lo) * rng.random((4000, 6))
+    free_folded, free_around = folded.config_free(q), around.config_free(q)
+    assert np.all(free_around[free_folded])                     # the standing body lies within the folded ground
+    assert np.any(free_around & ~free_folded)                   # and frees some of it

@@ -148,7 +148,10 @@ class _HandOver:
     (``take("handover:ARM")``).  Once every arm has asked or its process has ended, the
     measurements each arm's run did not measure (not done, or never reached when its run
     stopped: an arm whose controller failed for good is down) go to the other arm when
-    the allocation says it can do them and its own run completed; posted at the latest
+    it reaches them with a tool of its own and its own run completed (the allocation's
+    `reaches`: the other arm then stands still for good, so it is not held to keep clear
+    of where that one might fold; its Path Planner keeps clear of where it stands, the
+    zones say the rest), with where the other arm stands; posted at the latest
     of the arms' clocks, so an arm that finished early waits in simulated time until
     then.  One round: what a hand-over leaves stays not done."""
 
@@ -185,7 +188,11 @@ class _HandOver:
             mine = [i for other in self.runs if other != arm for i in left.get(other, [])
                     if i in self.able.get(arm, frozenset())] if completed.get(arm) else []
             self.given[arm] = mine
-            out += self.conductor.receive(arm, ("post", t, f"handover:{arm}", mine or None))
+            # and where each other arm stands for good (its Path Planner plans around that
+            # body, not the ground it might fold to: it moves no more)
+            stands = {o: [float(v) for v in self.conductor.state[o].q] for o in self.runs if o != arm}
+            out += self.conductor.receive(arm, ("post", t, f"handover:{arm}",
+                                                {"specs": mine, "stands": stands} if mine else None))
         return out
 
     def _left(self) -> tuple[dict[str, list[str]], dict[str, bool]]:
@@ -298,7 +305,7 @@ def inspect_with_two_arms(*, part_dir: Path | None, limit: int | None, seed: int
                 args += ["--inject", s]
             children.append(_Child(arm, args, conn, theirs))
         hand_over = _HandOver(conductor, runs_dir, {c.arm: runs[c.arm] for c in children},
-                              dict(allocation.able))
+                              dict(allocation.reaches))
         for arm in arms:                     # an arm with nothing to do folds out of the way, done
             if not shares[arm]:
                 conductor.idle(arm)

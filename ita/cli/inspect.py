@@ -208,6 +208,8 @@ def _run(session: Any, archive: Any, run_id: str, as_json: bool, view: LiveView,
     two-arm run: at the end it folds out of the other's way, then waits until both arms'
     shares are worked and does what the other arm left that it can (its hand-over: a run
     of its own, `RUN-h`, with `settings`), then says it is done."""
+    from ita.executive.conductor import standing_ground
+    from ita.task.align import plan_around
     from ita.toplevel import RunSignals, TopLevel, start_run
 
     _attach_injector(session, archive, run_id)
@@ -228,8 +230,9 @@ def _run(session: Any, archive: Any, run_id: str, as_json: bool, view: LiveView,
         wait, handed = controller.gate.take(session.clock.now, f"handover:{session.ctx.workcell.arm.name}")
         session.clock.advance(wait)
         extra["handover_wait_s"] = round(wait, 3)
-        if finished and isinstance(handed, list) and handed:
-            hid = start_run(session, archive, run_id=f"{run_id}-h", specs=[str(i) for i in handed],
+        if finished and isinstance(handed, dict) and handed.get("specs"):
+            plan_around(session, standing_ground(session.ctx.workcell, handed.get("stands") or {}))
+            hid = start_run(session, archive, run_id=f"{run_id}-h", specs=[str(i) for i in handed["specs"]],
                             settings=dict(settings or {}) | {"handed_over_after_s": round(wait, 3)})
             view.note(f"run {hid}: {archive.run(hid).total} measurements the other arm left (its hand-over)")
             _attach_injector(session, archive, hid)

@@ -53,7 +53,7 @@ cell's first arm first).
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -68,7 +68,8 @@ from ita.path.trajectory import TimedTrajectory
 from ita.robot.waypoints import retreat_paths
 from ita.workcell import Workcell
 
-__all__ = ["GRID_MARGIN_M", "ConductedArm", "Conductor", "Motion", "conducted_arms", "folded_ground", "zone_grid"]
+__all__ = ["GRID_MARGIN_M", "ConductedArm", "Conductor", "Motion", "conducted_arms", "folded_ground", "standing_ground",
+           "zone_grid"]
 
 #: the zones reach this far (m) around the arms' bases: farther than either arm with a tool
 GRID_MARGIN_M = 3.5
@@ -186,6 +187,25 @@ def folded_ground(cell: Workcell, margin: float | None = None) -> Regions:
     if not tubes:
         return Regions.empty()
     return Regions.tubes([a for a, _b, _r in tubes], [b for _a, b, _r in tubes], [r for _a, _b, r in tubes])
+
+
+#: a hand-over's Path Planner keeps this far (m) from the other arm standing for good (the
+#: zones, finer than the folded ground's margin, then say whether it may pass)
+STANDING_MARGIN_M = 0.05
+
+
+def standing_ground(cell: Workcell, stands: Mapping[str, Sequence[float]], margin: float = STANDING_MARGIN_M
+                    ) -> Regions:
+    """The bodies of the other arms of `cell` standing for good at their joints `stands`
+    (arm -> joints; a hand-over's: they move no more), each tube grown by `margin`."""
+    gap = margin
+    pieces = []
+    for other in conducted_arms(cell):
+        if other.name == cell.arm.name or other.name not in stands:
+            continue
+        ends = other.body.tubes(np.asarray(stands[other.name], dtype=float)[None])[0]      # (T, 2, 3)
+        pieces.append(Regions.tubes(ends[:, 0], ends[:, 1], np.asarray(other.body.radii, dtype=float) + gap))
+    return Regions.concat(pieces) if pieces else Regions.empty()
 
 
 def zone_grid(cell: Workcell) -> ZoneGrid:

@@ -461,8 +461,9 @@ class PathPlanner:
                           np.zeros((0, 3)), None, time.perf_counter() - t0, stats or {})
 
 
-#: the region tree's object for ground the planner keeps clear of besides the cell's
-KEEP_CLEAR = "keep_clear"
+#: the region tree's object for ground the planner keeps clear of besides the cell's (in
+#: a two-arm run, the other arm's: a goal there "hits the other arm")
+KEEP_CLEAR = "the other arm"
 
 
 def planners_for(cell: Workcell, part: Any | None, settings: PlannerSettings | None = None,

@@ -104,6 +104,10 @@ class Allocation:
     #: the other arm folded; a shared tool's group its owner's alone): whom work left by
     #: the other arm may be handed to
     able: Mapping[str, frozenset[str]] = field(default_factory=dict)
+    #: arm -> the measurements it reaches, its MKB places and it has a tool class for,
+    #: wherever the other arm stands: what it may try when the other stands still for good
+    #: (a hand-over; its Path Planner and the zones then say whether it can)
+    reaches: Mapping[str, frozenset[str]] = field(default_factory=dict)
 
     @property
     def gap_percent(self) -> float:
@@ -164,6 +168,7 @@ def allocate(ctx: PlanningContext, plan: SequencePlan, dwell_s: Mapping[str, flo
                 for a in range(2)]
     gap = 2 * grid.cell * np.sqrt(0.75)
     can = [dict[str, bool]() for _ in range(2)]
+    reaches: list[set[str]] = [set(), set()]
     why: dict[str, str] = {}
     matrices: list[dict[str, tuple[list[str], np.ndarray]]] = [{}, {}]
     for a in range(2):
@@ -180,6 +185,7 @@ def allocate(ctx: PlanningContext, plan: SequencePlan, dwell_s: Mapping[str, flo
                 if missed:                      # a probe is calibrated on the block and wetted at the station
                     why.update({i: f"{arms[a].name}: cannot reach the {missed} with {tool.name}" for i in ok})
                     ok = []
+            reaches[a].update(ok)
             matrix, kept = _matrix(ctx, views[a], tool.name, ok, bodies[a], folds[a][0], revolved[1 - a], gap)
             matrices[a][t] = (kept, matrix) if matrix is not None else ([], np.zeros((1, 1)))
             for i in ids:
@@ -251,7 +257,8 @@ def allocate(ctx: PlanningContext, plan: SequencePlan, dwell_s: Mapping[str, flo
            + sum(dwell_s[cell.tool(t).tool_class.family.value] * len(ids) for t, ids in groups))
     able = {arms[a].name: frozenset(i for i in every if i not in lost and can[a][i] and forced.get(i, a) == a)
             for a in range(2)}
-    return Allocation(chosen, assigned, max(s.time_s for s in chosen), bound, one, unassigned, best, dwell_s, able)
+    return Allocation(chosen, assigned, max(s.time_s for s in chosen), bound, one, unassigned, best, dwell_s, able,
+                      {arms[a].name: frozenset(reaches[a]) for a in range(2)})
 
 
 def _stations_missed(ctx: PlanningContext, view: Workcell, mkb: MeasurementKB, tool: str) -> str:

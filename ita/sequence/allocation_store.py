@@ -71,6 +71,7 @@ def _to_dict(a: Allocation) -> dict[str, Any]:
         "assigned": dict(a.assigned), "makespan_s": a.makespan_s, "bound_s": a.bound_s, "one_arm_s": a.one_arm_s,
         "unassigned": [[i, w] for i, w in a.unassigned], "split": a.split, "dwell_s": dict(a.dwell_s),
         "able": {arm: sorted(ids) for arm, ids in a.able.items()},
+        "reaches": {arm: sorted(ids) for arm, ids in a.reaches.items()},
     }
 
 
@@ -86,6 +87,7 @@ def _load(path: Path, digest: str) -> Allocation | None:
         return Allocation(shares, {str(k): str(v) for k, v in data["assigned"].items()}, float(data["makespan_s"]),
                           float(data["bound_s"]), float(data["one_arm_s"]),
                           tuple((str(i), str(w)) for i, w in data["unassigned"]), int(data["split"]),
-                          {str(k): float(v) for k, v in data["dwell_s"].items()}, {str(a): frozenset(map(str, ids)) for a, ids in data["able"].items()})
+                          {str(k): float(v) for k, v in data["dwell_s"].items()}, {str(a): frozenset(map(str, ids)) for a, ids in data["able"].items()},
+                          {str(a): frozenset(map(str, ids)) for a, ids in data["reaches"].items()})
     except (OSError, ValueError, KeyError, TypeError, AttributeError):
         return None

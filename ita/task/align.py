@@ -41,6 +41,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
+from ita.collision import Regions
 from ita.logic.json_value import JsonObject
 from ita.part.model import Feature, Hole, HoleRole
 from ita.path import planners_for
@@ -56,7 +57,7 @@ if TYPE_CHECKING:
 
 FloatArray = NDArray[np.float64]
 
-__all__ = ["FRAMES", "ROUNDS", "Alignment", "AlignDone", "DatumReading", "FACE_OFF_MM", "apply_alignment", "datum_specs", "datums_of",
+__all__ = ["FRAMES", "ROUNDS", "Alignment", "AlignDone", "DatumReading", "FACE_OFF_MM", "apply_alignment", "datum_specs", "datums_of", "plan_around",
            "fit_motion", "register_part"]
 
 #: frames of each tooling hole in the measuring step (the arm's repeatability averages)
@@ -223,6 +224,17 @@ def apply_alignment(session: Session, placement: PartPlacement | None, u_mm: flo
     session.slra.register(placement if placement is not None else cell.part, u_mm)
     session.arm.planner_for = planners_for(cell if placement is None else replace(cell, part=placement),
                                            session.part, keep_clear=session.keep_clear)
+
+
+def plan_around(session: Session, keep_clear: Regions | None) -> None:
+    """The Path Planner keeps the arm out of `keep_clear` from now on, instead of what it
+    kept out of before (ita.task.session.open_session's others_folded), on the part where
+    it was registered."""
+    cell = session.ctx.workcell
+    placement = session.reasoner.placement
+    session.keep_clear = keep_clear
+    session.arm.planner_for = planners_for(cell if placement is None else replace(cell, part=placement),
+                                           session.part, keep_clear=keep_clear)
 
 
 def _centre(out: MeasureOutcome, hole: Hole, placement: PartPlacement
