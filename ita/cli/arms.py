@@ -156,11 +156,11 @@ class _HandOver:
     then.  One round: what a hand-over leaves stays not done."""
 
     def __init__(self, conductor: Conductor, runs_dir: Path | None, runs: dict[str, str],
-                 able: dict[str, frozenset[str]]) -> None:
+                 reaches: dict[str, frozenset[str]]) -> None:
         self.conductor = conductor
         self.runs_dir = runs_dir
         self.runs = runs
-        self.able = able
+        self.reaches = reaches
         self.asked: dict[str, float] = {}
         self.ended: set[str] = set()
         self.posted = False
@@ -186,7 +186,7 @@ class _HandOver:
         out: list[tuple[str, Any]] = []
         for arm in self.asked:
             mine = [i for other in self.runs if other != arm for i in left.get(other, [])
-                    if i in self.able.get(arm, frozenset())] if completed.get(arm) else []
+                    if i in self.reaches.get(arm, frozenset())] if completed.get(arm) else []
             self.given[arm] = mine
             # and where each other arm stands for good (its Path Planner plans around that
             # body, not the ground it might fold to: it moves no more)

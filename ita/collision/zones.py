@@ -265,6 +265,11 @@ class ZoneGrid:
                 max(1, math.ceil((self.high[1] - self.low[1]) / self.cell)))
 
     @property
+    def apart_m(self) -> float:
+        """Tubes farther apart than this (m, a zone's full diagonal) never share a zone."""
+        return 2.0 * self.cell * math.sqrt(0.75)
+
+    @property
     def levels(self) -> int:
         """Zones up from the floor."""
         return max(1, math.ceil(self.z_high / self.cell))

@@ -174,7 +174,7 @@ def folded_ground(cell: Workcell, margin: float | None = None) -> Regions:
     it in a two-arm run: with the other arm folded, every motion of this one is then
     granted (the allocation keeps its measuring poses clear of the same ground)."""
     grid = zone_grid(cell)
-    gap = 2.0 * grid.cell * math.sqrt(0.75) if margin is None else margin
+    gap = grid.apart_m if margin is None else margin
     tubes: list[tuple[tuple[float, float, float], tuple[float, float, float], float]] = []
     for other in conducted_arms(cell):
         if other.name == cell.arm.name:
@@ -198,13 +198,12 @@ def standing_ground(cell: Workcell, stands: Mapping[str, Sequence[float]], margi
                     ) -> Regions:
     """The bodies of the other arms of `cell` standing for good at their joints `stands`
     (arm -> joints; a hand-over's: they move no more), each tube grown by `margin`."""
-    gap = margin
     pieces = []
     for other in conducted_arms(cell):
         if other.name == cell.arm.name or other.name not in stands:
             continue
         ends = other.body.tubes(np.asarray(stands[other.name], dtype=float)[None])[0]      # (T, 2, 3)
-        pieces.append(Regions.tubes(ends[:, 0], ends[:, 1], np.asarray(other.body.radii, dtype=float) + gap))
+        pieces.append(Regions.tubes(ends[:, 0], ends[:, 1], np.asarray(other.body.radii, dtype=float) + margin))
     return Regions.concat(pieces) if pieces else Regions.empty()
 
 

@@ -123,9 +123,8 @@ class GeometricReasoner:
                 # an SLRA's pose moved with the part meets the cell (the MKB's was at the edge
                 # of the arm touching itself): the nearest free solution, else the MKB's own
                 # pose when free (the view then off by the registration's sub-millimetre
-                # motion; the frame is read from where the sensor is).  A probe's approach
-                # and contact poses keep the MKB's branch: the straight move between them
-                # needs it.
+                # motion; the frame is read from where the sensor is).  (A probe's poses
+                # are _probe_on_part's.)
                 q, found = choose_nearest(model, self._free_only(solutions, tool_name), target.q)
                 if not self._free(q[:1], tool_name)[0] and self._free(np.asarray(target.q)[None], tool_name)[0]:
                     self._moved[key] = target

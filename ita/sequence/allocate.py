@@ -166,7 +166,7 @@ def allocate(ctx: PlanningContext, plan: SequencePlan, dwell_s: Mapping[str, flo
              for a in range(2)]
     revolved = [Revolved.of(bodies[a], folds[a][0], (float(bases[a][0]), float(bases[a][1])), grid.z_high)
                 for a in range(2)]
-    gap = 2 * grid.cell * np.sqrt(0.75)
+    gap = grid.apart_m
     can = [dict[str, bool]() for _ in range(2)]
     reaches: list[set[str]] = [set(), set()]
     why: dict[str, str] = {}

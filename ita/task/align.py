@@ -222,8 +222,7 @@ def apply_alignment(session: Session, placement: PartPlacement | None, u_mm: flo
     cell = session.ctx.workcell
     session.reasoner.register(placement)
     session.slra.register(placement if placement is not None else cell.part, u_mm)
-    session.arm.planner_for = planners_for(cell if placement is None else replace(cell, part=placement),
-                                           session.part, keep_clear=session.keep_clear)
+    plan_around(session, session.keep_clear)
 
 
 def plan_around(session: Session, keep_clear: Regions | None) -> None:
