@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import os
 import shutil
 import signal
@@ -83,6 +84,13 @@ def test_campaign_file_gives_every_part_appraiser_and_trial(tmp_path):
     assert len(tasks) == 2 * 3 * 2 and len({t.key for t in tasks}) == 12
     assert len({t.sim_seed for t in tasks}) == 12                      # no two runs share their noise
     assert {t.limit for t in tasks} == {5} and c.name == "study"
+    assert {t.arms for t in tasks} == {1} and '"arms"' not in tasks[0].settings()   # one-arm archives stay valid
+
+
+def test_a_two_arm_campaign_runs_every_run_with_both_arms(tmp_path):
+    c = load_campaign(_write(tmp_path, "[campaign]\narms = 2\n[parts]\nseeds = [3]\n[appraisers]\nseeds = [1]\n"))
+    (task,) = c.tasks(tmp_path / "out")
+    assert task.arms == 2 and '"arms": 2' in task.settings()     # a restart with arms changed is refused
 
 
 @pytest.mark.parametrize("text, field", [
@@ -92,6 +100,7 @@ def test_campaign_file_gives_every_part_appraiser_and_trial(tmp_path):
     ("[parts]\nseeds = [1]\n[appraisers]\nseeds = [1]\ntrials = 0\n", "appraisers.trials"),
     ("[parts]\nseeds = [1]\nparams = 'nowhere.toml'\n[appraisers]\nseeds = [1]\n", "parts.params"),
     ("[campaign]\nfaults = 2\n[parts]\nseeds = [1]\n[appraisers]\nseeds = [1]\n", "campaign.faults"),
+    ("[campaign]\narms = 3\n[parts]\nseeds = [1]\n[appraisers]\nseeds = [1]\n", "campaign.arms"),
     ("[campaign]\nlimt = 3\n[parts]\nseeds = [1]\n[appraisers]\nseeds = [1]\n", "campaign.limt"),
     ("[parts\nseeds = [1]\n", "TOML"),
 ])
@@ -192,3 +201,24 @@ def test_a_campaign_killed_and_started_again_runs_only_what_is_missing(prepared,
     with sqlite3.connect(db) as c:
         rows = dict(c.execute("SELECT key, finished FROM runs WHERE status = 'completed'").fetchall())
     assert len(rows) == 4 and all(rows[k] == t for k, t in first)        # the finished one was not run again
+
+
+@pytest.mark.slow
+def test_a_two_arm_campaign_run_gives_both_arms_results(prepared, tmp_path):
+    """`arms = 2`: the part prepared for both arms (`ita prepare --arms 2`), each run an
+    `ita inspect --arms 2` whose two arms' results are read back as one run's."""
+    study, _base = prepared
+    two = study.parent / "two.toml"
+    two.write_text(TINY.replace("limit = 3", "limit = 8\narms = 2").replace("seeds = [1, 2]\ntrials = 2",
+                                                                        "seeds = [1]\ntrials = 1"), encoding="utf-8")
+    out = tmp_path / "out"
+    result = CliRunner().invoke(main, ["campaign", str(two), "--out", str(out), "--workers", "1"])
+    assert result.exit_code == 0, result.output
+    with sqlite3.connect(out / "campaign.sqlite") as c:
+        (status, summary), = c.execute("SELECT status, summary FROM runs").fetchall()
+        specs = [r[0] for r in c.execute("SELECT spec_id FROM results")]
+    summary = json.loads(summary)
+    assert status == "completed" and summary["arms"] == 2 and summary["arm_arm_contacts"] == 0
+    made = {arm: a["measured"] for arm, a in summary["per_arm"].items()}
+    assert len(made) == 2 and all(n > 0 for n in made.values()), made     # both arms worked the part
+    assert len(specs) == len(set(specs)) == 8 == sum(made.values())        # each result once, from its arm's run

@@ -34,8 +34,9 @@ __all__ = ["prepare_parts", "run_campaign"]
 
 
 def prepare_parts(campaign: Campaign, tasks: list[RunTask], progress: Callable[[str], None]) -> None:
-    """Make each part the tasks need (`ita part new`) and prepare it once (`ita prepare`
-    into the part's own ITA_HOME), so that every run of it starts from the same plan."""
+    """Make each part the tasks need (`ita part new`) and prepare it once (`ita prepare`,
+    with ``--arms 2`` for a two-arm campaign, into the part's own ITA_HOME), so that every
+    run of it starts from the same plans (and allocation)."""
     seen: set[str] = set()
     for t in tasks:
         if t.part_dir in seen:
@@ -48,7 +49,8 @@ def prepare_parts(campaign: Campaign, tasks: list[RunTask], progress: Callable[[
         progress(f"preparing part {part_dir.name}")
         home.mkdir(parents=True, exist_ok=True)
         env = dict(os.environ, ITA_HOME=str(home))
-        done = subprocess.run([sys.executable, "-m", "ita.cli", "prepare", "--part", str(part_dir)], env=env,
+        arms = ["--arms", "2"] if campaign.arms == 2 else []
+        done = subprocess.run([sys.executable, "-m", "ita.cli", "prepare", "--part", str(part_dir), *arms], env=env,
                               capture_output=True, text=True, check=False)
         if done.returncode != 0:
             raise ItaError(f"preparing {part_dir} failed: {done.stderr[-1500:]}")

@@ -20,10 +20,11 @@ import subprocess
 import sys
 import tempfile
 import time
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from ita.archive import Archive, archive_path
+from ita.archive import Archive, Outcome, archive_path
 from ita.part.store import new_part
 from ita.scoring.diagnoses import diagnosis_score
 from ita.scoring.truth import injected_faults
@@ -49,6 +50,38 @@ def _part(task: dict, tmp: Path) -> Path:
     return new_part(tmp / "part", params, task["part_seed"])
 
 
+def _read_back(runs: Path, summary: dict[str, Any], *,
+               two_arms: bool) -> tuple[str, list[dict], list[Mapping[str, Any]], list[dict]]:
+    """The run's status, results, diagnoses and injected faults, from its runs archive.  A
+    two-arm run is its arms' runs (the summary's ``runs``) and any hand-over run: a spec's
+    result is its own arm's, or the hand-over's when that measured it."""
+    with Archive.open(archive_path(runs), create=False) as archive:
+        if two_arms:
+            main = list(summary["runs"].values())
+            handed = list(summary.get("handover_runs", {}).values())
+            known = {r.id for r in archive.runs()}
+            main, handed = [r for r in main if r in known], [r for r in handed if r in known]
+            statuses = [archive.run(r).status.value for r in main]
+            status = "completed" if summary.get("status") == "completed" else \
+                next((s for s in statuses if s != "completed"), "failed")
+        else:
+            main, handed = [archive.runs()[-1].id], []
+            status = archive.run(main[0]).status.value
+        last: dict[str, Any] = {}
+        for run_id in main:
+            last.update({r.spec_id: r for r in archive.results(run_id)})
+        for run_id in handed:
+            last.update({r.spec_id: r for r in archive.results(run_id)
+                         if r.outcome is Outcome.MEASURED or r.spec_id not in last})
+        results = [{"spec_id": r.spec_id, "kind": r.kind, "outcome": r.outcome.value, "value": r.value, "u": r.u,
+                    "U": r.U, "low": r.low_limit, "high": r.high_limit,
+                    "decision": None if r.decision is None else r.decision.value, "tool": r.tool,
+                    "reason": r.reason} for r in last.values()]
+        diagnoses = [e.payload for run_id in main + handed for e in archive.events(run_id, kinds=["diagnosis"])]
+    injected = [f for run_id in main + handed for f in injected_faults(runs, run_id)]
+    return status, results, diagnoses, injected
+
+
 def run_task(task: dict) -> dict[str, Any]:
     """Run one campaign task (RunTask.to_dict()); its record (see the module doc)."""
     t0 = time.perf_counter()
@@ -69,22 +102,19 @@ def run_task(task: dict) -> dict[str, Any]:
             cmd += ["--faults", str(task["faults"])]
         if task.get("fault_kinds"):
             cmd += ["--fault-kinds", ",".join(task["fault_kinds"])]
+        if task.get("arms", 1) == 2:
+            cmd += ["--arms", "2"]
         env = dict(os.environ, ITA_HOME=str(home))
         env.pop("ITA_RUNS", None)
         done = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=RUN_TIMEOUT_S, check=False)
         if done.returncode not in (0, 3):
             raise RunFailed(f"run {task['key']}: exit {done.returncode}: {done.stderr[-1500:]}")
         summary = json.loads(done.stdout) if done.stdout.strip() else {}
-        with Archive.open(archive_path(runs), create=False) as archive:
-            info = archive.runs()[-1]
-            results = [{"spec_id": r.spec_id, "kind": r.kind, "outcome": r.outcome.value, "value": r.value, "u": r.u,
-                        "U": r.U, "low": r.low_limit, "high": r.high_limit,
-                        "decision": None if r.decision is None else r.decision.value, "tool": r.tool,
-                        "reason": r.reason} for r in archive.results(info.id)]
-            diagnoses = [e.payload for e in archive.events(info.id, kinds=["diagnosis"])]
-        injected = injected_faults(runs, info.id)
+        if task.get("arms", 1) == 2 and not summary.get("runs"):
+            raise RunFailed(f"run {task['key']}: the two-arm run printed no summary: {done.stderr[-1500:]}")
+        status, results, diagnoses, injected = _read_back(runs, summary, two_arms=task.get("arms", 1) == 2)
         score = diagnosis_score(injected, diagnoses) if injected else None
-    return {"key": task["key"], "status": info.status.value, "summary": summary, "results": results,
+    return {"key": task["key"], "status": status, "summary": summary, "results": results,
             "diagnoses": [{k: d.get(k) for k in ("spec", "exception", "cause", "recovery", "summary")}
                           for d in diagnoses],
             "injected": injected,

@@ -5,6 +5,7 @@
     limit = 40               # measurements per run: the first N of each part's sequence (default: all)
     faults = 0.0             # fault rate per command (ita inspect --faults)
     fault_kinds = []         # the kinds it draws from (default: all injectable)
+    arms = 1                 # 2: both arms of the part's workcell work each run (ita inspect --arms 2)
 
     [parts]
     seeds = [11, 12, 13]     # one part per generator seed (ita part new DIR --seed S)
@@ -65,6 +66,7 @@ class RunTask:
     params_text: str | None
     part_dir: str
     home: str
+    arms: int = 1
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
@@ -73,6 +75,8 @@ class RunTask:
         """What makes the run what it is (not where its files are): a restarted campaign
         whose file changed these is refused."""
         d = {k: v for k, v in asdict(self).items() if k not in ("part_dir", "home")}
+        if d["arms"] == 1:
+            del d["arms"]            # a one-arm campaign keeps the settings it was started with
         return json.dumps(d, sort_keys=True)
 
 
@@ -89,6 +93,7 @@ class Campaign:
     limit: int | None
     faults: float
     fault_kinds: tuple[str, ...]
+    arms: int = 1
 
     @property
     def params_text(self) -> str | None:
@@ -110,7 +115,7 @@ class Campaign:
                 for t in range(1, self.trials + 1):
                     out.append(RunTask(f"p{p}-a{a}-t{t}", p, a, t, sim_seed(p, a, t), self.limit, self.faults,
                                        self.fault_kinds, text, str(out_dir / "parts" / key),
-                                       str(out_dir / "homes" / key)))
+                                       str(out_dir / "homes" / key), self.arms))
         return out
 
 
@@ -136,7 +141,7 @@ def load_campaign(path: Path) -> Campaign:
         data = tomllib.loads(path.read_text(encoding="utf-8"))
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
         raise InputError([(loc, f"not valid TOML: {exc}")]) from None
-    known = {"campaign": {"name", "limit", "faults", "fault_kinds"}, "parts": {"seeds", "params"},
+    known = {"campaign": {"name", "limit", "faults", "fault_kinds", "arms"}, "parts": {"seeds", "params"},
              "appraisers": {"seeds", "trials"}}
     problems = []
     for table, keys in data.items():
@@ -183,8 +188,11 @@ def load_campaign(path: Path) -> Campaign:
     kinds = c.get("fault_kinds", [])
     if not isinstance(kinds, list) or not all(isinstance(k, str) for k in kinds):
         raise InputError([(field("campaign.fault_kinds"), "a list of fault kinds (see ita inspect --help)")])
+    arms = c.get("arms", 1)
+    if arms not in (1, 2) or isinstance(arms, bool):
+        raise InputError([(field("campaign.arms"), "1 or 2 (how many of the workcell's arms work each run)")])
     name = c.get("name", path.stem)
     if not isinstance(name, str) or not name.strip():
         raise InputError([(field("campaign.name"), "a non-empty string")])
     return Campaign(name, path.resolve(), part_seeds, params_path, appraisers, trials, limit, float(faults),
-                    tuple(kinds))
+                    tuple(kinds), arms)

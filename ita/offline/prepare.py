@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from ita.errors import ItaError
+from ita.errors import InputError, ItaError, Location
 from ita.geometry import build_mkb, load_mkb, mkb_digest, mkb_path, save_mkb
 from ita.logic.bridge import KnowledgeBase
 from ita.offline.master import ensure_master_calibration
@@ -28,6 +28,7 @@ from ita.part.store import load_part
 from ita.part.summary import PartSummary, summarize
 from ita.planning import NoPlanError, OperationPlanner, WorldState, store_path
 from ita.sequence.next_step import the_arm
+from ita.sequence.allocation_store import stored_allocation
 from ita.sequence.partition import alternative_tools
 from ita.sequence.plan import build_plan, planning_context, with_mkb
 from ita.sequence.store import (
@@ -317,3 +318,30 @@ def prepared_arms(part_dir: Path | None, kb: KnowledgeBase, part: Any,
             first = (with_mkb(ctx, mkb), plan)
     assert first is not None
     return first[0], first[1], mkbs
+
+
+def prepare_two_arms(part_dir: Path | None, progress: Callable[[str], None] = lambda _msg: None,
+                     *, force: bool = False) -> tuple[list[PrepareReport], Any | None, bool]:
+    """`ita prepare --arms 2`: prepare the part as each of the cell's two arms works it
+    (:func:`prepare`: its sequence plan, MKB and MACROPs) and store the allocation between
+    them (ita.sequence.allocation_store), made as `ita inspect --arms 2` makes it, so that
+    the two-arm run starts at once.  Each arm's report, the allocation (None when a report is
+    not ok), and whether a stored one was current.  InputError when the workcell names one arm."""
+    kb = KnowledgeBase()
+    apply_tool_marks(kb, load_tool_marks())
+    part = load_part(part_dir)
+    cell = planning_context(part_dir, kb=kb, part=part, use_mkb=False).workcell
+    arms = [a.name for a in cell.arms()]
+    if len(arms) != 2:
+        raise InputError([(Location(str(cell.source)), "--arms 2: this workcell names one arm; a second is a "
+                                                       "[robot_b] table in its workcell.toml")])
+    reports = []
+    for arm in arms:
+        progress(f"preparing the part as {arm} works it")
+        reports.append(prepare(part_dir, progress, force=force, arm=arm))
+    if not all(r.ok for r in reports):
+        return reports, None, False
+    ctx, plan, mkbs = prepared_arms(part_dir, kb, part, progress=progress)
+    progress("allocating the measurements between the arms")
+    allocation, kept = stored_allocation(ctx, plan, mkbs=mkbs)
+    return reports, allocation, kept
