@@ -387,3 +387,19 @@ def test_claims_the_other_arm_refused_do_not_raise_the_alarm_of_failures_in_a_ro
     for k in range(3):
         row.not_done(f"T{k}", "exception: TIMEOUT (no reply from the controller within 5.0 s)")
     assert "3 measurements in a row" in row.alarm
+
+
+def test_a_sweep_is_densified_at_the_points_linspace_gives() -> None:
+    """The conductor's densified knots (one array, no loop) are the knots cut as the loop of
+    np.linspace cut them, to the bit: the zones a claim sweeps did not change with it."""
+    from ita.executive.conductor import _densified
+
+    rng = np.random.default_rng(2)
+    q = np.cumsum(rng.normal(0.0, 0.3, size=(9, 6)), axis=0)
+    q[4] = q[3]                                                    # a knot repeated: one step
+    per_rad = 23.7
+    pieces = [q[:1]]
+    for a, b in zip(q[:-1], q[1:]):
+        n = max(1, math.ceil(float(np.max(np.abs(b - a))) * per_rad))
+        pieces.append(a + np.linspace(0.0, 1.0, n + 1)[1:, None] * (b - a))
+    assert np.array_equal(_densified(q, per_rad), np.concatenate(pieces))

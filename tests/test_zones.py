@@ -183,3 +183,32 @@ def test_the_folded_arm_turned_any_way_is_never_nearer_than_its_field_says(two_b
     assert np.all(bound <= true + 1e-9)
     near = true < 1.0
     assert near.sum() > 20 and np.max(true[near] - bound[near]) < 0.15     # the turning sampled in 24 steps
+
+
+def test_near_tubes_marks_exactly_the_zones_whose_centre_is_within_reach() -> None:
+    """The compiled marking (it skips columns the segment cannot reach) against every zone
+    centre's distance to every segment, brute force: tilted, upright, flat, point-like
+    and out-of-box segments."""
+    grid = ZoneGrid((-1.0, -1.0), (1.0, 1.2), 0.1, 0.3, 2.0)
+    rng = np.random.default_rng(3)
+    ends = rng.uniform((-1.4, -1.4, -0.3), (1.4, 1.5, 2.4), size=(60, 2, 3))
+    ends[0, 1] = ends[0, 0]                                        # a point
+    ends[1, 1, :2] = ends[1, 0, :2]                                # upright
+    ends[2, 1, 2] = ends[2, 0, 2]                                  # level
+    radii = rng.uniform(0.0, 0.35, size=60)
+    nx, ny = grid.shape
+    i, j, k = np.meshgrid(np.arange(nx), np.arange(ny), np.arange(grid.levels), indexing="ij")
+    centres = np.stack([grid.low[0] + (i + 0.5) * grid.cell, grid.low[1] + (j + 0.5) * grid.cell,
+                        (k + 0.5) * grid.cell], -1).reshape(-1, 3)
+    for s in range(60):
+        a, b = ends[s]
+        lo, hi = (*grid.low, 0.0), (*grid.high, grid.z_high)
+        a, b = np.clip(a, lo, hi), np.clip(b, lo, hi)              # (the kernel brings ends into the box)
+        v = b - a
+        t = np.clip((centres - a) @ v / max(float(v @ v), 1e-300), 0.0, 1.0) if v @ v > 0 else np.zeros(len(centres))
+        d = np.linalg.norm(centres - (a + t[:, None] * v), axis=1)
+        want = d <= radii[s] + grid.cell * np.sqrt(0.75)
+        got = grid.near_tubes(ends[s][None, None], radii[s:s + 1])
+        raw = np.frombuffer(got.to_bytes((len(centres) + 7) // 8, "little"), dtype=np.uint8)
+        marked = np.unpackbits(raw, bitorder="little")[:len(centres)].astype(bool)
+        assert np.array_equal(marked, want), (s, int(np.sum(marked != want)))

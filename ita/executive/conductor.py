@@ -213,6 +213,19 @@ def zone_grid(cell: Workcell) -> ZoneGrid:
                            margin=GRID_MARGIN_M)
 
 
+def _densified(q: FloatArray, per_rad: float) -> FloatArray:
+    """The knots ``q`` (k, dof) with each segment cut into ceil(largest joint change x
+    per_rad) equal steps (at least one): the knots kept, the points as ``np.linspace``
+    places them (k x 1/n, the last exactly the next knot)."""
+    a, b = q[:-1], q[1:]
+    n = np.maximum(1, np.ceil(np.max(np.abs(b - a), axis=1) * per_rad)).astype(np.int64)
+    seg = np.repeat(np.arange(len(n)), n)
+    k = np.arange(int(n.sum())) - np.repeat(np.cumsum(n) - n, n) + 1          # 1..n within each segment
+    frac = k * (1.0 / n[seg])
+    frac[k == n[seg]] = 1.0
+    return np.concatenate([q[:1], a[seg] + frac[:, None] * (b - a)[seg]])
+
+
 class Conductor:
     """Grants the arms' claims in simulated-time order (see the module docstring)."""
 
@@ -258,11 +271,7 @@ class Conductor:
         body = self.state[name].arm.body
         ends = body.tubes(q)                                              # (k, T, 2, 3)
         far = float(np.max(np.linalg.norm(ends[..., :2] - ends[:1, :1, :1, :2], axis=-1))) + 1.0
-        pieces = [q[:1]]
-        for a, b in zip(q[:-1], q[1:]):
-            n = max(1, math.ceil(float(np.max(np.abs(b - a))) * far / STEP_M))
-            pieces.append(a + np.linspace(0.0, 1.0, n + 1)[1:, None] * (b - a))
-        dense = np.concatenate(pieces)
+        dense = _densified(q, far / STEP_M)
         tubes = body.tubes(dense)
         step = float(np.max(np.linalg.norm(np.diff(tubes, axis=0), axis=-1))) if len(dense) > 1 else 0.0
         return self.grid.near_tubes(tubes, body.radii + step / 2)

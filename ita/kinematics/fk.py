@@ -212,7 +212,7 @@ def link_segments(model: ArmModel, q: ArrayLike) -> FloatArray:
 def frame_segments(model: ArmModel, frames: FloatArray) -> FloatArray:
     """`link_segments` from the link frames (n, 8, 4, 4) of `link_frames`."""
     frames = frames[:, model.tube_links]                          # (n, t, 4, 4)
-    ends = np.einsum("ntij,tkj->ntki", frames[:, :, :3, :3], model.tube_ends)
+    ends = np.matmul(model.tube_ends, np.swapaxes(frames[:, :, :3, :3], -1, -2))   # (n, t, k, 3)
     return ends + frames[:, :, None, :3, 3]
 
 
