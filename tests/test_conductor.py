@@ -403,3 +403,40 @@ def test_a_sweep_is_densified_at_the_points_linspace_gives() -> None:
         n = max(1, math.ceil(float(np.max(np.abs(b - a))) * per_rad))
         pieces.append(a + np.linspace(0.0, 1.0, n + 1)[1:, None] * (b - a))
     assert np.array_equal(_densified(q, per_rad), np.concatenate(pieces))
+
+
+def test_an_arms_clock_lets_the_other_arms_claim_be_decided_without_its_next_claim(cell) -> None:
+    """A claim at 5 s waits while the other arm may still act before then; the other's
+    clock passing 5 s (ita.robot.gate's ``clock``) decides it, as its next claim would."""
+    c = fresh(cell)
+    a, b = c.order
+    c.receive(b, ("moved", 1.0, np.asarray(c.state[b].arm.home)))
+    home = np.asarray(c.state[a].arm.home)
+    assert claim(c, a, 5.0, home, home + 0.01) == []            # b may claim before 5 s
+    assert c.receive(b, ("clock", 4.9)) == []
+    replies = c.receive(b, ("clock", 5.2))
+    assert [(arm, r[0]) for arm, r in replies] == [(a, "go")]
+
+
+def test_the_gate_tells_its_clock_only_past_what_the_conductor_knows() -> None:
+    """The arm's clock is sent when it passes the last granted motion's end (or message)
+    by CLOCK_STEP_S; not every control period."""
+    from ita.robot.gate import CLOCK_STEP_S, RemoteGate
+
+    sent = []
+
+    class Line:
+        def send(self, message):
+            sent.append(message)
+
+        def recv(self):
+            return ("go", 1.0, None, "")
+
+    gate = RemoteGate(Line())                         # type: ignore[arg-type]
+    gate.claim(2.0, np.array([0.0, 3.0]), np.zeros((2, 6)))   # goes at 3 s, ends at 6 s
+    for t in np.arange(2.0, 6.0 + CLOCK_STEP_S, 0.008):       # its control periods
+        gate.clock(float(t))
+    assert [m for m in sent if m[0] == "clock"] == []
+    gate.clock(6.0 + CLOCK_STEP_S / 2)
+    gate.clock(6.0 + CLOCK_STEP_S + 0.01)
+    assert [m[0] for m in sent] == ["claim", "clock"] and sent[-1][1] == pytest.approx(6.0 + CLOCK_STEP_S + 0.01)

@@ -432,6 +432,7 @@ def inspect(part_dir: Path | None, limit: int | None, seed: int, runs_dir: Path 
                            others_folded=conducted is not None)
     if conducted is not None:
         session.arm.controller.gate = session.slra.controller.gate = session.peer = conducted.gate
+        session.clock.on_advance = conducted.gate.clock
         session.registers = conducted.registers
     with _closing(session):
         tools = session.ctx.workcell.tools

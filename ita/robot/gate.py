@@ -25,7 +25,10 @@ until the simulated time it was posted (None when the poster ended without one).
 Messages on the connection are tuples (name, arm's clock, arrays): ``("claim", t,
 times, q)`` answered by ``(kind, wait_s, fold q or None, why)``; ``("moved", t, q)``;
 ``("park", t, q)`` answered like a claim; ``("done", t)``; ``("post", t, key, value)``;
-``("take", t, key)`` answered by ``(wait_s, value)``.
+``("take", t, key)`` answered by ``(wait_s, value)``; ``("clock", t)``: the arm's clock
+passed `t` (:meth:`RemoteGate.clock`: it makes no claim before, so the conductor may decide
+the other arm's claims up to `t` without waiting for this one's next: the same decisions,
+sooner in wall time).
 """
 
 from __future__ import annotations
@@ -67,22 +70,43 @@ class MotionGate(Protocol):
 
     def take(self, t: float, key: str) -> tuple[float, object]: ...
 
+    def clock(self, t: float) -> None: ...
+
+
+#: an arm's clock is told to the conductor when it has moved this far (s) past what the
+#: conductor knows of it (a message per control period would cost more than it saves)
+CLOCK_STEP_S = 0.2
+
 
 class RemoteGate:
     """A :class:`MotionGate` whose conductor runs in another process, over `connection`."""
 
     def __init__(self, connection: Connection) -> None:
         self.connection = connection
+        self.known_s = 0.0               # the arm's time the conductor knows it has reached
 
     def _ask(self, message: tuple[object, ...]) -> Grant:
         self.connection.send(message)
         kind, wait_s, fold, why = self.connection.recv()
         return Grant(str(kind), float(wait_s), None if fold is None else tuple(map(float, fold)), str(why))
 
+    def _told(self, t: float) -> None:
+        self.known_s = max(self.known_s, float(t))
+
     def claim(self, t: float, times: FloatArray, q: FloatArray, pinned: bool = False) -> Grant:
         """Ask for the zones of a motion; pinned: the arm cannot fold before it (its probe
         is pressed on the part: this motion takes it off)."""
-        return self._ask(("claim", float(t), np.asarray(times, dtype=float), np.asarray(q, dtype=float), bool(pinned)))
+        times = np.asarray(times, dtype=float)
+        grant = self._ask(("claim", float(t), times, np.asarray(q, dtype=float), bool(pinned)))
+        self._told(t + grant.wait_s + (float(times[-1]) if grant.kind == "go" else 0.0))
+        return grant
+
+    def clock(self, t: float) -> None:
+        """The arm's clock reached `t` (SimClock.on_advance): told when it is CLOCK_STEP_S past
+        what the conductor knows (a granted motion's end, the last message's time)."""
+        if t >= self.known_s + CLOCK_STEP_S:
+            self.connection.send(("clock", float(t)))
+            self.known_s = float(t)
 
     def moved(self, t: float, q: FloatArray, flown: tuple[FloatArray, FloatArray] | None = None) -> None:
         """Where the arm is at `t` after its last motion; flown: the (times, joints) of the way
@@ -91,6 +115,7 @@ class RemoteGate:
         if flown is not None:
             message += (np.asarray(flown[0], dtype=float), np.asarray(flown[1], dtype=float))
         self.connection.send(message)
+        self._told(t)
 
     def park(self, t: float, q: FloatArray) -> Grant:
         return self._ask(("park", float(t), np.asarray(q, dtype=float)))
@@ -100,6 +125,7 @@ class RemoteGate:
 
     def post(self, t: float, key: str, value: object) -> None:
         self.connection.send(("post", float(t), key, value))
+        self._told(t)
 
     def take(self, t: float, key: str) -> tuple[float, object]:
         self.connection.send(("take", float(t), key))
