@@ -124,6 +124,17 @@ def test_two_arms_inspect_at_once_each_its_share_with_its_own_tools_and_never_to
     assert not tools["t3"] & tools["t3_b"]
     # the second arm measures in the first arm's registration of the part
     assert taken and taken[0]["why"] == "the other arm's registration" and "shift_mm" in taken[0]
+    # either arm's report draws both arms' streams and zone claims on one time axis
+    from ita.report.data import collect, summarize
+    from ita.report.sections import SECTIONS, Context
+
+    with Archive.open(archive_path(), create=False) as archive:
+        data = collect(archive, per_arm["t3_b"]["run_id"])
+    assert [arm for arm, _r, _e in data.group] == ["t3", "t3_b"]
+    section = dict(SECTIONS)["two_arms"](data, Context(summarize(data)))
+    assert section is not None
+    lanes = {y for trace in section["figure"]["data"] for y in trace["y"] if y}
+    assert {"t3 arm", "t3 zones", "t3_b arm", "t3_b zones"} <= lanes
 
 
 @pytest.mark.slow       # about 2 min: both arms prepared, then a two-arm run of 420 measurements, one arm down

@@ -50,3 +50,32 @@ def test_the_gantt_charts_marks_share_a_label_when_close_and_labels_never_lie_on
     assert "100.9 s exception" in labels[0]["hovertext"]
     for a, b in zip(labels, labels[1:]):            # neighbours at two heights, or far apart
         assert a["y"] != b["y"] or b["x"] - a["x"] >= 30.0
+
+
+def test_an_arms_zone_claims_are_spans_held_and_spans_waited() -> None:
+    """The conductor's record of one arm (granted, waited, continued, cleared) as the two
+    arms' Gantt chart draws it: a held span from each grant or continue to its clear, a
+    waiting span from each wait to its continue."""
+    from ita.report.figures import zone_spans
+
+    held, waits = zone_spans([[0.0, "grant", 5], [2.0, "clear", 5], [3.0, "wait", 0], [7.5, "continue", 4],
+                              [9.0, "clear", 4], [9.0, "grant", 2], [9.5, "clear", 2], [10.0, "done", 0]])
+    assert held == [(0.0, 2.0), (7.5, 9.0), (9.0, 9.5)]
+    assert waits == [(3.0, 7.5)]
+
+
+def test_the_two_arm_gantt_chart_has_a_lane_per_arm_and_stream_and_per_arm_its_zones() -> None:
+    from ita.archive.model import Event
+    from ita.report.figures import two_arm_gantt_figure
+
+    def run(arm: str, offset: float) -> list[Event]:
+        return [Event("command", "arm", offset, {"cmd": 1, "name": "move", "category": "motion", "duration": 2.0}),
+                Event("reply", "arm", offset + 2.0, {"cmd": 1, "status": "ok"}),
+                Event("zones", "top", 10.0, {"events": [[offset, "wait", 0], [offset + 1.0, "continue", 3],
+                                                        [offset + 3.0, "clear", 3]]})]
+
+    fig = two_arm_gantt_figure([("a", run("a", 0.0)), ("b", run("b", 4.0))])
+    lanes = fig["layout"]["yaxis"]["categoryarray"]
+    assert set(lanes) == {"a arm", "a zones", "b arm", "b zones"}
+    waiting = next(t for t in fig["data"] if t["name"] == "waiting for the other arm's zones")
+    assert [y for y in waiting["y"] if y] == ["a zones", "a zones", "b zones", "b zones"]

@@ -331,8 +331,13 @@ def inspect_with_two_arms(*, part_dir: Path | None, limit: int | None, seed: int
     with Archive.open(archive_path(runs_dir)) as archive:
         for arm, run_id in runs.items():
             if arm in codes:
-                archive.record_event(run_id, Event("two_arms", "top", float(report["simulated_cycle_s"] or 0.0),
+                end_s = float(report["simulated_cycle_s"] or 0.0)
+                archive.record_event(run_id, Event("two_arms", "top", end_s,
                                                    {k: v for k, v in report.items() if k != "runs"}))
+                # its zone claims as the conductor granted them (the report's two-arm Gantt chart)
+                archive.record_event(run_id, Event("zones", "top", end_s, {"events": [
+                    [round(e.t, 3), e.kind, e.zones] for e in conductor.events
+                    if e.arm == arm and e.kind != "request"]}))
     if as_json:
         click.echo(json.dumps(report, indent=1))
     else:

@@ -76,8 +76,8 @@ def build_pdf(archive: Archive, run_id: str, *, specs: Iterable[Any] | None = No
               true_values: Mapping[str, float] | None = None, scene: Any = None, injected: Any = None) -> bytes:
     """The printable PDF report of run `run_id` (the part's verdict on page 1)."""
     data = collect(archive, run_id, specs if specs is not None else (scene.specs if scene else None))
-    payload = report_payload(data, true_values=true_values, only=("summary", "results", "breakdown", "events",
-                                                                  "exceptions", "scoring"), injected=injected)
+    payload = report_payload(data, true_values=true_values, injected=injected,
+                             only=("summary", "results", "two_arms", "breakdown", "events", "exceptions", "scoring"))
     return pdf_report(data, payload, mesh=None if scene is None else scene.mesh)
 
 

@@ -66,6 +66,9 @@ class ReportData:
     events: tuple[Event, ...]
     specs: tuple[SpecPoint, ...]
     part_known: bool = True          # the part's own specs were given (not only the results' points)
+    #: a run of a two-arm run: each arm's (arm, run id, its run's events), this one's too,
+    #: in the cell's order (empty: a one-arm run, or the other's run not in the archive)
+    group: tuple[tuple[str, str, tuple[Event, ...]], ...] = ()
 
     @property
     def part_specs(self) -> int:
@@ -140,7 +143,25 @@ def collect(archive: Archive, run_id: str, specs: Iterable[Any] | None = None) -
     for r in results:
         if r.point is not None and r.spec_id not in points:
             points[r.spec_id] = SpecPoint(r.spec_id, r.kind, r.point)
-    return ReportData(archive.run(run_id), results, tuple(archive.events(run_id)), tuple(points.values()), known)
+    events = tuple(archive.events(run_id))
+    return ReportData(archive.run(run_id), results, events, tuple(points.values()), known,
+                      _group(archive, run_id, events))
+
+
+def _group(archive: Archive, run_id: str, events: tuple[Event, ...]) -> tuple[tuple[str, str, tuple[Event, ...]], ...]:
+    """The arms' runs of the two-arm run `run_id` is one of (its ``two_arms`` event)."""
+    found = next((e for e in reversed(events) if e.kind == "two_arms"), None)
+    if found is None:
+        return ()
+    known = {r.id for r in archive.runs()}
+    out = []
+    for arm, a in (found.payload.get("per_arm") or {}).items():
+        other = str(a.get("run_id", ""))
+        if other == run_id:
+            out.append((str(arm), other, events))
+        elif other in known:
+            out.append((str(arm), other, tuple(archive.events(other))))
+    return tuple(out) if len(out) > 1 else ()
 
 
 def status_of(r: StoredResult) -> str:

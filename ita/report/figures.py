@@ -121,6 +121,86 @@ def gantt_figure(events: Sequence[Event], results: Sequence[StoredResult] = ()) 
         "annotations": annotations, "dragmode": "zoom"}}
 
 
+def zone_spans(zone_events: Sequence[Sequence[Any]]) -> tuple[list[tuple[float, float]], list[tuple[float, float]]]:
+    """An arm's claims from the zone conductor's record (``[t, kind, zones]`` in order):
+    the spans it held a motion's zones (granted or continued, to its clear) and the spans
+    it waited for the other arm (its wait, to its continue)."""
+    held: list[tuple[float, float]] = []
+    waits: list[tuple[float, float]] = []
+    since: float | None = None
+    asked: float | None = None
+    for row in zone_events:
+        t, kind = float(row[0]), str(row[1])
+        if kind == "wait":
+            asked = t
+        elif kind in ("grant", "continue"):
+            if kind == "continue" and asked is not None and t > asked:
+                waits.append((asked, t))
+            asked, since = None, t
+        elif kind == "clear" and since is not None:
+            held.append((since, t))
+            since = None
+    return held, waits
+
+
+def two_arm_gantt_figure(group: Sequence[tuple[str, Sequence[Event]]]) -> dict[str, Any]:
+    """Both arms of a two-arm run over one simulated time: a lane per arm and stream
+    (commands coloured by category, WAITs dotted) and a lane per arm of its zone claims
+    (the spans it held a motion's zones, and dotted, the spans it waited for the other
+    arm's release), from each arm's run and its ``zones`` event."""
+    traces: list[dict[str, Any]] = []
+    lanes: list[str] = []
+    bars: dict[tuple[str, str, bool], tuple[list, list, list]] = {}
+
+    def add(key: tuple[str, str, bool], lane: str, start: float, end: float, hover: str) -> None:
+        xs, ys, text = bars.setdefault(key, ([], [], []))
+        xs += [_r(start), _r(max(end, start + 1e-3)), None]
+        ys += [lane, lane, None]
+        text += [hover, hover, None]
+
+    end_s = 0.0
+    for arm, events in group:
+        ivs = timeline.intervals(events)
+        streams = [st for st in STREAM_ORDER if st != "top" and any(iv.stream == st for iv in ivs)]
+        streams += sorted({iv.stream for iv in ivs} - set(streams) - {"top"})
+        for st in streams:
+            lane = f"{arm} {st}"
+            lanes.append(lane)
+            for iv in ivs:
+                if iv.stream == st:
+                    label = f"{iv.label} ({iv.spec_id})" if iv.spec_id and iv.spec_id != iv.label else iv.label
+                    add((iv.category, "", iv.category == "waiting"), lane, iv.start, iv.end,
+                        f"{arm}: {label}<br>{iv.start:.2f} to {iv.end:.2f} s")
+                    end_s = max(end_s, iv.end)
+        zones = next((e for e in reversed(events) if e.kind == "zones"), None)
+        if zones is not None:
+            lane = f"{arm} zones"
+            lanes.append(lane)
+            held, waits = zone_spans(zones.payload.get("events") or [])
+            for a, b in held:
+                add(("zones", "held", False), lane, a, b, f"{arm} holds a motion's zones<br>{a:.2f} to {b:.2f} s")
+            for a, b in waits:
+                add(("zones", "wait", True), lane, a, b,
+                    f"{arm} waits for the other arm's zones<br>{a:.2f} to {b:.2f} s ({b - a:.1f} s)")
+                end_s = max(end_s, b)
+    for (cat, what, dotted), (xs, ys, text) in bars.items():
+        if cat == "zones":
+            name = "waiting for the other arm's zones" if what == "wait" else "zones held (a motion's claim)"
+            colour = "#d62728" if what == "wait" else "#8c8c8c"
+        else:
+            name = "WAIT (until CONTINUE)" if cat == "waiting" else cat.replace("_", " ")
+            colour = CATEGORY_COLOURS[cat]
+        traces.append({"type": "scatter", "mode": "lines", "x": xs, "y": ys, "text": text, "hoverinfo": "text",
+                       "name": name, "line": {"color": colour, "width": 6 if dotted else 14,
+                                              "dash": "dot" if dotted else "solid"}})
+    return {"data": traces, "layout": {
+        "font": FONT, "height": 130 + 45 * max(len(lanes), 1), "margin": {"l": 90, "r": 20, "t": 30, "b": 50},
+        "xaxis": {"title": {"text": "simulated time (s)"}, "range": [0.0, end_s if end_s > 0 else 1.0],
+                  "zeroline": False},
+        "yaxis": {"categoryorder": "array", "categoryarray": list(reversed(lanes)), "type": "category"},
+        "legend": {"orientation": "h", "y": -0.3}, "hovermode": "closest", "dragmode": "zoom"}}
+
+
 # ---------------------------------------------------------------------- breakdown
 #: a colour per tour of the Sequence Planner's tours figure (cycled)
 TOUR_COLOURS = ("#1f77b4", "#ff7f0e", "#2ca02c", "#9467bd", "#8c564b", "#e377c2", "#17becf", "#bcbd22")

@@ -146,6 +146,11 @@ def pdf_report(data: ReportData, payload: Mapping[str, Any], *, mesh: Any = None
     if len(ends) > 5:
         image(charts.gantt_png(data.events, data.results, until=ends[4], title="detail: the first 5 measurements"),
               75 * mm)
+    two = sections.get("two_arms")
+    if two:                 # a run of a two-arm run: both arms' figures (the page draws their chart)
+        story += [Paragraph(esc(two["title"]), styles["Heading3"]),
+                  grid([["", "", "status"]] + [[Paragraph(esc(c), small) for c in r] for r in two["rows"]],
+                       widths=[50 * mm, width - 80 * mm, 30 * mm], font=8)]
     breakdown = sections.get("breakdown")
     if breakdown:
         story += [Paragraph("Cycle-time breakdown", styles["Heading3"]),

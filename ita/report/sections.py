@@ -89,6 +89,33 @@ def _gantt(data: ReportData, ctx: Context) -> dict[str, Any] | None:
             "figure": figures.gantt_figure(data.events, data.results)}
 
 
+def _s(seconds: Any) -> str:
+    return f"{seconds:.1f} s" if isinstance(seconds, (int, float)) else "-"
+
+
+def _two_arms(data: ReportData, ctx: Context) -> dict[str, Any] | None:
+    """A run of a two-arm run: both arms' streams and zone claims on one time axis, and
+    each arm's figures from the two-arm summary."""
+    if not data.group:
+        return None
+    summary = next((e.payload for e in reversed(data.events) if e.kind == "two_arms"), {})
+    rows = []
+    for arm, a in (summary.get("per_arm") or {}).items():
+        rows.append((f"{arm} (run {a.get('run_id')})",
+                     f"{a.get('measured')} of {a.get('total')} measured; busy {_s(a.get('busy_s'))}, waiting "
+                     f"{_s(a.get('waiting_s'))} for the other arm; {a.get('claims')} claims, {a.get('folds')} folds",
+                     str(a.get("status", ""))))
+    rows.append(("both", f"simulated cycle {_s(summary.get('simulated_cycle_s'))}; {summary.get('measured')} of "
+                         f"{summary.get('total')} measured; arm-arm contacts {summary.get('arm_arm_contacts')}",
+                 str(summary.get("status", ""))))
+    return {"kind": "figure", "title": "Two arms: both arms' streams and their zone claims", "id": "two_arms",
+            "note": ("A lane per arm and command stream, and per arm its interference-zone claims: grey, the "
+                     "zones a motion held from its grant to its clear; red dotted, a wait for the other arm's "
+                     "release (its WAIT until CONTINUE). Drag to zoom in, double-click to zoom out."),
+            "figure": figures.two_arm_gantt_figure([(arm, events) for arm, _run, events in data.group]),
+            "rows": rows}
+
+
 def _breakdown(data: ReportData, ctx: Context) -> dict[str, Any] | None:
     s = ctx.summary
     if s.cycle_s <= 0:
@@ -262,6 +289,7 @@ SECTIONS: tuple[tuple[str, Builder], ...] = (
     ("results", _results),
     ("part3d", _part),
     ("gantt", _gantt),
+    ("two_arms", _two_arms),
     ("breakdown", _breakdown),
     ("events", _events),
     ("exceptions", _exceptions),
