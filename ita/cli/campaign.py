@@ -27,8 +27,8 @@ def campaign() -> None:
     figures.
 
     The file (TOML) names the parts (generator seeds: `ita part new`), the appraisers
-    (simulator seeds) and trials, the measurements per run and the fault rate; see
-    docs/campaigns.md.  Runs go to a local pool (--workers) or to an existing Dask
+    (simulator seeds) and trials, the measurements per run, the fault rate and the arms
+    that work each run (`arms = 2`: both of the workcell's); see docs/campaigns.md.  Runs go to a local pool (--workers) or to an existing Dask
     cluster (--cluster ADDRESS); each lands in the campaign archive when it ends, and the
     same command started again runs only what is missing."""
 
