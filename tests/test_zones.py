@@ -212,3 +212,22 @@ def test_near_tubes_marks_exactly_the_zones_whose_centre_is_within_reach() -> No
         raw = np.frombuffer(got.to_bytes((len(centres) + 7) // 8, "little"), dtype=np.uint8)
         marked = np.unpackbits(raw, bitorder="little")[:len(centres)].astype(bool)
         assert np.array_equal(marked, want), (s, int(np.sum(marked != want)))
+
+
+def test_tubes_meet_answers_as_the_zones_of_the_tubes_would() -> None:
+    """ZoneGrid.tubes_meet (the conductor's way-back test: only the given zones' cells
+    tried, the first hit ending it) against near_tubes(...) & zones, on random tubes and
+    random zone sets, near and far, met and missed."""
+    grid = ZoneGrid((-1.0, -1.0), (1.0, 1.2), 0.1, 0.3, 2.0)
+    rng = np.random.default_rng(11)
+    met = missed = 0
+    for _ in range(300):
+        tubes = rng.uniform((-1.3, -1.3, -0.2), (1.3, 1.4, 2.3), size=(int(rng.integers(1, 6)), 3, 2, 3))
+        radii = rng.uniform(0.0, 0.2, size=3)
+        centre = rng.uniform((-1.0, -1.0, 0.0), (1.0, 1.2, 2.0))
+        other = grid.near_tubes(np.array([[[centre, centre + rng.normal(0.0, 0.2, 3)]]]), rng.uniform(0.0, 0.3, 1))
+        want = bool(grid.near_tubes(tubes, radii) & other)
+        assert grid.tubes_meet(tubes, radii, other) == want
+        met, missed = met + want, missed + (not want)
+    assert met > 30 and missed > 30                      # both answers were tried
+    assert not grid.tubes_meet(tubes, radii, 0)

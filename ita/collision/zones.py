@@ -295,6 +295,29 @@ class ZoneGrid:
                     self.z_high, reach, out)
         return _bits(out)
 
+    def tubes_meet(self, tubes: np.ndarray, radii: np.ndarray, zones: Zones) -> bool:
+        """Whether ``near_tubes(tubes, radii) & zones`` (the same test, cell by cell) without
+        marking every zone near the tubes: only the cells of `zones` are tried, a segment
+        far from all of them is passed over, and the first hit ends it."""
+        if not zones:
+            return False
+        X = np.asarray(tubes, dtype=np.float64)
+        T = X.shape[-3]
+        ends = X.reshape(-1, 2, 3)
+        nx, ny = self.shape
+        n = nx * ny * self.levels
+        raw = np.frombuffer(zones.to_bytes((n + 7) // 8, "little"), dtype=np.uint8)
+        mask = np.unpackbits(raw, bitorder="little")[:n].astype(np.bool_)
+        where = np.flatnonzero(mask)
+        i, rest = np.divmod(where, ny * self.levels)
+        j, k = np.divmod(rest, self.levels)
+        box = np.array([i.min(), i.max(), j.min(), j.max(), k.min(), k.max()], dtype=np.int64)
+        reach = np.ascontiguousarray(np.tile(np.asarray(radii, dtype=np.float64), len(ends) // T)) \
+            + self.cell * math.sqrt(0.75)
+        return bool(_tubes_meet(np.ascontiguousarray(ends[:, 0]), np.ascontiguousarray(ends[:, 1]), self.low[0],
+                                self.low[1], self.high[0], self.high[1], self.cell, nx, ny, self.levels, self.z_high,
+                                reach, mask, box))
+
     def _centres(self) -> np.ndarray:
         nx, ny = self.shape
         i, j = np.meshgrid(np.arange(nx), np.arange(ny), indexing="ij")
@@ -330,6 +353,46 @@ class ZoneGrid:
         """The zones an arm sweeps moving its tool from ``start`` to ``end``."""
         return self.near_polygon([base, start, end])
 
+
+
+@njit(cache=True)
+def _tubes_meet(a, b, low_x, low_y, high_x, high_y, cell, nx, ny, nz, z_high, reach, mask, box):  # pragma: no cover
+    """Whether a zone of ``mask`` (within ``box``: its cells' index ranges) has its centre
+    within ``reach[s]`` of a segment a[s] -> b[s]: _mark_tubes's test on those cells alone."""
+    for s in range(a.shape[0]):
+        ax = min(max(a[s, 0], low_x), high_x)
+        ay = min(max(a[s, 1], low_y), high_y)
+        az = min(max(a[s, 2], 0.0), z_high)
+        bx = min(max(b[s, 0], low_x), high_x)
+        by = min(max(b[s, 1], low_y), high_y)
+        bz = min(max(b[s, 2], 0.0), z_high)
+        r = reach[s]
+        r2 = r * r
+        i0 = max(box[0], max(0, int(math.floor((min(ax, bx) - r - low_x) / cell))))
+        i1 = min(box[1], min(nx - 1, int(math.floor((max(ax, bx) + r - low_x) / cell))))
+        j0 = max(box[2], max(0, int(math.floor((min(ay, by) - r - low_y) / cell))))
+        j1 = min(box[3], min(ny - 1, int(math.floor((max(ay, by) + r - low_y) / cell))))
+        k0 = max(box[4], max(0, int(math.floor((min(az, bz) - r) / cell))))
+        k1 = min(box[5], min(nz - 1, int(math.floor((max(az, bz) + r) / cell))))
+        if i0 > i1 or j0 > j1 or k0 > k1:
+            continue
+        vx, vy, vz = bx - ax, by - ay, bz - az
+        vv = vx * vx + vy * vy + vz * vz
+        for i in range(i0, i1 + 1):
+            cx = low_x + (i + 0.5) * cell
+            for j in range(j0, j1 + 1):
+                cy = low_y + (j + 0.5) * cell
+                base = (i * ny + j) * nz
+                for k in range(k0, k1 + 1):
+                    if not mask[base + k]:
+                        continue
+                    cz = (k + 0.5) * cell
+                    t = 0.0 if vv == 0.0 else ((cx - ax) * vx + (cy - ay) * vy + (cz - az) * vz) / vv
+                    t = min(1.0, max(0.0, t))
+                    dx, dy, dz = cx - (ax + t * vx), cy - (ay + t * vy), cz - (az + t * vz)
+                    if dx * dx + dy * dy + dz * dz <= r2:
+                        return True
+    return False
 
 
 def retreat_point(base: Point, tool: Point, retreat_m: float = RETREAT_M) -> Point:

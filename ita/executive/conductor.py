@@ -80,6 +80,8 @@ STEP_M = 0.1
 FOLD_BEHIND_M = 0.2
 #: zone sets kept for poses and motions seen before
 CACHE_SIZE = 20_000
+#: ways back (their swept tubes) kept: an arm standing still is asked about the same ones
+RETREAT_CACHE = 64
 
 FloatArray = NDArray[np.float64]
 Reply = tuple[str, float, "tuple[float, ...] | None", str]
@@ -238,6 +240,8 @@ class Conductor:
         self.paths: list[Motion] = []
         self.posts: dict[str, tuple[float, Any]] = {}          # key -> (time posted, value), the first
         self._zones: dict[tuple[str, str, bytes], Zones] = {}
+        # an arm's ways back from a pose (knots, their swept tubes and radii), the last few
+        self._retreats: dict[tuple[str, bytes], list[tuple[FloatArray, tuple[FloatArray, FloatArray] | None]]] = {}
         self.cpu_s = 0.0                     # the conductor's own time (the caller counts it)
         for a in arms:
             st = self.state[a.name]
@@ -268,13 +272,18 @@ class Conductor:
         return self._cached((name, "sweep", q.tobytes()), lambda: self._swept_now(name, q))
 
     def _swept_now(self, name: str, q: FloatArray) -> Zones:
+        return self.grid.near_tubes(*self._swept_tubes(name, q))
+
+    def _swept_tubes(self, name: str, q: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """The tubes of every pose along the knots ``q`` (densified) and their radii, grown
+        by half the largest step between two poses."""
         body = self.state[name].arm.body
         ends = body.tubes(q)                                              # (k, T, 2, 3)
         far = float(np.max(np.linalg.norm(ends[..., :2] - ends[:1, :1, :1, :2], axis=-1))) + 1.0
         dense = _densified(q, far / STEP_M)
         tubes = body.tubes(dense)
         step = float(np.max(np.linalg.norm(np.diff(tubes, axis=0), axis=-1))) if len(dense) > 1 else 0.0
-        return self.grid.near_tubes(tubes, body.radii + step / 2)
+        return tubes, body.radii + step / 2
 
     def _folded(self, name: str, q: FloatArray) -> FloatArray:
         fold = np.asarray(self.state[name].arm.fold, dtype=float).copy()
@@ -490,16 +499,37 @@ class Conductor:
         reply = self._try_fold(blocker, bst.pending)
         return None if isinstance(reply, str) else reply
 
-    def _way_back(self, name: str, q: FloatArray) -> Zones:
-        """The zones of arm `name` folding from `q` (every way it may take) and folded there."""
+    def _way_back_meets(self, name: str, q: FloatArray, zones: Zones) -> bool:
+        """Whether arm `name` folding from `q` (every way its controller may take, and folded
+        there) meets `zones`: its folded body's zones, then each way's swept tubes tried
+        against `zones` alone (ZoneGrid.tubes_meet: the same test as the way's zones, cell
+        by cell, without marking them all), the first hit ending it."""
         q = np.asarray(q, dtype=float)
-
-        def make() -> Zones:
-            fold = self._folded(name, q)
-            if np.allclose(fold, q, atol=1e-6):
-                return self._rest(name, q)
-            return self._rest(name, fold) | self._ways_swept(name, self.state[name].arm.retreat(q, fold))
-        return self._cached((name, "back", q.tobytes()), make)
+        fold = self._folded(name, q)
+        if self._rest(name, fold) & zones:
+            return True
+        if np.allclose(fold, q, atol=1e-6):
+            return False
+        key = (name, q.tobytes())
+        ways = self._retreats.get(key)
+        if ways is None:
+            knots = [np.asarray(w.q, dtype=float) for w in self.state[name].arm.retreat(q, fold)]
+            ways = [(k, self._swept_tubes(name, k) if len(k) >= 2 else None) for k in knots]
+            if len(self._retreats) >= RETREAT_CACHE:
+                self._retreats.pop(next(iter(self._retreats)))
+            self._retreats[key] = ways
+        for wq, tubes in ways:
+            if tubes is None:                              # a way of one pose: its body
+                if self._rest(name, wq[0]) & zones:
+                    return True
+                continue
+            done = self._zones.get((name, "sweep", wq.tobytes()))      # swept already (a fold it made)
+            if done is not None:
+                if done & zones:
+                    return True
+            elif self.grid.tubes_meet(*tubes, zones):
+                return True
+        return False
 
     def _unsafe(self, name: str, q: FloatArray) -> str | None:
         """The arm that, with arm `name` at rest at `q`, could not fold and keeps `name`
@@ -509,7 +539,7 @@ class Conductor:
             ost = self.state[o]
             if o == name or ost.done:
                 continue
-            if self._way_back(o, ost.q) & mine and self._way_back(name, q) & self._rest(o, ost.q):
+            if self._way_back_meets(o, ost.q, mine) and self._way_back_meets(name, q, self._rest(o, ost.q)):
                 return o
         return None
 
