@@ -360,20 +360,12 @@ def _tubes_meet(a, b, low_x, low_y, high_x, high_y, cell, nx, ny, nz, z_high, re
     """Whether a zone of ``mask`` (within ``box``: its cells' index ranges) has its centre
     within ``reach[s]`` of a segment a[s] -> b[s]: _mark_tubes's test on those cells alone."""
     for s in range(a.shape[0]):
-        ax = min(max(a[s, 0], low_x), high_x)
-        ay = min(max(a[s, 1], low_y), high_y)
-        az = min(max(a[s, 2], 0.0), z_high)
-        bx = min(max(b[s, 0], low_x), high_x)
-        by = min(max(b[s, 1], low_y), high_y)
-        bz = min(max(b[s, 2], 0.0), z_high)
         r = reach[s]
         r2 = r * r
-        i0 = max(box[0], max(0, int(math.floor((min(ax, bx) - r - low_x) / cell))))
-        i1 = min(box[1], min(nx - 1, int(math.floor((max(ax, bx) + r - low_x) / cell))))
-        j0 = max(box[2], max(0, int(math.floor((min(ay, by) - r - low_y) / cell))))
-        j1 = min(box[3], min(ny - 1, int(math.floor((max(ay, by) + r - low_y) / cell))))
-        k0 = max(box[4], max(0, int(math.floor((min(az, bz) - r) / cell))))
-        k1 = min(box[5], min(nz - 1, int(math.floor((max(az, bz) + r) / cell))))
+        ax, ay, az, bx, by, bz, i0, i1, j0, j1, k0, k1 = _segment_cells(a, b, s, low_x, low_y, high_x, high_y, cell,
+                                                                        nx, ny, nz, z_high, r)
+        i0, i1, j0, j1, k0, k1 = max(i0, box[0]), min(i1, box[1]), max(j0, box[2]), min(j1, box[3]), \
+            max(k0, box[4]), min(k1, box[5])
         if i0 > i1 or j0 > j1 or k0 > k1:
             continue
         vx, vy, vz = bx - ax, by - ay, bz - az
@@ -386,11 +378,7 @@ def _tubes_meet(a, b, low_x, low_y, high_x, high_y, cell, nx, ny, nz, z_high, re
                 for k in range(k0, k1 + 1):
                     if not mask[base + k]:
                         continue
-                    cz = (k + 0.5) * cell
-                    t = 0.0 if vv == 0.0 else ((cx - ax) * vx + (cy - ay) * vy + (cz - az) * vz) / vv
-                    t = min(1.0, max(0.0, t))
-                    dx, dy, dz = cx - (ax + t * vx), cy - (ay + t * vy), cz - (az + t * vz)
-                    if dx * dx + dy * dy + dz * dz <= r2:
+                    if _near(cx, cy, (k + 0.5) * cell, ax, ay, az, vx, vy, vz, vv, r2):
                         return True
     return False
 
@@ -406,24 +394,42 @@ def retreat_point(base: Point, tool: Point, retreat_m: float = RETREAT_M) -> Poi
 
 
 @njit(cache=True)
+def _near(cx, cy, cz, ax, ay, az, vx, vy, vz, vv, r2):  # pragma: no cover
+    """Whether the point (cx, cy, cz) is within sqrt(r2) of the segment from a along v."""
+    t = 0.0 if vv == 0.0 else ((cx - ax) * vx + (cy - ay) * vy + (cz - az) * vz) / vv
+    t = min(1.0, max(0.0, t))
+    dx, dy, dz = cx - (ax + t * vx), cy - (ay + t * vy), cz - (az + t * vz)
+    return dx * dx + dy * dy + dz * dz <= r2
+
+
+@njit(cache=True)
+def _segment_cells(a, b, s, low_x, low_y, high_x, high_y, cell, nx, ny, nz, z_high, r):  # pragma: no cover
+    """Segment a[s] -> b[s] with its ends brought into the grid's box (distances only
+    shrink), and the index ranges of the cells within ``r`` of it along each axis."""
+    ax = min(max(a[s, 0], low_x), high_x)
+    ay = min(max(a[s, 1], low_y), high_y)
+    az = min(max(a[s, 2], 0.0), z_high)
+    bx = min(max(b[s, 0], low_x), high_x)
+    by = min(max(b[s, 1], low_y), high_y)
+    bz = min(max(b[s, 2], 0.0), z_high)
+    i0 = max(0, int(math.floor((min(ax, bx) - r - low_x) / cell)))
+    i1 = min(nx - 1, int(math.floor((max(ax, bx) + r - low_x) / cell)))
+    j0 = max(0, int(math.floor((min(ay, by) - r - low_y) / cell)))
+    j1 = min(ny - 1, int(math.floor((max(ay, by) + r - low_y) / cell)))
+    k0 = max(0, int(math.floor((min(az, bz) - r) / cell)))
+    k1 = min(nz - 1, int(math.floor((max(az, bz) + r) / cell)))
+    return ax, ay, az, bx, by, bz, i0, i1, j0, j1, k0, k1
+
+
+@njit(cache=True)
 def _mark_tubes(a, b, low_x, low_y, high_x, high_y, cell, nx, ny, nz, z_high, reach, out):  # pragma: no cover
     """Mark the zones whose centre lies within ``reach[s]`` of a segment a[s] -> b[s] in
     3-D, the segment's ends first brought into the grid's box (distances only shrink)."""
     for s in range(a.shape[0]):
-        ax = min(max(a[s, 0], low_x), high_x)
-        ay = min(max(a[s, 1], low_y), high_y)
-        az = min(max(a[s, 2], 0.0), z_high)
-        bx = min(max(b[s, 0], low_x), high_x)
-        by = min(max(b[s, 1], low_y), high_y)
-        bz = min(max(b[s, 2], 0.0), z_high)
         r = reach[s]
         r2 = r * r
-        i0 = max(0, int(math.floor((min(ax, bx) - r - low_x) / cell)))
-        i1 = min(nx - 1, int(math.floor((max(ax, bx) + r - low_x) / cell)))
-        j0 = max(0, int(math.floor((min(ay, by) - r - low_y) / cell)))
-        j1 = min(ny - 1, int(math.floor((max(ay, by) + r - low_y) / cell)))
-        k0 = max(0, int(math.floor((min(az, bz) - r) / cell)))
-        k1 = min(nz - 1, int(math.floor((max(az, bz) + r) / cell)))
+        ax, ay, az, bx, by, bz, i0, i1, j0, j1, k0, k1 = _segment_cells(a, b, s, low_x, low_y, high_x, high_y, cell,
+                                                                        nx, ny, nz, z_high, r)
         vx, vy, vz = bx - ax, by - ay, bz - az
         vv = vx * vx + vy * vy + vz * vz
         hh = vx * vx + vy * vy
@@ -457,9 +463,5 @@ def _mark_tubes(a, b, low_x, low_y, high_x, high_y, cell, nx, ny, nz, z_high, re
                 for k in range(kk0, kk1 + 1):
                     if out[base + k]:
                         continue
-                    cz = (k + 0.5) * cell
-                    t = 0.0 if vv == 0.0 else ((cx - ax) * vx + (cy - ay) * vy + (cz - az) * vz) / vv
-                    t = min(1.0, max(0.0, t))
-                    dx, dy, dz = cx - (ax + t * vx), cy - (ay + t * vy), cz - (az + t * vz)
-                    if dx * dx + dy * dy + dz * dz <= r2:
+                    if _near(cx, cy, (k + 0.5) * cell, ax, ay, az, vx, vy, vz, vv, r2):
                         out[base + k] = True
