@@ -600,6 +600,22 @@ class Archive:
         return [_stored_result(r) for r in rows]
 
     @_reads
+    def merged_results(self, runs: Iterable[str], handed: Iterable[str] = ()) -> dict[str, StoredResult]:
+        """The results of several runs as one (a two-arm run: its arms' runs, then its
+        hand-over runs), by spec: each spec's result in the runs, a hand-over run's where
+        it measured the spec (or the spec has none yet).  Runs the archive lacks are skipped."""
+        known = {r.id for r in self.runs()}
+        last: dict[str, StoredResult] = {}
+        for run_id in runs:
+            if run_id in known:
+                last.update({r.spec_id: r for r in self.results(run_id)})
+        for run_id in handed:
+            if run_id in known:
+                last.update({r.spec_id: r for r in self.results(run_id)
+                             if r.outcome is Outcome.MEASURED or r.spec_id not in last})
+        return last
+
+    @_reads
     def result(self, run_id: str, spec_id: str) -> StoredResult | None:
         """The result of `spec_id` in the run, or None."""
         row = self._conn.execute(f"SELECT {_RESULT_COLUMNS} FROM results WHERE run_id = ? AND spec_id = ?",

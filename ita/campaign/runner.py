@@ -24,7 +24,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from ita.archive import Archive, Outcome, archive_path
+from ita.archive import Archive, archive_path
 from ita.part.store import new_part
 from ita.scoring.diagnoses import diagnosis_score
 from ita.scoring.truth import injected_faults
@@ -67,12 +67,7 @@ def _read_back(runs: Path, summary: dict[str, Any], *,
         else:
             main, handed = [archive.runs()[-1].id], []
             status = archive.run(main[0]).status.value
-        last: dict[str, Any] = {}
-        for run_id in main:
-            last.update({r.spec_id: r for r in archive.results(run_id)})
-        for run_id in handed:
-            last.update({r.spec_id: r for r in archive.results(run_id)
-                         if r.outcome is Outcome.MEASURED or r.spec_id not in last})
+        last = archive.merged_results(main, handed)
         results = [{"spec_id": r.spec_id, "kind": r.kind, "outcome": r.outcome.value, "value": r.value, "u": r.u,
                     "U": r.U, "low": r.low_limit, "high": r.high_limit,
                     "decision": None if r.decision is None else r.decision.value, "tool": r.tool,

@@ -349,18 +349,13 @@ def inspect_with_two_arms(*, part_dir: Path | None, limit: int | None, seed: int
 def _final(runs_dir: Path | None, main: Sequence[str], handed: Sequence[str]) -> dict[str, Any]:
     """The two-arm run's results as they stand: each spec's result in its arm's run, or in
     a hand-over run when that measured it; counts by decision (or outcome)."""
-    last: dict[str, Any] = {}
     todo: list[str] = []
     with Archive.open(archive_path(runs_dir), create=False) as archive:
         known = {r.id for r in archive.runs()}
         for run_id in main:
             if run_id in known:
                 todo += [str(i) for i in archive.run(run_id).settings.get("specs") or []]
-                last.update({r.spec_id: r for r in archive.results(run_id)})
-        for run_id in handed:
-            if run_id in known:
-                last.update({r.spec_id: r for r in archive.results(run_id)
-                             if r.outcome is Outcome.MEASURED or r.spec_id not in last})
+        last = archive.merged_results(main, handed)
     counts: dict[str, int] = {}
     for r in last.values():
         key = r.decision.value if r.decision is not None else r.outcome.value
