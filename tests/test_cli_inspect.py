@@ -159,23 +159,23 @@ def test_reinspect_chooses_more_frames_where_they_lower_the_uncertainty(tmp_path
 
 
 def test_a_fault_met_by_the_recoverys_own_retry_is_diagnosed_too(tmp_path) -> None:
-    """us_probe_2 worn, then us_probe_1 broken: the first measurement after 50 s fails on
-    us_probe_1 (FT-OFL04-W1 here; the exact one depends on the path planner's timings), the
-    handler finds it broken and takes the measurement again with us_probe_2, which fails
-    (doubled reading).  That failure is diagnosed in turn (worn, replaced) and the
-    measurement is made; the first diagnosis says its retry failed."""
+    """slra_2's window dirty, then slra_1's laser failed: the first measurement after 50 s
+    fails on slra_1 (HD-TH-B here; the exact one depends on the path planner's timings),
+    the handler finds it failed (cleaning does not cure it) and takes the measurement again
+    with slra_2, which fails too.  That failure is diagnosed in turn (a dirty window,
+    cleaned) and the measurement is made; the first diagnosis says its retry failed."""
     from ita.archive import Archive, archive_path
 
     runs = tmp_path / "runs"
     out = CliRunner().invoke(main, ["inspect", "--seed", "62", "--limit", "12", "--inject",
-                                    "worn_probe@us_probe_2:after=10", "--inject", "broken_probe@us_probe_1:after=50",
+                                    "dirty_window@slra_2:after=10", "--inject", "slra_failed@slra_1:after=50",
                                     "--runs-dir", str(runs), "--json"])
     assert out.exit_code == 0, out.output
     summary = json.loads(out.stdout)
     assert summary["counts"].get("not_done", 0) == 0 and summary["done"] == 12
     with Archive.open(archive_path(runs)) as archive:
         diagnoses = [e.payload for e in archive.events(summary["run_id"], kinds=["diagnosis"])]
-    assert [d["cause"] for d in diagnoses] == ["broken_probe(us_probe_1)", "worn_probe(us_probe_2)"], diagnoses
+    assert [d["cause"] for d in diagnoses] == ["slra_failed(slra_1)", "dirty_window(slra_2)"], diagnoses
     assert diagnoses[0]["spec"] == diagnoses[1]["spec"]
     assert diagnoses[0]["recovery"].startswith("the retry failed:")
     assert not diagnoses[1]["recovery"].startswith("the retry failed:")

@@ -87,7 +87,7 @@ def test_plan_top_prints_the_jobs_decomposition_and_carries_nothing_out(run, tmp
     lines = result.output.splitlines()
     assert lines[0].startswith("job inspect_part: ") and " actions, " in lines[0]
     assert lines[1] == "inspect_part  <- in_sequence" and lines[2:4] == ["  register_part", "  record_unplaceable"]
-    assert "asked: next_measurement(0, step(" in lines[4] and "<- calibrate_first" in result.output
+    assert "asked: next_measurement(0, step(" in lines[4] and "<- round_trip" in result.output
     assert lines[-1].startswith("... ") and lines[-1].endswith(" more tasks") and len(lines) == 32
     wrong = run("plan", "--top", "X-1")
     assert wrong.exit_code == 2 and "give no MEAS_ID" in wrong.output

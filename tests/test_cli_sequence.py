@@ -31,7 +31,7 @@ def test_sequence_prints_groups_and_stores_the_plan(ita, tmp_path):
     assert result.exit_code == 0, result.output
     out = result.output
     assert "1. slra_1" in out and "2. us_probe_1" in out
-    assert "tool changes: 2" in out and "total:" in out and "seconds of arm motion" in out
+    assert "tool changes: 1" in out and "total:" in out and "seconds of arm motion" in out
     assert "estimate" not in out
     # stored under the part's name and a digest of its content
     assert [p.name[:9] for p in (tmp_path / "home" / "plans").glob("*.json")] == ["bulkhead-"]

@@ -35,20 +35,19 @@ def test_a_superseded_result_leaves_the_archive_with_a_record_and_can_be_measure
 
 def test_an_arm_drift_is_found_named_and_what_was_measured_since_the_last_check_measured_again(
         tmp_path: Path, builtin_part) -> None:
-    """The arm drifts from 120 s on, after the part's registration (no device reports it);
-    the probe's readings then miss
-    their contact: the diagnosis reads the calibration block, which walks off
-    (misaligned), and names arm_drift; the arm is touched off on the block, the results
-    since the last good check are taken out and measured again; the run completes with
-    every measurement made once in its final results and close to the truth."""
+    """The arm drifts from 70 s on, after the part's registration (no device reports it);
+    the SLRA's views then miss their features: the diagnosis names arm_drift; the arm is
+    touched off on the calibration block, the results since the last good check are taken
+    out and measured again; the run completes with every measurement made once in its
+    final results and close to the truth."""
     from ita.scoring.truth import true_values
 
     runs = tmp_path / "runs"
-    out = CliRunner().invoke(main, ["inspect", "--seed", "63", "--limit", "40", "--inject",
-                                    "position_drift:after=120", "--runs-dir", str(runs), "--json"])
+    out = CliRunner().invoke(main, ["inspect", "--seed", "63", "--limit", "80", "--inject",
+                                    "position_drift:after=70", "--runs-dir", str(runs), "--json"])
     assert out.exit_code == 0, out.output
     summary = json.loads(out.stdout)
-    assert summary["status"] == "completed" and summary["measured"] == 40, summary
+    assert summary["status"] == "completed" and summary["measured"] == 80, summary
     truth = true_values(builtin_part.directory)
     with Archive.open(archive_path(runs), create=False) as archive:
         run_id = summary["run_id"]
@@ -60,7 +59,7 @@ def test_an_arm_drift_is_found_named_and_what_was_measured_since_the_last_check_
     assert len(again) == 1 and again[0].payload["cause"] == "arm_drift"
     superseded = [g["spec"] for g in again[0].payload["superseded"]]
     assert superseded, "nothing was measured again"
-    assert Counter(r.spec_id for r in results) == Counter(set(r.spec_id for r in results)) and len(results) == 40
+    assert Counter(r.spec_id for r in results) == Counter(set(r.spec_id for r in results)) and len(results) == 80
     by_id = {r.spec_id: r for r in results}
     assert all(by_id[s].sim_time_start >= again[0].sim_time for s in superseded)      # measured after it
     assert checks and checks[-1].payload["passed"] is True                        # the last check passed

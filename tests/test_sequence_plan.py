@@ -14,6 +14,7 @@ from ita.sequence.plan import (
     MOTION_TIME_COST,
     build_plan,
     planning_context,
+    tool_at_start,
     tool_points_world,
 )
 from ita.sequence.store import (
@@ -74,8 +75,10 @@ def test_plan_accounts_for_every_measurement(ctx, world):
         plan = build_plan(ctx)
     ids = [s.id for s in ctx.specs]
     assert sorted(_all_ids(plan)) == sorted(ids)
-    assert [g.tool for g in plan.groups] == ["slra_1", "us_probe_1"]
-    assert plan.tool_changes == 2
+    # the SLRA the run registers the part with is in hand when it starts to measure: its
+    # group first, and only the probe to pick up
+    assert [g.tool for g in plan.groups] == ["slra_1", "us_probe_1"] and tool_at_start(ctx.kb) == "slra_1"
+    assert plan.tool_changes == 1
     assert not plan.cost_interim and plan.cost_model == MOTION_TIME_COST.name
     assert plan.total_s == pytest.approx(sum(g.cost_s for g in plan.groups) + plan.transfer_s)
     assert plan.transfer_s > 0
@@ -261,5 +264,5 @@ def test_whole_bulkhead_plan(full_ctx, world):
         plan = build_plan(full_ctx)
     assert len(full_ctx.specs) > 1000
     assert sorted(_all_ids(plan)) == sorted(s.id for s in full_ctx.specs)
-    assert plan.cannot == () and plan.tool_changes == 2
+    assert plan.cannot == () and plan.tool_changes == 1          # the SLRA is in hand after the registration
     print(f"\nwhole bulkhead plan ({len(full_ctx.specs)} specs, classic): {plan.build_seconds:.2f} s")

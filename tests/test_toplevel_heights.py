@@ -71,8 +71,9 @@ def test_a_mesh_s_floors_are_its_flat_facets() -> None:
 def test_a_height_is_decided_with_its_web_measured_before_or_after_it(tmp_path, ita_home, builtin_part,
                                                                      height_first) -> None:
     """On the built-in bulkhead: a flange height and the web thicknesses of its floor.
-    Measured after them (the plan's order) it is decided at once; measured first, it waits
-    (an archive event) and is decided when the last of them is done.  Either way its value
+    Measured after them (the probe's group first) it is decided at once; measured first
+    (the SLRA's group first, the plan's order: the SLRA registers the part), it waits (an
+    archive event) and is decided when the last of them is done.  Either way its value
     holds the web's measured thickness, and its U is a fraction of what the tolerance gave."""
     from ita.scoring.truth import true_values
     from ita.task import open_session
@@ -88,9 +89,8 @@ def test_a_height_is_decided_with_its_web_measured_before_or_after_it(tmp_path, 
              key=lambda s: math.dist(s.point[:2], fh.point[:2]))
     region = vctx.web_region(np.asarray(wt.point[:2]))
     ids = [fh.id, *floors[region]]
-    if height_first:
-        groups = tuple(sorted(session.plan.groups, key=lambda g: not g.tool.startswith("slra")))
-        session.plan = replace(session.plan, groups=groups)
+    groups = tuple(sorted(session.plan.groups, key=lambda g: g.tool.startswith("slra") != height_first))
+    session.plan = replace(session.plan, groups=groups)
     runs = tmp_path / "runs"
     with Archive.open(archive_path(runs)) as archive:
         run_id = archive.create_run("bulkhead", session.part.directory, seed=3, total=len(ids),

@@ -10,7 +10,9 @@ every measurement of the group and returns to the slot (put it back), solved wit
 ita.sequence.tour.solve_tour.  Groups are visited one after the other, one visit to the
 rack per tool: the tool changes are as few as the groups (one fewer when the arm already
 holds the first group's tool), and the group order is the one with the least time at the
-rack (tool changes, see ita.sequence.cost.rack_seconds), the held tool's group first.
+rack (tool changes, see ita.sequence.cost.rack_seconds), the group of the tool in hand
+first: the one the arm holds, else the SLRA the run registers the part with before it
+measures (:func:`tool_at_start`; measuring its group first saves a trip to the rack).
 
 COST MODEL: pluggable (:class:`ita.sequence.cost.CostModel`, by name in
 :data:`COST_MODELS`).  The default, :data:`MOTION_TIME_COST`, is the arm's joint-space
@@ -258,6 +260,17 @@ def held_tool(kb: KnowledgeBase) -> str | None:
     return None if held is None else held[1]
 
 
+def tool_at_start(kb: KnowledgeBase) -> str | None:
+    """The tool in the arm's hand when it starts to measure: the one it holds, else the
+    SLRA the Top Level registers the part with first (kb/tasks.pl ``register_part``;
+    ita.toplevel.registration: the first usable one), None when it has none."""
+    held = held_tool(kb)
+    if held is not None:
+        return held
+    world = WorldModel(kb)
+    return next((t for arm in world.arms() for t in world.usable(arm, "slra_tool")), None)
+
+
 def order_group(ctx: PlanningContext, tool: str, spec_ids: Sequence[str],
                 keep: Sequence[str] | None = None) -> PlannedGroup:
     """Order one tool's measurements into a closed tour from and back to its rack slot.
@@ -320,7 +333,7 @@ def build_plan(
     done_ids = tuple(dict.fromkeys(done))
     partition = partition_specs(ctx.kb, ctx.specs, ctx.feature_kinds, ctx.spec_facts(), done=done_ids)
     kept = _remaining_orders(previous) if previous else {}
-    held = held_tool(ctx.kb)
+    held = tool_at_start(ctx.kb)
     tools, transfer = order_groups(ctx, [g.tool for g in partition.groups], held)
     groups = []
     for tool in tools:
@@ -363,7 +376,8 @@ def partition_only(ctx: PlanningContext, done: Iterable[str] = ()) -> Partition:
 
 __all__ = [
     "COST_MODELS", "INTERIM_COST", "MOTION_TIME_COST", "CostModel", "PlannedGroup", "PlanningContext", "SequencePlan",
-    "build_plan", "choose_tool", "euclidean_slot_seconds", "euclidean_tcp_seconds", "held_tool", "order_group",
+    "build_plan", "choose_tool", "euclidean_slot_seconds", "euclidean_tcp_seconds", "held_tool",
+    "tool_at_start", "order_group",
     "order_groups", "partition_only", "planning_context", "pose_facts", "slot_position", "specs_digest",
     "tool_points_world", "tool_state", "with_mkb",
 ]
