@@ -440,3 +440,28 @@ def test_the_gate_tells_its_clock_only_past_what_the_conductor_knows() -> None:
     gate.clock(6.0 + CLOCK_STEP_S / 2)
     gate.clock(6.0 + CLOCK_STEP_S + 0.01)
     assert [m[0] for m in sent] == ["claim", "clock"] and sent[-1][1] == pytest.approx(6.0 + CLOCK_STEP_S + 0.01)
+
+
+def test_a_claim_the_other_arms_zones_refused_is_no_fault_of_the_cell_to_diagnose() -> None:
+    """REJECTED by the zone conductor (the two arms stood in each other's way) is not a
+    tool that did not latch: no exception of kb/faults.pl, so no tests and no repair (the
+    measurement stays not done and the run takes it once more before it ends); the same
+    reply without the conductor's words still is one."""
+    from types import SimpleNamespace
+
+    from ita.diagnosis.classify import classify
+    from ita.executive.executor import FailureKind
+    from ita.logic.terms import Term
+    from ita.robot.controller import REFUSED_BY_ZONES
+
+    def failed(text: str) -> SimpleNamespace:
+        failure = SimpleNamespace(
+            kind=FailureKind.EXCEPTION, reason=f"exception: step 1 leave_view(t3, S-1): REJECTED(rejected) ({text})",
+            reply=SimpleNamespace(payload=Term("REJECTED", ("rejected",))),
+            command=SimpleNamespace(name="MOVE", stream=SimpleNamespace(device="path_planner", unit="t3")))
+        return SimpleNamespace(report=SimpleNamespace(failure=failure))
+
+    refused = failed(f"{REFUSED_BY_ZONES}: t3 stands in the way and neither arm can give way")
+    assert classify(refused, held="slra_2", tool="slra_2", tool_class="slra_tool") is None
+    latched = classify(failed("not holding slra_2"), held="slra_2", tool="slra_2", tool_class="slra_tool")
+    assert latched is not None and latched.exception == "tool_not_seated"

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING, Protocol
 
 from ita.logic.terms import Term, TermValue
+from ita.robot.controller import REFUSED_BY_ZONES
 from ita.specs.model import is_ultrasonic
 
 if TYPE_CHECKING:
@@ -93,11 +94,15 @@ def classify(outcome: Reported, *, held: str | None, tool: str | None, slra_clas
     """The exception of a failed measurement's round trip (ita.task.measure
     .MeasureOutcome with a failed report), in the context of the tool in hand `held`
     and the measurement's `tool` (of class `tool_class`); None when it did not fail
-    with an exception reply or a time-out, or kb/faults.pl has no word for it."""
+    with an exception reply or a time-out, or kb/faults.pl has no word for it, or the zone
+    conductor of a two-arm run refused its motion (the other arm stood in the way: the
+    measurement stays not done, and the run takes it once more before it ends)."""
     report = getattr(outcome, "report", None)
     if report is None or report.failure is None:
         return None
     failure = report.failure
+    if REFUSED_BY_ZONES in (failure.reason or ""):
+        return None        # the other arm of a two-arm run stood in the way: no fault of this cell's
     exception = classify_reply(failure.kind.value, failure.reply.payload)
     if exception is None:
         return None
