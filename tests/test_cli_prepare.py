@@ -119,7 +119,13 @@ def test_two_arms_inspect_at_once_each_its_share_with_its_own_tools_and_never_to
 
     with Archive.open(archive_path(), create=False) as archive:
         tools = {arm: {r.tool for r in archive.results(p["run_id"])} for arm, p in per_arm.items()}
-        taken = [e.payload for e in archive.events(per_arm["t3_b"]["run_id"], kinds=["alignment"])]
+        second = archive.events(per_arm["t3_b"]["run_id"])
+    taken = [e.payload for e in second if e.kind == "alignment"]
+    aligned_at = [e.sim_time for e in second if e.kind == "alignment"]
+    ready_at = [e.sim_time for e in second
+                if e.kind == "calibration" or (e.kind == "plan_start" and e.payload.get("purpose") == "the first tool")]
+    # while the first arm registers the part, the second gets its first tool ready
+    assert ready_at and aligned_at and ready_at[0] < aligned_at[0]
     # each arm its own tools: the second never takes the first's, nor the first the second's
     assert not tools["t3"] & tools["t3_b"]
     # the second arm measures in the first arm's registration of the part
@@ -157,6 +163,9 @@ def test_an_arm_down_for_good_hands_what_it_left_to_the_other_arm_and_they_never
         moved = [e.payload["update"] for e in archive.events(down["run_id"], kinds=["world_update"])]
         left = [r for run in (up["run_id"], up["handover"]["run_id"]) for r in archive.results(run)
                 if r.outcome.value != "measured"]
+        again = [e.payload for e in archive.events(up["handover"]["run_id"], kinds=["alignment"])]
+    # the hand-over run measures in the registration its arm made before (no second one)
+    assert [a["why"] for a in again] == ["this session's registration, made before this run"]
     assert any(d.get("cause") == "controller_not_answering" for d in faults)
     assert any("a person moved the arm" in m for m in moved)
     # everything the fault-free run makes is made; what is not would say the other arm kept

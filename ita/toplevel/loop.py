@@ -72,7 +72,7 @@ from ita.logic.terms import Term, TermValue, Var
 from ita.logic.world import WorldModel
 from ita.planning.state import WorldState
 from ita.sequence.next_step import Step, next_step, the_arm
-from ita.task.measure import MeasureOutcome, MeasureStatus, measure_one
+from ita.task.measure import MeasureOutcome, MeasureStatus, execute_goals, measure_one
 from ita.toplevel.agenda import Action, Agenda, Facts, tree_lines, with_facts
 from ita.toplevel.calibration import ProbeCalibration
 from ita.toplevel.checks import CellChecks
@@ -81,6 +81,7 @@ from ita.toplevel.events import (
     PlanNumbers,
     diagnosis_events,
     measurement_events,
+    plan_events,
     run_end_event,
     sequence_event,
 )
@@ -324,6 +325,28 @@ class TopLevel:
                         exceptions=self.archive.count_events(self.run_id, "exception"),
                         counts=self.results.counts)
 
+    def _get_ready(self) -> None:
+        """An arm that takes the other arm's registration (a two-arm run) gets its first
+        measurement's tool ready meanwhile, as it would right after: it picks the tool up
+        and, a probe, reads the calibration block with it.  (Waiting for the
+        registration with nothing in hand, it used to make that trip to the rack after,
+        when the registering arm goes there to change its tool.)"""
+        s = self.session
+        if s.peer is None or s.registers:
+            return
+        found = self._next_measurement(0)
+        if not isinstance(found, Term) or not isinstance(found.args[0], Term):
+            return
+        step = self._steps[str(found.args[0].args[0])]
+        if self.calibration.due(step.spec_id, step.tool):
+            self._state = self.calibration.calibrate(step.tool, self._state)
+        elif s.held != step.tool:
+            plan, report, self._state, _ = execute_goals(s, [Term("holding", (self._state.arm, step.tool))],
+                                                         self._state, name="get the first tool")
+            if plan is not None and report is not None:
+                self.archive.record_events(self.run_id, plan_events(plan, report, None, "the first tool",
+                                                                    self.plans.next(), tool=step.tool))
+
     # -- the attached procedures: the Sequence Planner and the run's state, asked by the plan --
     def _next_measurement(self, cursor: TermValue) -> TermValue | None:
         """next(step(Spec, Tool, Group, Resequenced), Next): the Sequence Planner's next
@@ -443,6 +466,7 @@ class TopLevel:
             k = int(args[0])
             self.archive.record_event(self.run_id, sequence_event(self._remade[k], self._cursors[k], s.clock.now))
         elif name == "register_part":
+            self._get_ready()
             self._state = self.registration.register(self._state)
             self._reference_from_alignment()
         elif name == "calibrate_probe":

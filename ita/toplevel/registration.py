@@ -49,6 +49,13 @@ class PartRegistration:
         """Register the part with a working SLRA (its first look and measuring steps, no
         new fault injected meanwhile); the arm's state after."""
         s = self.session
+        if s.alignment is not None:
+            # an earlier run of this session registered the part (one arm of a two-arm
+            # run, now measuring what the other left): it has not moved since, or the
+            # Exception Handler would have registered it again
+            self.last = alignment_payload(None, s.alignment, "this session's registration, made before this run")
+            self.archive.record_event(self.run_id, Event("alignment", "top", s.clock.now, self.last))
+            return state
         if s.peer is not None and not s.registers:
             return self._taken(state)
         usable = WorldModel(s.kb).usable(state.arm, "slra_tool")
