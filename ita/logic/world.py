@@ -116,6 +116,15 @@ class WorldModel:
         """The tools of `tool_type` that `arm` can measure with now (available, liftable)."""
         return tuple(str(row["T"]) for row in self.kb.call(WORLD, "usable", arm, tool_type, Var("T")))
 
+    def registering_slra(self, arm: str, held: str | None = None) -> str | None:
+        """The SLRA `arm` registers the part with: `held` (the tool in its hand) when that
+        is a usable one, else the first usable one; None when it has none
+        (ita.toplevel.registration)."""
+        usable = self.usable(arm, "slra_tool")
+        if held in usable:
+            return held
+        return usable[0] if usable else None
+
     def is_usable(self, arm: str, tool_type: str, tool: str) -> bool:
         """Whether `arm` can measure with `tool` as a tool of `tool_type` now."""
         return self.kb.holds(WORLD, "usable", arm, tool_type, tool)

@@ -262,13 +262,13 @@ def held_tool(kb: KnowledgeBase) -> str | None:
 
 def tool_at_start(kb: KnowledgeBase) -> str | None:
     """The tool in the arm's hand when it starts to measure: the one it holds, else the
-    SLRA the Top Level registers the part with first (kb/tasks.pl ``register_part``;
-    ita.toplevel.registration: the first usable one), None when it has none."""
+    SLRA the Top Level registers the part with first (kb/tasks.pl ``register_part``:
+    WorldModel.registering_slra), None when it has neither."""
     held = held_tool(kb)
     if held is not None:
         return held
     world = WorldModel(kb)
-    return next((t for arm in world.arms() for t in world.usable(arm, "slra_tool")), None)
+    return world.registering_slra(world.the_arm())
 
 
 def order_group(ctx: PlanningContext, tool: str, spec_ids: Sequence[str],

@@ -58,9 +58,7 @@ class PartRegistration:
             return state
         if s.peer is not None and not s.registers:
             return self._taken(state)
-        usable = WorldModel(s.kb).usable(state.arm, "slra_tool")
-        held = s.held
-        tool = held if held in usable else (usable[0] if usable else None)
+        tool = WorldModel(s.kb).registering_slra(state.arm, s.held)
         if tool is None:
             self.last = alignment_payload(None, None, "the run's start") | {
                 "reason": "no working slra_tool to register the part with: measured at its nominal placement"}
