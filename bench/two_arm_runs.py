@@ -84,6 +84,12 @@ def scored(found: dict[str, Any], truth: dict[str, float]) -> dict[str, Any]:
             "false_accept_specs": list(s.false_accepts)[:30], "measured": sum(1 for r in found.values() if r.value is not None)}
 
 
+def _names_an_arm(script: str) -> bool:
+    """Whether an --inject script is one arm's (``ARM:FAULT...``; ita.cli.arms.scripts_of)."""
+    head, colon, rest = script.partition(":")
+    return bool(colon) and "@" not in head and not rest.startswith("after=")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", default="0,7,31")
@@ -91,17 +97,21 @@ def main() -> None:
     parser.add_argument("--part", type=Path, default=None)
     parser.add_argument("--faults", type=float, default=0.0, help="--faults RATE of both commands")
     parser.add_argument("--inject", action="append", default=[],
-                        help="--inject SCRIPT of the two-arm command (ARM:FAULT... hits that arm), repeatable")
+                        help="--inject SCRIPT of the two-arm command (ARM:FAULT... hits that arm; one naming no "
+                             "arm goes to the one-arm command too), repeatable")
     parser.add_argument("--out", type=Path, default=DEFAULT_OUT)
     args = parser.parse_args()
     extra = (["--limit", str(args.limit)] if args.limit else []) + (["--part", str(args.part)] if args.part else [])
     extra += ["--faults", str(args.faults)] if args.faults else []
     scripts = [x for s in args.inject for x in ("--inject", s)]
+    # a script naming no arm (a fault of the part both share, a fault of every arm) goes to
+    # the one-arm run too: the same fault, one arm or two
+    shared = [x for s in args.inject if not _names_an_arm(s) for x in ("--inject", s)]
     rows = []
     with tempfile.TemporaryDirectory(prefix="ita-two-arms-") as tmp:
         for seed in [int(s) for s in args.seeds.split(",")]:
             runs = Path(tmp) / f"seed{seed}"
-            one, one_wall, one_rc = run(["--seed", str(seed), *extra], runs)
+            one, one_wall, one_rc = run(["--seed", str(seed), *extra, *shared], runs)
             two, two_wall, two_rc = run(["--arms", "2", "--seed", str(seed), *extra, *scripts], runs)
             r1, part_dir = results(runs, [one["run_id"]])
             r2, _ = results(runs, list(two["runs"].values()) + list(two.get("handover_runs", {}).values()))

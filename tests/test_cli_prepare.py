@@ -173,3 +173,49 @@ def test_an_arm_down_for_good_hands_what_it_left_to_the_other_arm_and_they_never
     assert all("the other arm" in (r.reason or "") for r in left)
     assert report["measured"] == 420 - len(left)
     assert (result.exit_code, report["status"]) == ((0, "completed") if not left else (3, "not finished"))
+
+
+@pytest.mark.slow       # about 2 min: both arms prepared, then a two-arm run of 420 measurements, the part knocked
+def test_a_part_knocked_under_both_arms_is_registered_again_once_and_both_measure_in_it(builtin_part) -> None:
+    """The part knocked off its place while both arms work (each arm's simulator holds a
+    copy of the one part, knocked alike): the first arm's diagnosis registers it again and
+    that reaches the second arm, which measures in it, and measures again what it made
+    since the part may have moved; the second arm, finding it displaced too, asks the first
+    for a registration instead of calling a person (it cannot see datum C), and takes the
+    one just made.  Every measurement made, none accepted falsely, the arms never touch."""
+    result = CliRunner().invoke(main, ["inspect", "--arms", "2", "--limit", "420", "--json",
+                                       "--inject", "part_displaced:after=100"])
+    assert result.exit_code == 0, result.output
+    report = json.loads(result.stdout)
+    assert report["arm_arm_contacts"] == 0 and report["measured"] == report["total"] == 420
+    from ita.archive import Archive, archive_path
+    from ita.scoring.compare import compare
+    from ita.scoring.truth import true_values
+
+    runs = {arm: p["run_id"] for arm, p in report["per_arm"].items()}
+    with Archive.open(archive_path(), create=False) as archive:
+        aligned = {arm: [e.payload for e in archive.events(rid, kinds=["alignment"])] for arm, rid in runs.items()}
+        diagnosed = {arm: [e.payload for e in archive.events(rid, kinds=["diagnosis"])
+                           if e.payload.get("cause") == "part_displaced"] for arm, rid in runs.items()}
+        again = [e.payload for e in archive.events(runs["t3_b"], kinds=["remeasure"])]
+        results = [r for rid in runs.values() for r in archive.results(rid)]
+    knocks = [json.loads(line) for rid in runs.values()
+              for line in (archive_path().parent / "faults" / f"{rid}.jsonl").read_text().splitlines()]
+    assert sorted(k["fault"] for k in knocks if "fault" in k) == ["part_displaced", "part_displaced"]
+    first = [a for a in aligned["t3"] if a.get("registered", True)]
+    whys = [a["why"] for a in first]
+    assert whys[:2] == ["the run's start", "a recovery: the part found displaced"]
+    # asked by the second arm, the first registers again only when its own new registration
+    # began before the second saw the part displaced (else it answers with that one)
+    assert whys[2:] in ([], ["the other arm found the part displaced"])
+    assert first[1]["shift_mm"][0] > 1.0                             # millimetres off: found, not guessed
+    # the second arm measures in the first arm's registrations, the newest at the end
+    placements = [a["placement"] for a in aligned["t3_b"] if "placement" in a]
+    assert placements[0] == first[0]["placement"] and placements[-1] == first[-1]["placement"]
+    assert "the other arm registered the part again" in aligned["t3_b"][-1]["why"]
+    assert any("when the other arm last found the part in place" in r.get("why", "") for r in again)
+    # finding it displaced itself, it asked the first arm rather than call a person to re-clamp
+    assert all("reclamp" not in " ".join(d["updates"]) for d in diagnosed["t3_b"])
+    assert all("registered again by the other arm" in d["updates"][0] for d in diagnosed["t3_b"])
+    scored = compare(results, true_values(builtin_part.directory))
+    assert not scored.false_accepts

@@ -230,6 +230,66 @@ def test_a_fact_no_one_is_left_to_post_is_none(cell) -> None:
     assert c.receive(a, ("done", 10.0)) == [(b, (0.0, None))]
 
 
+def _news(reply) -> tuple:
+    """The news a conductor's answer carries (its item after the answer's own)."""
+    return reply[4] if len(reply) > 4 else ()
+
+
+@pytest.mark.parametrize("first", [0, 1])
+def test_news_is_heard_with_the_other_arms_first_claim_at_or_after_it_whichever_arm_speaks_first(cell, first) -> None:
+    """What one arm's diagnosis found of what both share (ita.robot.gate ``tell``) reaches
+    the other with the answer to its first claim at that simulated time or later, once,
+    and never comes back to the arm that told it; when each arm's message arrives first
+    does not change who hears what with which answer."""
+    c = fresh(cell)
+    a, b = c.order
+    ha, hb = np.asarray(c.state[a].arm.home), np.asarray(c.state[b].arm.home)
+    messages = [(a, ("tell", 10.0, {"kind": "registered", "n": 1})), (b, ("claim", 5.0, np.array([0.0, 1.0]),
+                                                                            np.stack([hb, hb]))), ]
+    got: list = []
+    for arm, m in (messages if first == 0 else messages[::-1]):
+        got += c.receive(arm, m)
+    (to, reply), = got
+    assert to == b and reply[0] == "go" and _news(reply) == ()           # told at 10 s: not yet at 5 s
+    c.receive(b, ("moved", 6.0, hb))
+    c.receive(a, ("clock", 40.0))                                        # a makes no claim before 40 s
+    (to, reply), = claim(c, b, 12.0, hb, hb)
+    assert to == b and _news(reply) == ((10.0, {"kind": "registered", "n": 1}),)
+    c.receive(b, ("moved", 14.0, hb))
+    (to, reply), = claim(c, b, 15.0, hb, hb)
+    assert _news(reply) == ()                                            # heard once
+    c.receive(b, ("clock", 50.0))
+    (to, reply), = claim(c, a, 41.0, ha, ha)
+    assert to == a and _news(reply) == ()                                # not to the arm that told it
+
+
+def test_a_fact_taken_comes_with_the_news_told_before_it_was_posted(cell) -> None:
+    c = fresh(cell)
+    a, b = c.order
+    c.receive(b, ("take", 2.0, "alignment"))
+    c.receive(a, ("tell", 20.0, {"kind": "tools", "conditions": {"us_probe_1": "broken"}}))
+    got = c.receive(a, ("post", 30.0, "alignment", "A"))
+    assert got == [(b, (28.0, "A", ((20.0, {"kind": "tools", "conditions": {"us_probe_1": "broken"}}),)))]
+
+
+def test_a_registration_asked_of_an_arm_that_waits_itself_is_none_at_once(cell) -> None:
+    """The arm that does not register the part asks the other for a registration (a fact
+    only the other arm's work posts, ``of_work``): while that arm waits for its hand-over
+    it can post none, and the asker hears so at once instead of waiting for ever; a fact
+    not of work (the hand-over itself) is waited for."""
+    c = fresh(cell)
+    a, b = c.order
+    assert c.receive(a, ("take", 96.0, f"handover:{a}")) == []
+    assert c.receive(b, ("take", 151.0, f"handover:{b}")) == []          # both wait for the hand-over
+    c2 = fresh(cell)
+    c2.receive(a, ("take", 96.0, f"handover:{a}"))
+    c2.receive(b, ("tell", 151.0, {"kind": "register", "key": "registration@151"}))
+    assert c2.receive(b, ("take", 151.0, "registration@151", True)) == [(b, (0.0, None))]
+    # and the arm waiting for its hand-over hears the request with it
+    assert c2.receive(b, ("post", 400.0, f"handover:{a}", {"specs": ["S1"]})) == [
+        (a, (304.0, {"specs": ["S1"]}, ((151.0, {"kind": "register", "key": "registration@151"}),)))]
+
+
 def way_back(c: Conductor, arm: str, q) -> int:
     """The zones of `arm` folding from `q`, every way, and folded there."""
     fold = c._folded(arm, q)
@@ -374,6 +434,11 @@ def test_an_inject_script_may_name_the_arm_it_hits() -> None:
                    "t3_b": ["controller_failed:after=600", "broken_probe@us_probe_1:after=120", "transient"]}
     with pytest.raises(click.UsageError, match="no arm 'robot9'"):
         scripts_of(["robot9:controller_failed"], ["t3", "t3_b"])
+    # the part is one for both arms: a knock of it lands in each arm's simulator, never one's
+    assert scripts_of(["part_displaced:after=150"], ["t3", "t3_b"]) == {
+        "t3": ["part_displaced:after=150"], "t3_b": ["part_displaced:after=150"]}
+    with pytest.raises(click.UsageError, match="both arms share the part"):
+        scripts_of(["t3_b:part_displaced:after=150"], ["t3", "t3_b"])
 
 
 def test_claims_the_other_arm_refused_do_not_raise_the_alarm_of_failures_in_a_row() -> None:

@@ -51,15 +51,24 @@ CONTACT_STEP_S = 0.05
 NOT_FINISHED = 3
 
 
+#: faults of what both arms share: a script of one lands in each arm's simulator alike
+SHARED_FAULTS = ("part_displaced",)
+
+
 def scripts_of(scripts: Sequence[str], arms: Sequence[str]) -> dict[str, list[str]]:
     """Each arm's --inject scripts: ``ARM:FAULT...`` is that arm's alone, ``FAULT...``
-    each arm's.  UsageError for an arm the cell does not name."""
+    each arm's (a fault of the part, which both arms share, is each arm's: each arm's
+    simulator holds a copy of the part, knocked alike).  UsageError for an arm the cell
+    does not name, or a shared fault given to one arm."""
     out: dict[str, list[str]] = {a: [] for a in arms}
     for s in scripts:
         head, colon, rest = s.partition(":")
         if colon and "@" not in head and not rest.startswith("after="):
             if head not in arms:
                 raise click.UsageError(f"--inject {s}: the cell has no arm {head!r} (its arms: {', '.join(arms)})")
+            if rest.partition(":")[0].partition("@")[0] in SHARED_FAULTS:
+                raise click.UsageError(f"--inject {s}: both arms share the part; name no arm for a fault of it "
+                                       f"(--inject {rest})")
             out[head].append(rest)
         else:
             for a in arms:

@@ -167,6 +167,9 @@ def _attach_injector(session: Any, archive: Any, run_id: str) -> None:
     plan = InjectionPlan.parse(spec.get("rate", 0.0), ",".join(spec.get("kinds", [])) or None,
                                spec.get("scripted", []), spec.get("seed", 0))
     injector = FaultInjector(session.world, plan, injected_log(archive.path.parent, run_id), poses=session.reasoner)
+    before = session.arm.injector
+    if before is not None:      # a later run of the session (a hand-over): what landed before does not again
+        injector.carry_on(before)
     session.arm.injector = session.slra.injector = injector
 
 
@@ -504,7 +507,8 @@ def continue_(run: str, runs_dir: Path | None, as_json: bool) -> None:
 
 def monitor_text(state: dict, columns: int = 100) -> list[str]:
     """The monitor's screen for a live state (ita.report.live): a header, the current
-    measurement, the last results; every line cut to `columns` - 1."""
+    measurement, each arm's run of a two-arm run, the last results; every line cut to
+    `columns` - 1."""
     cur = state.get("current") or {}
     group = cur.get("group")
     counts = ", ".join(f"{k.replace('_', ' ')} {v}" for k, v in sorted(state["counts"].items())) or "no results yet"
@@ -514,6 +518,10 @@ def monitor_text(state: dict, columns: int = 100) -> list[str]:
              f"  {counts}; {state['exception_counts']['text']}",
              f"  current: group {'-' if group is None else group + 1}, tool {cur.get('tool') or '-'}, "
              f"measurement {cur.get('spec') or '-'}" + (f"; next {state['next']}" if state.get("next") else "")]
+    for a in state.get("arms") or []:               # a run of a two-arm run: both arms' runs
+        lines.append(f"  arm {a['arm']}{' (hand-over)' if a['handover'] else ''}: run {a['run']} {a['state']}, "
+                     f"{a['done']}/{a['total'] or '?'}, sim {format_duration(a['sim_s'])}"
+                     + (f", at {a['current']}" if a.get("current") else ""))
     if state["last"]:
         lines.append("  last results:")
         for r in state["last"][-5:]:

@@ -60,7 +60,7 @@ from ita.logic.world import WorldModel
 from ita.planning import NoPlanError, OperationPlan
 from ita.sensors.ultrasonic import Reading
 from ita.sequence.plan import choose_tool
-from ita.task.align import register_part
+from ita.task.align import register_part, registered_by_peer
 from ita.task.measure import (
     MeasureOutcome,
     MeasureStatus,
@@ -130,6 +130,9 @@ class Diagnosis:
     t0: float
     t1: float
     since: float = 0.0          # when the plan that failed began (the fault was on at some time since)
+    #: why this arm cannot go on measuring ("": it can): the part displaced and no arm able
+    #: to register it now (one arm of a two-arm run; its run stops, the other takes its work)
+    halt: str = ""
 
     @property
     def summary(self) -> str:
@@ -145,7 +148,7 @@ class Diagnosis:
                 "expected_s": round(self.expected_s, 2), "tests": [t.to_dict() for t in self.tests],
                 "cause": self.cause, "remaining": [[c, round(p, 4)] for c, p in self.remaining],
                 "actions": list(self.actions), "updates": list(self.updates), "recovery": self.recovery,
-                "t0": self.t0, "t1": self.t1, "since": self.since}
+                "t0": self.t0, "t1": self.t1, "since": self.since, **({"halt": self.halt} if self.halt else {})}
 
 
 #: how a diagnosis's recovery starts when the retry it made failed
@@ -186,6 +189,10 @@ class ExceptionHandler:
         self.session = session
         self.prepare_tool = prepare_tool
         self.knowledge = FaultKnowledge(session.kb)
+        #: in the recovery being made: the other arm of a two-arm run could not register the part
+        self._no_registration = False
+        #: when the failure (or the check's reading) being handled was seen: the cell was so then
+        self._evidence_s = 0.0
         self.method = method
         self.learn = learn
         tests = self.knowledge.tests()
@@ -209,6 +216,7 @@ class ExceptionHandler:
                               dict(exc.context).get("device", ""))
         executed: Executed = []
         nested: list[Diagnosis] = []
+        self._evidence_s = failed.t1
         diagnosis, situation, outcome = self._diagnose_and_act(exc, situation, failed.t1, executed, nested, 0)
         diagnosis = replace(diagnosis, since=failed.t0)
         if outcome is None and diagnosis.cause is not None and not diagnosis.actions:
@@ -241,6 +249,7 @@ class ExceptionHandler:
         situation = Situation(found.spec_id, tool, tool_class, exception, found.state, None, device)
         executed: Executed = []
         nested: list[Diagnosis] = []
+        self._evidence_s = found.t1
         diagnosis, situation, _ = self._diagnose_and_act(exc, situation, found.t1, executed, nested, 0)
         put_right = diagnosis.cause is not None and bool(diagnosis.actions) \
             and not any(u.startswith("not achieved") for u in diagnosis.updates)
@@ -264,17 +273,23 @@ class ExceptionHandler:
         actions: list[TermValue] = []
         updates: tuple[str, ...] = ()
         outcome: MeasureOutcome | None = retried
+        halt = ""
         recovery = "the retry during the tests measured it" if retried is not None else ""
         if retried is None and cause is not None:
             actions = self.knowledge.recovery(cause)
+            self._no_registration = False
             done = self._put_right(actions, situation, runs, executed, nested, depth)
             updates, situation = done.updates, done.situation
+            if self._no_registration and not done.complete:
+                halt = ("the part is displaced and the arm that registers it cannot now (done with its "
+                        "share, or waiting itself): this arm stops, its work left goes to the other")
             if done.accepted is not None:
                 outcome, how = done.accepted
                 recovery = f"accepted: {how}"
         diagnosis = Diagnosis(situation.spec_id, exc.exception, exc.context, exc.reply, first.posterior,
                               first.expected_s, tuple(runs), cause, last.remaining,
-                              tuple(term_text(a) for a in actions), updates, recovery, t0, self.session.clock.now)
+                              tuple(term_text(a) for a in actions), updates, recovery, t0, self.session.clock.now,
+                              halt=halt)
         return diagnosis, situation, outcome
 
     def _second_fault(self, report: ExecutionReport | None, situation: Situation, depth: int) -> Classified | None:
@@ -395,6 +410,12 @@ class ExceptionHandler:
                 tried: list[str] = []
                 for alternative in args[0]:
                     assert isinstance(alternative, list)
+                    if self._no_registration and any(_kind(a)[0] == "register" for a in alternative):
+                        # the other arm cannot register the part now: a way that ends in a
+                        # registration (a person re-clamping the part first) cannot end
+                        tried.append(f"not tried: {'; '.join(term_text(a) for a in alternative)} "
+                                     "(no registration to be had)")
+                        continue
                     inner = self._put_right(list(alternative), situation, runs, executed, nested, depth)
                     tried += inner.updates
                     situation, accepted = inner.situation, inner.accepted or accepted
@@ -415,7 +436,16 @@ class ExceptionHandler:
 
     def _register(self, situation: Situation, executed: Executed) -> tuple[str, Situation, bool]:
         """Register the part on its datums again with a working SLRA (ita.task.align); the
-        line for the record, the situation after, whether it was registered."""
+        line for the record, the situation after, whether it was registered.  One arm of a
+        two-arm run that does not register the part asks the other arm to
+        (ita.task.align.registered_by_peer): both see the one part."""
+        s = self.session
+        if s.peer is not None and not s.registers:
+            found, waited = registered_by_peer(s, "the other arm found the part displaced", self._evidence_s)
+            if found is None:
+                self._no_registration = True
+                return "not registered: the other arm made no registration (done, or waiting itself)", situation, False
+            return (f"registered again by the other arm (waited {waited:.1f} s): {found.line()}", situation, True)
         tool = self.bench.slra_for(situation)
         if tool is None:
             return "not registered: no working slra_tool", situation, False

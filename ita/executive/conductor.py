@@ -17,6 +17,10 @@ simulation.  So the decisions, the waits and the run's figures do not depend on 
 process the machine happens to run faster; ties go to the arm of higher priority (the
 cell's first arm first).
 
+**News.**  What one arm's diagnosis found of what both share (ita.toplevel.shared) is told
+here and handed to the other arm with the answer to its first claim at that simulated
+time or later (or with a fact it takes): in simulated time too.
+
 **No deadlock** (the rules of ita.executive.zones.coordinate, applied live):
 
 - An arm holds, at rest, its body's zones; a motion, the zones it sweeps until it ends.
@@ -146,6 +150,7 @@ class _State:
     last_s: float = 0.0
     refusals: list[str] = field(default_factory=list)
     taking: tuple[str, float] | None = None     # (key, time) of a fact it waits for
+    of_work: bool = False                       # only the other arm's work posts it (ita.robot.gate)
     no_fold_at: FloatArray | None = None        # where a fold of it stopped short: it cannot fold from there
 
 
@@ -239,6 +244,10 @@ class Conductor:
         self.events: list[ZoneEvent] = []
         self.paths: list[Motion] = []
         self.posts: dict[str, tuple[float, Any]] = {}          # key -> (time posted, value), the first
+        # news told to the other arms: (time told, by whom, value), in the order told; and
+        # which of them each arm has heard
+        self.news: list[tuple[float, str, Any]] = []
+        self.heard: dict[str, set[int]] = {a.name: set() for a in arms}
         self._zones: dict[tuple[str, str, bytes], Zones] = {}
         # an arm's ways back from a pose (knots, their swept tubes and radii), the last few
         self._retreats: dict[tuple[str, bytes], list[tuple[FloatArray, tuple[FloatArray, FloatArray] | None]]] = {}
@@ -335,11 +344,16 @@ class Conductor:
             _, t, key, value = message
             self.posts.setdefault(str(key), (float(t), value))
             st.floor = max(st.floor, float(t))
+        elif kind == "tell":                        # news for the other arm (ita.robot.gate)
+            _, t, value = message
+            self.news.append((float(t), name, value))
+            st.floor = max(st.floor, float(t))
         elif kind == "take":
             # while it waits for a fact it stands still (its body's zones) and is never asked
             # to fold (it gave way before it asked: ita.toplevel.registration)
             t = float(message[1])
             st.taking = (str(message[2]), t)
+            st.of_work = len(message) > 3 and bool(message[3])
             self.table.clear_from(name, t)
             self.table.reserve(name, t, math.inf, self._rest(name, st.q))
             st.folded = True
@@ -416,10 +430,11 @@ class Conductor:
                 wait = max(0.0, at - t)
                 st.taking, st.floor = None, t + wait
                 st.folded = bool(np.allclose(self._folded(name, st.q), st.q, atol=1e-6))
-                out.append((name, (wait, value)))
-            elif all(self.state[o].done for o in self.order if o != name):
+                out.append(self._taken(name, (wait, value), at))
+            elif all(self.state[o].done or (st.of_work and self.state[o].taking is not None)
+                     for o in self.order if o != name):
                 st.taking = None
-                out.append((name, (0.0, None)))
+                out.append(self._taken(name, (0.0, None), t))
         for _ in range(10_000):
             ready = [n for n in self.order if self.state[n].pending is not None and self.state[n].stuck_on is None]
             if not ready:
@@ -431,7 +446,31 @@ class Conductor:
             # one's next claim does nothing before it)
             if any(self._floor(o) < claim.t for o in self.order if o != name):
                 break
-            out.extend(self._decide(name, claim))
+            t = claim.t
+            out.extend(self._with_news(self._decide(name, claim), t))
+        return out
+
+    def _taken(self, name: str, reply: tuple[float, Any], t: float) -> tuple[str, Any]:
+        """The answer to arm `name`'s take, with the other arms' news of `t` or before: `t`
+        is when the fact was posted (its poster's clock is there at least, and one posted
+        here, a hand-over, waits for every arm to ask or end) or, none posted, when no arm
+        is left to post it: either way the other arms can tell no more of before then."""
+        (_, answered), = self._with_news([(name, reply)], t)
+        return name, answered
+
+    def _with_news(self, replies: Sequence[tuple[str, tuple[Any, ...]]], t: float) -> list[tuple[str, Any]]:
+        """Each reply with the other arms' news told at `t` or before that its arm has not
+        heard yet (one item more, after the answer's own; none: the reply as it was).  Every other arm's clock is at
+        `t` or later when a claim of `t` is decided, so all news of then has arrived: what
+        an arm hears, and when, does not depend on which process runs faster."""
+        out: list[tuple[str, Any]] = []
+        for arm, reply in replies:
+            fresh = [k for k, (at, by, _v) in enumerate(self.news) if by != arm and at <= t and k not in self.heard[arm]]
+            if fresh:
+                self.heard[arm].update(fresh)
+                out.append((arm, (*reply, tuple((self.news[k][0], self.news[k][2]) for k in fresh))))
+            else:
+                out.append((arm, reply))
         return out
 
     def _floor(self, name: str) -> float:

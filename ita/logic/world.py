@@ -140,6 +140,10 @@ class WorldModel:
         """Record that `tool` is now at `where`."""
         self.kb.one(WORLD, "set_location", tool, where.to_term())
 
+    def reserved(self, tool: str) -> bool:
+        """Whether `tool` is kept for another arm (a two-arm run): never available to this one."""
+        return self.kb.once(WORLD, "reserved", tool, Var("Arm")) is not None
+
     def set_reserved(self, tool: str, arm: str) -> None:
         """Record that `tool` is kept for `arm`, the other arm of a two-arm run: it stays in
         its slot and is not available to this one."""

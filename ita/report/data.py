@@ -164,6 +164,18 @@ def _group(archive: Archive, run_id: str, events: tuple[Event, ...]) -> tuple[tu
     return tuple(out) if len(out) > 1 else ()
 
 
+def arm_runs(archive: Archive, run_id: str) -> tuple[tuple[str, str], ...]:
+    """(arm, run id) of every run of the two-arm run `run_id` is one of (its setting
+    ``two_arms``: each arm's run, then its hand-over run), while it runs too; () for a run
+    of one arm."""
+    group = (archive.run(run_id).settings.get("two_arms") or {}).get("group")
+    if not group:
+        return ()
+    out = [(str(r.settings.get("arm") or "?"), r.id) for r in archive.runs()
+           if (r.settings.get("two_arms") or {}).get("group") == group]
+    return tuple(sorted(out, key=lambda a: (a[1].endswith("-h"), a[1])))
+
+
 def status_of(r: StoredResult) -> str:
     """"conforms", "does_not_conform", "uncertain", "not_done" or "cannot_be_done"."""
     return r.decision.value if r.decision is not None else r.outcome.value

@@ -3,6 +3,7 @@
     scene = PartScene.load(part_dir)          # mesh (mm), specs, the workcell in the world (m)
     scene.mesh                                # (vertices (n, 3) mm, faces (m, 3))
     scene.arm_links(q)                        # the arm's tubes at q, (t, 2, 3) world m
+    scene.arm_at_rest("t3_b")                 # either arm of a two-arm cell at its home
 
 Loading the part takes seconds (its mesh and specs): `ita serve` keeps the scenes it has
 loaded; a report loads its run's once.
@@ -68,3 +69,20 @@ class PartScene:
     def arm_links(self, q: Any) -> np.ndarray:
         """The arm's collision tubes at configuration q (6,): segment ends (t, 2, 3), world m."""
         return link_segments(self.arm_model, np.asarray([q], dtype=float))[0]
+
+    def second_arm_boxes(self) -> list[tuple[np.ndarray, np.ndarray]]:
+        """The second arm's own equipment (its pedestal, and its stations when it has
+        them) as meshes (world m): outside the first arm's world, drawn for a two-arm run."""
+        cell = self.workcell
+        boxes = [] if cell.second_pedestal is None else [cell.second_pedestal]
+        if cell.second_stations is not None:
+            own = cell.second_stations
+            boxes += [own.couplant_station, own.cal_block, *own.stands]
+        return [box_mesh(b) for b in boxes]
+
+    def arm_at_rest(self, arm_name: str) -> np.ndarray:
+        """Arm `arm_name`'s tubes where it starts and parks (its home): (t, 2, 3), world m;
+        KeyError for an arm the cell does not have."""
+        arm = self.workcell.seen_by(arm_name).arm
+        model = self.arm_model if arm_name == self.workcell.arm.name else arm_model(arm)
+        return link_segments(model, np.asarray([arm.home], dtype=float))[0]

@@ -17,7 +17,9 @@ the above) and says it is ``done``.
 
 The same line carries what the arms share besides space, in simulated time: one arm
 ``post``s a fact (the part's registration on its datums), the other ``take``s it, waiting
-until the simulated time it was posted (None when the poster ended without one).
+until the simulated time it was posted (None when the poster ended without one); and
+one arm ``tell``s the other news (a diagnosis found the part displaced and registered it
+again, a shared tool's condition), which that arm hears with the answer to its next claim.
 
     gate = RemoteGate(connection)            # a multiprocessing Connection to the conductor
     controller.gate = gate                   # RobotController asks it before every motion
@@ -25,7 +27,9 @@ until the simulated time it was posted (None when the poster ended without one).
 Messages on the connection are tuples (name, arm's clock, arrays): ``("claim", t,
 times, q)`` answered by ``(kind, wait_s, fold q or None, why)``; ``("moved", t, q)``;
 ``("park", t, q)`` answered like a claim; ``("done", t)``; ``("post", t, key, value)``;
-``("take", t, key)`` answered by ``(wait_s, value)``; ``("clock", t)``: the arm's clock
+``("take", t, key[, of_work])`` answered by ``(wait_s, value)``; ``("tell", t, value)``: news
+for the other arm, which gets it as a fifth item of the answer to its first claim at `t` or
+later (``((t, value), ...)``); ``("clock", t)``: the arm's clock
 passed `t` (:meth:`RemoteGate.clock`: it makes no claim before, so the conductor may decide
 the other arm's claims up to `t` without waiting for this one's next: the same decisions,
 sooner in wall time).
@@ -68,7 +72,13 @@ class MotionGate(Protocol):
 
     def post(self, t: float, key: str, value: object) -> None: ...
 
-    def take(self, t: float, key: str) -> tuple[float, object]: ...
+    def take(self, t: float, key: str, of_work: bool = False) -> tuple[float, object]: ...
+
+    def tell(self, t: float, value: object) -> None: ...
+
+    def heard(self) -> list[tuple[float, object]]: ...
+
+    def unread(self) -> list[tuple[float, object]]: ...
 
     def clock(self, t: float) -> None: ...
 
@@ -84,10 +94,13 @@ class RemoteGate:
     def __init__(self, connection: Connection) -> None:
         self.connection = connection
         self.known_s = 0.0               # the arm's time the conductor knows it has reached
+        self.news: list[tuple[float, object]] = []     # the other arm's news heard, not yet read
 
     def _ask(self, message: tuple[object, ...]) -> Grant:
         self.connection.send(message)
-        kind, wait_s, fold, why = self.connection.recv()
+        kind, wait_s, fold, why, *news = self.connection.recv()
+        if news:
+            self.news += [(float(at), value) for at, value in news[0]]
         return Grant(str(kind), float(wait_s), None if fold is None else tuple(map(float, fold)), str(why))
 
     def _told(self, t: float) -> None:
@@ -127,7 +140,26 @@ class RemoteGate:
         self.connection.send(("post", float(t), key, value))
         self._told(t)
 
-    def take(self, t: float, key: str) -> tuple[float, object]:
-        self.connection.send(("take", float(t), key))
-        wait_s, value = self.connection.recv()
+    def take(self, t: float, key: str, of_work: bool = False) -> tuple[float, object]:
+        """The fact `key` (waiting in simulated time until posted); of_work: only the other
+        arm's work posts it, so None when that arm is done or itself waits for a fact."""
+        self.connection.send(("take", float(t), key, bool(of_work)) if of_work else ("take", float(t), key))
+        wait_s, value, *news = self.connection.recv()
+        if news:
+            self.news += [(float(at), told) for at, told in news[0]]
         return float(wait_s), value
+
+    def tell(self, t: float, value: object) -> None:
+        """News for the other arm (what a diagnosis found of what both share): it hears it
+        with the answer to its first claim at `t` or later."""
+        self.connection.send(("tell", float(t), value))
+        self._told(t)
+
+    def heard(self) -> list[tuple[float, object]]:
+        """The other arm's news heard since last asked, (time told, value), in order."""
+        out, self.news = self.news, []
+        return out
+
+    def unread(self) -> list[tuple[float, object]]:
+        """The news :meth:`heard` would give now, left to it."""
+        return list(self.news)

@@ -22,7 +22,8 @@ an injected fault is found gone (``{"cleared": fault, ...}``).
 Not injected at random: POSITION_DRIFT (a step of the arm's calibration that no device
 reports, so that only a check against a reference would find it), SENSOR_GARBAGE of an
 SLRA, TILTED_PROBE, PART_DISPLACED (``part_displaced:after=600`` knocks the part on its
-fixture: millimetres and tenths of a degree) and SLRA_FAILED (scripted only: ``tilted_probe:after=60`` tilts the
+fixture: millimetres and tenths of a degree, the same knock in every copy of the part of a
+two-arm run) and SLRA_FAILED (scripted only: ``tilted_probe:after=60`` tilts the
 probe in hand; ``slra_failed@slra_1:after=300`` fails slra_1's laser for good, and with
 ``slra_failed@slra_2`` later both SLRAs are broken) and CONTROLLER_FAILED
 (``controller_failed:after=600``: the arm's controller fails for good, the arm is down;
@@ -62,6 +63,8 @@ CAUSE_OF = {
 }
 _SCRIPT = re.compile(r"^(?P<fault>[a-z_]+)(@(?P<target>[A-Za-z0-9_.-]+))?(:after=(?P<after>[0-9.]+))?$")
 _GAUGE_COMMANDS = ("COUPLANT", "MEASURE")
+#: scripted faults of the world, not of a device: they land while the injection is paused too
+_WORLD_FAULTS = ("part_displaced",)
 #: an injected obstacle keeps at least this gap (m) from the arm and its tool where they are
 OBSTACLE_CLEARANCE_M = 0.03
 
@@ -160,25 +163,35 @@ class FaultInjector:
         self.rng = np.random.default_rng([plan.seed, 77])
         self._pending = list(plan.scripted)
         self.count = 0
+        self.knocks = 0         # knocks of the part landed (each drawn from its own seed)
         self.paused = False     # the Exception Handler's own tests and repairs meet no new fault
         self._on: list[tuple[str, str]] = []     # injected and not yet taken out
+
+    def carry_on(self, earlier: FaultInjector) -> None:
+        """Go on from `earlier`, the injector of an earlier run of the same session (one arm
+        of a two-arm run measuring its hand-over): the scripted faults that landed then do
+        not land again, and a knock of the part is the next one."""
+        self._pending = [s for s in self._pending if s in earlier._pending]
+        self.knocks = earlier.knocks
 
     def before(self, command: Any, device: str) -> None:
         """Maybe inject before `command` reaches `device` (``arm`` or ``slra``)."""
         if not self.plan.active:
             return
         self._note_cleared()
-        if self.paused:
-            return
         kind = "slra" if device == "slra" else ("gauge" if command.name in _GAUGE_COMMANDS else "controller")
         now = self.world.clock.now
         for s in list(self._pending):
+            # a knock of the part comes when it comes, the Exception Handler's or the
+            # registration's own work or not (in a two-arm run the other arm works then)
+            if self.paused and s.fault not in _WORLD_FAULTS:
+                continue
             if s.after_s <= now:
                 # a scripted fault that cannot land on this command (its probe not in hand, no
                 # room for the obstacle) waits for the next command where it can
                 if self._switch_on(s.fault, s.target or self._default_target(s.fault, kind), command):
                     self._pending.remove(s)
-        if self.plan.rate <= 0.0:
+        if self.paused or self.plan.rate <= 0.0:
             return
         if self.rng.random() >= self.plan.rate:
             return
@@ -255,10 +268,14 @@ class FaultInjector:
         if any(c.obstacle == "part" for c in world.contacts(OBSTACLE_CLEARANCE_M)):
             return False
         before = world.part_placement
-        world.place_part(knocked(before, self.rng))
+        # drawn from the run's seed and the knock's number, not the stream of random faults:
+        # in a two-arm run each arm's simulator holds a copy of the one part, and a knock
+        # moves both copies alike (each as its own arm is clear of the part)
+        world.place_part(knocked(before, np.random.default_rng([self.plan.seed, 78, self.knocks])))
         if any(c.obstacle == "part" for c in world.contacts(OBSTACLE_CLEARANCE_M)):
             world.place_part(before)
             return False
+        self.knocks += 1
         return True
 
     def _place_obstacle(self, name: str, command: Any) -> bool:

@@ -57,7 +57,7 @@ if TYPE_CHECKING:
 
 FloatArray = NDArray[np.float64]
 
-__all__ = ["FRAMES", "ROUNDS", "Alignment", "AlignDone", "DatumReading", "FACE_OFF_MM", "apply_alignment", "datum_specs", "datums_of", "plan_around",
+__all__ = ["FRAMES", "ROUNDS", "Alignment", "AlignDone", "DatumReading", "FACE_OFF_MM", "adopt_alignment", "apply_alignment", "datum_specs", "datums_of", "plan_around", "registered_by_peer",
            "fit_motion", "register_part"]
 
 #: frames of each tooling hole in the measuring step (the arm's repeatability averages)
@@ -274,6 +274,46 @@ def _look(session: Session, spec_id: str, state: WorldState, tool: str, frames: 
     """Measure `spec_id` from `frames` frames, each after its own approach."""
     with session.slra.frames_for_reading(spec_id, frames):
         return measure_one(session, spec_id, state, tool)
+
+
+def adopt_alignment(session: Session, found: Alignment) -> None:
+    """Measure in a registration the other arm of a two-arm run made (both arms see one
+    part): the session's registration from now on."""
+    session.alignment = found
+    nominal = session.ctx.workcell.part
+    apply_alignment(session, found.placement, found.u_max(nominal.envelope_min_mm, nominal.envelope_max_mm))
+
+
+def registered_by_peer(session: Session, why: str, found_s: float) -> tuple[Alignment | None, float]:
+    """One arm of a two-arm run that does not register the part (its datums out of its
+    view) found it displaced: it folds out of the way, asks the other arm to register it
+    again (news the other hears with its next claim; ita.toplevel.shared answers it), and
+    waits in simulated time for that registration, then measures in it (`found_s`: when
+    the failure that showed the part displaced was seen: a registration the other arm
+    began measuring after then will do).  When the other arm's news of a registration
+    newer than this arm's has come in meanwhile, that one is taken and nothing asked.
+    The registration
+    (None: the other arm is done, or waits itself, or could not register it) and the
+    seconds waited."""
+    peer = session.peer
+    assert peer is not None and not session.registers
+    newer = [v["alignment"] for _t, v in peer.unread() if isinstance(v, dict) and v.get("kind") == "registered"
+             and isinstance(v.get("alignment"), Alignment)]
+    if newer and (session.alignment is None or newer[-1].to_dict() != session.alignment.to_dict()):
+        # the other arm registered the part again since this arm measured in the one it has
+        # (heard, not yet acted on): the failure is explained; measure in that one
+        adopt_alignment(session, newer[-1])
+        return newer[-1], 0.0
+    session.arm.controller.give_way()
+    t = session.clock.now
+    key = f"registration@{t:.6f}"
+    peer.tell(t, {"kind": "register", "key": key, "why": why, "found_s": float(found_s)})
+    wait, found = peer.take(t, key, of_work=True)
+    session.clock.advance(wait)
+    if not isinstance(found, Alignment):
+        return None, wait
+    adopt_alignment(session, found)
+    return found, wait
 
 
 def register_part(session: Session, state: WorldState, tool: str, *, frames: int = FRAMES) -> AlignDone:

@@ -95,7 +95,8 @@ from ita.toplevel.recording import (
     Recorder,
     measured_result,
 )
-from ita.toplevel.registration import PartRegistration
+from ita.toplevel.registration import PartRegistration, alignment_payload
+from ita.toplevel.shared import SharedCell
 from ita.toplevel.signals import RunSignals, StopNow
 from ita.toplevel.start import start_run
 
@@ -178,6 +179,8 @@ class TopLevel:
         #: the interim checks of the cell against its reference artifacts (None: the knowledge sets none)
         self.checks = CellChecks.of(session, archive, run_id, self.plans, self.handle)
         self.registration = PartRegistration(session, archive, run_id, self.plans)
+        #: what the other arm of a two-arm run hears of the part and the tools, and tells
+        self.shared = SharedCell(session)
         self.failed_in_others: dict[str, str] = {}   # view-group members another's frame could not measure
         self.frames = 0
         self.diagnoses = 0
@@ -196,6 +199,7 @@ class TopLevel:
         self._retaken = False                       # the not-done results retaken once at the end
         self._status = RunStatus.COMPLETED
         self._alarm = ""
+        self._halt = ""                             # why this arm cannot go on (a diagnosis's halt)
         self._current: Step | None = None
         self._on_progress: Callable[[Progress], None] | None = None
         self._started = Started(time.perf_counter(), session.clock.now, len(self.results.done))
@@ -469,6 +473,10 @@ class TopLevel:
             self._get_ready()
             self._state = self.registration.register(self._state)
             self._reference_from_alignment()
+            # a later run of a two-arm session: what the other arm found meanwhile, acted on
+            # before any measuring is planned (nothing of the plan to make again)
+            heard, _ = self._hear()
+            return heard, False
         elif name == "calibrate_probe":
             self._state = self.calibration.calibrate(args[0], self._state)
         elif name == "measure":
@@ -478,6 +486,7 @@ class TopLevel:
         elif name == "handle_exception":
             before = self._world()
             again, remeasure = self._handle(args[0])
+            self._tell_tools(before)
             observed: list[TermValue] = [Term("failed", (args[0],))] if again else []
             if remeasure:
                 observed.append("remeasuring")
@@ -485,9 +494,13 @@ class TopLevel:
         elif name == "check_cell":
             return self._check_cell()
         elif name == "check_if_due":
+            observed, heard_wrong = self._hear()
+            if observed:
+                return observed, True
             if self.checks is not None and self.checks.due(len(self.results.since_check)) is not None:
                 _, wrong = self._check_cell()    # found wrong: those since the last check back in the plan
-                return [], wrong
+                return [], wrong or heard_wrong
+            return [], heard_wrong
         elif name == "requeued":
             pass
         elif name == "retake_not_done":
@@ -498,7 +511,7 @@ class TopLevel:
             self.pending.settle()
             if self._on_progress is not None:
                 self._on_progress(self._progress(self._started, self._current, "measuring"))
-            self._alarm = self.failures.alarm
+            self._alarm = self._halt or self.failures.alarm
             if self._alarm:
                 return ["alarm"], True
         elif name == "decide_pending":
@@ -575,6 +588,7 @@ class TopLevel:
         again = remeasure = False
         if handled is not None:
             found = [handled.diagnosis, *handled.nested]
+            self._halt = self._halt or next((d.halt for d in found if d.halt), "")
             if any(a.startswith("remeasure(") for d in found for a in d.actions) and self.results.since_check:
                 self._requeue(handled.diagnosis.cause)
                 remeasure = True
@@ -584,7 +598,7 @@ class TopLevel:
                 plan_no = self.plans.last
             out = replace(handled.outcome, others=out.others + handled.outcome.others)
             self._handlings[spec_id] = self._handlings.get(spec_id, 0) + 1
-            again = handled.retry_failed and self._handlings[spec_id] < MAX_HANDLINGS
+            again = handled.retry_failed and self._handlings[spec_id] < MAX_HANDLINGS and not self._halt
         self._outcomes[spec_id] = (step, out, events, plan_no)
         return again, remeasure
 
@@ -593,15 +607,20 @@ class TopLevel:
         last good one stands when it passes (or cannot be made: its event says why), and is
         measured again when its diagnosis says so; the facts observed and whether the rest
         of the plan is wrong."""
+        observed, heard_wrong = self._hear()
+        if observed:
+            return observed, True
         if self.checks is None or not self.results.since_check:
-            return [], False
+            return [], heard_wrong
         before = self._world()
         aligned = self.session.alignment
         done = self.checks.check(self._state)
         self._realigned(aligned)
+        self._tell_tools(before)
         self._state = done.state
         if done.handled is not None:
             self.diagnoses += 1
+            self._halt = self._halt or done.handled.diagnosis.halt
         if done.remeasure and done.handled is not None:
             self._requeue(done.handled.diagnosis.cause)
             return ["remeasuring"], True
@@ -619,10 +638,62 @@ class TopLevel:
 
     def _realigned(self, before: Alignment | None) -> None:
         """After the Exception Handler: the part registered again (a displaced part) is
-        recorded, and the checks' reference reading is where it found tooling hole B."""
-        if self.session.alignment is not before:
+        recorded, and the checks' reference reading is where it found tooling hole B; the
+        other arm of a two-arm run is told (ita.toplevel.shared)."""
+        now = self.session.alignment
+        if now is not before:
             self.registration.note_change(before, "a recovery: the part found displaced")
             self._reference_from_alignment()
+            if now is not None:
+                self.shared.tell_registered(now, self.results.checked_s)
+
+    def _tell_tools(self, before: tuple[tuple[str, str, str], ...]) -> None:
+        """The tools' conditions a diagnosis changed, told to the other arm of a two-arm run."""
+        if self.session.peer is None:
+            return
+        was = {t: c for t, c, _ in before}
+        self.shared.tell_tools({t: c for t, c, _ in self._world() if was.get(t, c) != c})
+
+    def _hear(self) -> tuple[list[TermValue], bool]:
+        """What the other arm of a two-arm run found of the part and the tools
+        (ita.toplevel.shared), acted on: its new registration measured in, and what this
+        arm recorded since the part may have moved measured again; a registration it asks
+        for made and posted to it.  The facts observed (``remeasuring``) and whether the
+        rest of the plan is wrong."""
+        heard = self.shared.hear()
+        if not heard.anything:
+            return [], False
+        s = self.session
+        observed: list[TermValue] = []
+        if heard.alignment is not None:
+            self.archive.record_event(self.run_id, Event("alignment", "top", s.clock.now, alignment_payload(
+                None, s.alignment, "the other arm registered the part again: it was found displaced")))
+            self._reference_from_alignment()
+        if heard.since_s is not None:
+            since = heard.since_s
+            ids = [r.spec_id for r in self.archive.results(self.run_id) if r.outcome is Outcome.MEASURED
+                   and r.spec_id in self.todo_set and (r.sim_time_end or r.sim_time_start or 0.0) >= since]
+            if ids:
+                self._requeue("part_displaced", ids, f"measured since {since:.1f} s, when the other arm last found "
+                                                     "the part in place; it found the part displaced: measured again")
+                observed.append("remeasuring")
+        if heard.asks and s.peer is not None:
+            kept = self.shared.still_good(max(found_s for _k, found_s in heard.asks))
+            if kept is not None:            # registered again since the other arm saw it moved
+                for key, _ in heard.asks:
+                    s.peer.post(s.clock.now, key, kept)
+                return observed, True
+            good_s = self.results.checked_s
+            self._state, found = self.registration.again(self._state, "the other arm found the part displaced")
+            for key, _ in heard.asks:
+                s.peer.post(s.clock.now, key, found)
+            if found is not None:
+                self._reference_from_alignment()
+                self.shared.tell_registered(found, good_s)
+                if self.results.since_check:
+                    self._requeue("part_displaced")
+                    observed.append("remeasuring")
+        return observed, heard.changes_plan
 
     def _retake_not_done(self) -> tuple[list[TermValue], bool]:
         """Measure once more, before the run ends, what it left not done after a fault it

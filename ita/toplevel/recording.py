@@ -123,6 +123,8 @@ class Recorder:
         self.recorded_now = 0
         #: specs measured (or not done) and recorded since the cell's last good interim check
         self.since_check: list[str] = []
+        #: the simulated time of the cell's last good interim check (0: none in this process)
+        self.checked_s = 0.0
 
     def record(self, result: Result, events: Sequence[Event] = (), attached: Attached = NOTHING_ATTACHED) -> None:
         """Record `result` with `events` and what is attached, in one transaction (nothing
@@ -145,6 +147,7 @@ class Recorder:
         """The cell's interim check passed: what was recorded since the last one stands;
         how many."""
         n, self.since_check = len(self.since_check), []
+        self.checked_s = self.session.clock.now
         return n
 
     def supersede(self, event: Event, spec_ids: Sequence[str] | None = None) -> list[str]:

@@ -16,7 +16,7 @@ from ita.archive import Event
 from ita.devices.injection import paused
 from ita.logic.json_value import JsonObject
 from ita.logic.world import WorldModel
-from ita.task.align import AlignDone, Alignment, apply_alignment, register_part
+from ita.task.align import AlignDone, Alignment, adopt_alignment, register_part
 from ita.toplevel.events import PlanNumbers, plan_events
 
 if TYPE_CHECKING:
@@ -58,12 +58,25 @@ class PartRegistration:
             return state
         if s.peer is not None and not s.registers:
             return self._taken(state)
+        state, done = self._register_now(state, "the run's start")
+        if s.peer is not None:                 # the other arm measures in this registration too
+            s.peer.post(s.clock.now, "alignment", done.alignment if done is not None else None)
+        return state
+
+    def again(self, state: WorldState, why: str) -> tuple[WorldState, Alignment | None]:
+        """Register the part once more (the other arm of a two-arm run found it displaced
+        and asks for it); the arm's state after and the registration (None: not made)."""
+        state, done = self._register_now(state, why)
+        return state, done.alignment if done is not None else None
+
+    def _register_now(self, state: WorldState, why: str) -> tuple[WorldState, AlignDone | None]:
+        s = self.session
         tool = WorldModel(s.kb).registering_slra(state.arm, s.held)
         if tool is None:
-            self.last = alignment_payload(None, None, "the run's start") | {
+            self.last = alignment_payload(None, None, why) | {
                 "reason": "no working slra_tool to register the part with: measured at its nominal placement"}
             self.archive.record_event(self.run_id, Event("alignment", "top", s.clock.now, self.last))
-            return state
+            return state, None
         with paused(s.arm.injector):
             done = register_part(s, state, tool)
         for out in done.outcomes:
@@ -72,11 +85,9 @@ class PartRegistration:
                                                                     self.plans.next(), tool=out.tool))
         if done.alignment is not None:
             s.alignment = done.alignment
-        if s.peer is not None:                 # the other arm measures in this registration too
-            s.peer.post(s.clock.now, "alignment", done.alignment)
-        self.last = alignment_payload(done, done.alignment, "the run's start")
+        self.last = alignment_payload(done, done.alignment, why)
         self.archive.record_event(self.run_id, Event("alignment", "top", s.clock.now, self.last))
-        return done.state
+        return done.state, done
 
     def _taken(self, state: WorldState) -> WorldState:
         """The other arm's registration of the part (a two-arm run): waited for in simulated
@@ -87,9 +98,7 @@ class PartRegistration:
         wait, found = s.peer.take(s.clock.now, "alignment")
         s.clock.advance(wait)
         if isinstance(found, Alignment):
-            s.alignment = found
-            nominal = s.ctx.workcell.part
-            apply_alignment(s, found.placement, found.u_max(nominal.envelope_min_mm, nominal.envelope_max_mm))
+            adopt_alignment(s, found)
             self.last = alignment_payload(None, found, "the other arm's registration") | {"waited_s": round(wait, 3)}
         else:
             self.last = alignment_payload(None, None, "the run's start") | {

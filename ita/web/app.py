@@ -64,6 +64,7 @@ from ita.report.assets import asset_path
 from ita.report.data import (
     COLUMNS,
     STATUS_COLOURS,
+    arm_runs,
     collect,
     jsonable,
     result_row,
@@ -252,6 +253,8 @@ async def api_paths(request: Request) -> JSONResponse:
     def make(archive: Archive) -> Any:
         rid, info, key = _as_now(archive, run_id)
         scene = state.scene(info.part_dir)
+        # a run of a two-arm run draws every arm's runs: a new move of any of them redraws
+        key += "".join(f":{r}={archive.run(r).done}" for _arm, r in arm_runs(archive, rid) if r != rid)
         return state.payload(rid + ":paths", f"paths:{key}", lambda: jsonable(run_paths_figure(archive, rid, scene) or {
             "moves": 0, "note": "the run kept no arm path (a run from before they were kept, or none moved)"}))
 

@@ -468,6 +468,11 @@
     html += `<p>current: group <b>${c.group === null || c.group === undefined ? "-" : c.group + 1}</b>, tool <b>${esc(c.tool || "-")}</b>, ` +
       `measurement <b id="live-current">${esc(c.spec || "-")}</b>${s.next ? ` · next in the plan: ${esc(s.next)}` : ""}</p>`;
     html += "<p>" + Object.entries(s.counts || {}).map(([k, n]) => `${chip((opts.colours || {})[k] || "#000")}${esc(label(k))} ${n}`).join(" &nbsp; ") + "</p>";
+    if (s.arms && s.arms.length) {
+      html += '<h3>Both arms</h3><table class="results" id="live-arms"><tr><th>arm</th><th>run</th><th>state</th><th>results</th><th>simulated</th><th>at</th></tr>' +
+        s.arms.map((a) => `<tr><td>${esc(a.arm)}${a.handover ? " (hand-over)" : ""}</td><td>${opts.runHref ? `<a href="${esc(opts.runHref(a.run))}">${esc(a.run)}</a>` : esc(a.run)}</td>` +
+          `<td>${esc(a.state)}</td><td class="num">${a.done} of ${a.total ?? "?"}</td><td class="num">${fmt(a.sim_s)}</td><td>${esc(a.current || "-")}</td></tr>`).join("") + "</table>";
+    }
     if (s.last && s.last.length) {
       html += "<h3>Last results</h3>" + '<table class="results"><tr><th>#</th><th>spec</th><th>kind</th><th>measured (mm)</th><th>U (mm)</th><th>decision</th><th>reason</th></tr>' +
         s.last.map((r) => `<tr class="st-${r.decision}"><td class="num">${r.seq}</td><td>${opts.resultHref ? `<a href="${esc(opts.resultHref(r.spec_id))}">${esc(r.spec_id)}</a>` : esc(r.spec_id)}</td>` +

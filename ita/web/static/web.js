@@ -111,7 +111,7 @@
       }
     }
     function onState(s) {
-      ITA.renderLive(live, s, { colours: { conforms: "#2ca02c", does_not_conform: "#d62728", uncertain: "#ff9f1c", not_done: "#6b6b6b", cannot_be_done: "#9467bd" }, resultHref: resultHref(run) });
+      ITA.renderLive(live, s, { colours: { conforms: "#2ca02c", does_not_conform: "#d62728", uncertain: "#ff9f1c", not_done: "#6b6b6b", cannot_be_done: "#9467bd" }, resultHref: resultHref(run), runHref: (id) => `/runs/${enc(id)}` });
       setButtons(s);
       const running = s.running || s.state === "starting";
       verdictFirst(!running && s.state !== "unknown");
