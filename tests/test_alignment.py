@@ -99,7 +99,7 @@ def test_the_part_is_registered_where_the_fixture_and_then_a_knock_put_it(builti
 
 @pytest.mark.slow
 def test_a_part_knocked_mid_run_is_found_registered_again_and_the_run_completes(tmp_path, builtin_part) -> None:
-    """`--inject part_displaced:after=900`: the part knocked millimetres off while the SLRA
+    """`--inject part_displaced:after=200`: the part knocked millimetres off while the SLRA
     measures; the failure that follows is diagnosed part_displaced, the part registered
     again where it lies (no person called), what was measured since the last good check
     measured again, and every measurement made."""
@@ -111,7 +111,7 @@ def test_a_part_knocked_mid_run_is_found_registered_again_and_the_run_completes(
     from ita.cli import main
 
     res = CliRunner().invoke(main, ["inspect", "--seed", "63", "--limit", "400", "--runs-dir", str(tmp_path),
-                                    "--inject", "part_displaced:after=900", "--json"])
+                                    "--inject", "part_displaced:after=200", "--json"])
     assert res.exit_code == 0, res.output
     summary = json.loads(res.stdout[res.stdout.index("{"):])
     assert summary["measured"] == 400 and summary["status"] == "completed"
