@@ -102,7 +102,8 @@ def test_a_part_knocked_mid_run_is_found_registered_again_and_the_run_completes(
     """`--inject part_displaced:after=200`: the part knocked millimetres off while the SLRA
     measures; the failure that follows is diagnosed part_displaced, the part registered
     again where it lies (no person called), what was measured since the last good check
-    measured again, and every measurement made."""
+    measured again (the hole positions held for their networks too), and every
+    measurement made."""
     import json
 
     from click.testing import CliRunner
@@ -122,6 +123,15 @@ def test_a_part_knocked_mid_run_is_found_registered_again_and_the_run_completes(
         assert all(a["registered"] for a in aligned)
         causes = [e.payload.get("cause") for e in archive.events(run_id, kinds=["diagnosis"])]
         assert "part_displaced" in causes
+        # the hole positions held for their networks were let go with the rest and measured
+        # again: no network mixes frames of the part where it was with frames of where it is
+        again = archive.events(run_id, kinds=["remeasure"])
+        released = {i for e in again for i in e.payload.get("released") or []}
+        frames = archive.events(run_id, kinds=["network_frame"])
+        assert released and all(any(f.payload["spec"] == i and f.sim_time > again[0].sim_time for f in frames)
+                                for i in released)
+        results = {r.spec_id: r for r in archive.results(run_id)}
+        assert all("network of" in (results[i].reason or "") for i in released)
 
 
 def test_a_part_that_could_not_be_registered_says_so_at_the_end_of_its_run(tmp_path, builtin_part, monkeypatch) -> None:

@@ -94,3 +94,33 @@ def test_an_uncertain_result_says_why() -> None:
     assert near_limit.reason == "from the frame of X; U/tolerance 0.14; largest term: edge model (u 0.0110 mm)"
     inside = Result.measured(spec, 6.35, 0.011)
     assert why_uncertain(inside, SimpleNamespace(source=source)) is inside
+
+
+def test_positions_held_since_the_cell_was_found_off_are_let_go_and_stay_gone_after_a_kill(tmp_path) -> None:
+    """The arm or the part found off: the positions held for their networks whose frames
+    were taken since the last good check are let go (measured again), the older ones kept;
+    a run continued after a kill does not hold the ones let go again (the ``remeasure``
+    event names them), but holds a frame measured again after it."""
+    from types import SimpleNamespace
+
+    from ita.toplevel.pending import HeldPositions
+
+    session = SimpleNamespace(slra=SimpleNamespace(vctx=SimpleNamespace(features={})), specs={})
+    sighting = (Sighting("x", "OF-001", (28.9, -732.0), 0.01, 0.002),)
+    with Archive.open(tmp_path / "archive.sqlite") as archive:
+        run_id = archive.create_run("bulkhead")
+        for k, spec in enumerate(("HP-1", "HP-2", "HP-3")):
+            archive.record_event(run_id, Pending(spec, "slra_1", 10.0 * k, 10.0 * k + 2, sighting, 0.2, 0.05).to_event())
+
+        def held() -> HeldPositions:
+            return HeldPositions.resume(session, archive, run_id, SimpleNamespace(done=set()), [],  # type: ignore[arg-type]
+                                        network=True)
+
+        positions = held()
+        assert sorted(positions.pending) == ["HP-1", "HP-2", "HP-3"]
+        assert sorted(positions.release(12.0)) == ["HP-2", "HP-3"] and list(positions.pending) == ["HP-1"]
+        archive.record_event(run_id, Event("remeasure", "top", 30.0, {"cause": "part_displaced",
+                                                                      "released": ["HP-2", "HP-3"]}))
+        assert list(held().pending) == ["HP-1"]                      # killed now: not held again
+        archive.record_event(run_id, Pending("HP-3", "slra_1", 40.0, 42.0, sighting, 0.2, 0.05).to_event())
+        assert sorted(held().pending) == ["HP-1", "HP-3"]            # measured again after: held

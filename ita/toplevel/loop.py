@@ -589,9 +589,8 @@ class TopLevel:
         if handled is not None:
             found = [handled.diagnosis, *handled.nested]
             self._halt = self._halt or next((d.halt for d in found if d.halt), "")
-            if any(a.startswith("remeasure(") for d in found for a in d.actions) and self.results.since_check:
-                self._requeue(handled.diagnosis.cause)
-                remeasure = True
+            if any(a.startswith("remeasure(") for d in found for a in d.actions):
+                remeasure = bool(self._requeue(handled.diagnosis.cause))
             self.diagnoses += 1
             events += diagnosis_events(handled, self.plans)
             if handled.outcome.report is not None:
@@ -673,9 +672,9 @@ class TopLevel:
             since = heard.since_s
             ids = [r.spec_id for r in self.archive.results(self.run_id) if r.outcome is Outcome.MEASURED
                    and r.spec_id in self.todo_set and (r.sim_time_end or r.sim_time_start or 0.0) >= since]
-            if ids:
-                self._requeue("part_displaced", ids, f"measured since {since:.1f} s, when the other arm last found "
-                                                     "the part in place; it found the part displaced: measured again")
+            if self._requeue("part_displaced", ids, f"measured since {since:.1f} s, when the other arm last found "
+                                                    "the part in place; it found the part displaced: measured again",
+                             pending_since=since):
                 observed.append("remeasuring")
         if heard.asks and s.peer is not None:
             kept = self.shared.still_good(max(found_s for _k, found_s in heard.asks))
@@ -690,8 +689,7 @@ class TopLevel:
             if found is not None:
                 self._reference_from_alignment()
                 self.shared.tell_registered(found, good_s)
-                if self.results.since_check:
-                    self._requeue("part_displaced")
+                if self._requeue("part_displaced"):
                     observed.append("remeasuring")
         return observed, heard.changes_plan
 
@@ -715,18 +713,33 @@ class TopLevel:
 
     def _requeue(self, cause: str | None, spec_ids: list[str] | None = None,
                  why: str = "measured since the cell's last good interim check, with the arm or the part off: "
-                            "measured again") -> None:
-        """Take what was recorded since the cell's last good check out of the archive (an
-        event keeps it) and put those measurements back in the run's sequence plan (at
-        every position): the Sequence Planner hands them out again, first in their groups."""
-        event = Event("remeasure", "top", self.session.clock.now, {"cause": cause, "why": why})
-        spec_ids = self.results.supersede(event, spec_ids)
+                            "measured again", pending_since: float | None = None) -> list[str]:
+        """Take what was recorded since the cell's last good check (or `spec_ids`) out of
+        the archive (an event keeps it), and what is held pending since then (or since
+        `pending_since`), and put those measurements back in the run's sequence plan (at
+        every position): the Sequence Planner hands them out again, first in their groups.
+        The spec ids put back."""
+        since_check = spec_ids is None
+        if pending_since is None and since_check:
+            pending_since = self.results.checked_s
+        # what waits for its network or its webs, measured since then, goes too (its frames
+        # were taken with the arm or the part off as well); the event names it
+        released = [] if pending_since is None else self.pending.release(pending_since)
+        payload: dict[str, Any] = {"cause": cause, "why": why}
+        if released:
+            payload["released"] = released
+        event = Event("remeasure", "top", self.session.clock.now, payload)
+        ids = self.results.supersede(event, spec_ids)
+        if released and not ids:
+            self.archive.record_event(self.run_id, event)
+        spec_ids = [*ids, *released]
         gone = set(spec_ids)
         self._cursors = [replace(p, handed_out=tuple(i for i in p.handed_out if i not in gone))
                          for p in self._cursors]
         self._next.clear()
         for spec_id in spec_ids:
             self._handlings.pop(spec_id, None)
+        return spec_ids
 
     def _conclude(self, spec_id: str) -> None:
         """Record the measurement of `spec_id` as it ended (module docstring)."""

@@ -46,6 +46,19 @@ if TYPE_CHECKING:
 
 __all__ = ["HeldHeights", "HeldPositions", "PendingDecisions"]
 
+#: the archive event that puts measurements back in the plan; its ``released`` names the
+#: held ones let go (a continued run does not hold them again)
+REMEASURE_EVENT = "remeasure"
+
+
+def _taken_at(t0: float | None, t1: float | None) -> float:
+    """When a held result was measured (its end, else its start; unknown: the run's start)."""
+    return t1 if t1 is not None else (t0 if t0 is not None else 0.0)
+
+
+def _released(event: Event) -> set[str]:
+    return {str(i) for i in event.payload.get("released") or []} if event.kind == REMEASURE_EVENT else set()
+
 
 class HeldPositions:
     """Fastener hole positions held for their face's network (:mod:`ita.toplevel.network`).
@@ -76,7 +89,11 @@ class HeldPositions:
                 key = network_key(specs[spec_id], features) if spec_id in specs else None
                 if key is not None:
                     networks.setdefault(key, set()).add(spec_id)
-            for event in archive.events(run_id, kinds=[NETWORK_EVENT]):
+            for event in archive.events(run_id, kinds=[NETWORK_EVENT, REMEASURE_EVENT]):
+                for i in _released(event):          # let go after it was held: measured again
+                    pending.pop(i, None)
+                if event.kind != NETWORK_EVENT:
+                    continue
                 p = Pending.from_event(event)
                 if p.spec_id not in results.done:
                     pending[p.spec_id] = p
@@ -97,6 +114,15 @@ class HeldPositions:
         self.pending[spec_id] = p
         self.kept[spec_id] = attached
         return True
+
+    def release(self, since_s: float) -> list[str]:
+        """Let go of the positions held whose frames were taken at `since_s` or later (the
+        arm or the part found off since): their spec ids, to measure again."""
+        gone = [i for i, p in self.pending.items() if _taken_at(p.t0, p.t1) >= since_s]
+        for i in gone:
+            self.pending.pop(i)
+            self.kept.pop(i, None)
+        return gone
 
     def solve(self, *, final: bool = False) -> None:
         """Decide every network whose members are all measured or given up (final: every
@@ -147,7 +173,11 @@ class HeldHeights:
                ) -> HeldHeights:
         """The heights the archive holds pending for the run."""
         pending: dict[str, HeightPending] = {}
-        for event in archive.events(run_id, kinds=[HEIGHT_EVENT]):
+        for event in archive.events(run_id, kinds=[HEIGHT_EVENT, REMEASURE_EVENT]):
+            for i in _released(event):
+                pending.pop(i, None)
+            if event.kind != HEIGHT_EVENT:
+                continue
             h = HeightPending.from_event(event)
             if h.spec_id not in results.done:
                 pending[h.spec_id] = h
@@ -181,6 +211,15 @@ class HeldHeights:
             return True
         self.results.record(self._decided(p), events, attached)
         return True
+
+    def release(self, since_s: float) -> list[str]:
+        """Let go of the heights held that were measured at `since_s` or later: their spec
+        ids, to measure again."""
+        gone = [i for i, p in self.pending.items() if _taken_at(p.t0, p.t1) >= since_s]
+        for i in gone:
+            self.pending.pop(i)
+            self.kept.pop(i, None)
+        return gone
 
     def settle(self, *, final: bool = False) -> None:
         """Decide the pending heights whose webs' thicknesses are all done (final: every
@@ -227,6 +266,11 @@ class PendingDecisions:
         measured, when not in its own frame."""
         return (self.positions.hold(spec_id, value, tool, t0, t1, events, attached)
                 or self.heights.hold(spec_id, value, tool, t0, t1, events, attached, why=why))
+
+    def release(self, since_s: float) -> list[str]:
+        """Let go of what is held that was measured at `since_s` or later (the arm or the
+        part found off since then: ita.toplevel.loop's remeasuring); their spec ids."""
+        return self.positions.release(since_s) + self.heights.release(since_s)
 
     def settle(self, *, final: bool = False) -> None:
         """Decide what can be decided (final: everything held)."""
