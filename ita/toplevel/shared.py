@@ -101,7 +101,8 @@ class SharedCell:
         """The other arm's news since last heard, applied: its registration adopted, the
         tools' conditions set in this arm's world model."""
         s = self.session
-        if s.peer is None:
+        news = s.peer.heard() if s.peer is not None else []
+        if not news:                        # (asked after every measurement: mostly nothing)
             return Heard()
         alignment: Alignment | None = None
         since: float | None = None
@@ -109,7 +110,7 @@ class SharedCell:
         tools: list[tuple[str, str]] = []
         world = WorldModel(s.kb)
         known = set(world.tools())
-        for _at, value in s.peer.heard():
+        for _at, value in news:
             if not isinstance(value, dict):
                 continue
             kind = value.get("kind")
