@@ -99,6 +99,27 @@ def record_synthetic_run(archive: Archive, specs: list[FakeSpec], truth: dict[st
     return run_id
 
 
+def record_two_arm_run(archive: Archive, group: str = "r20261130-100000-abcd", part_dir: Path | None = None
+                       ) -> dict[str, str]:
+    """A two-arm run as `ita inspect --arms 2` records it: each arm's run with its arm and
+    the group in its settings, a move kept per result; the first arm's two results made,
+    the second arm's one of two.  Arm -> run id."""
+    specs = fake_specs(4)
+    runs = {}
+    for k, arm in enumerate(("t3", "t3_b")):
+        rid = archive.create_run("bulkhead", part_dir, settings={"arm": arm, "two_arms": {"group": group, "away_tools": {}}},
+                                 total=2, run_id=f"{group}-{arm}")
+        for j in range(2 - k):
+            spec = specs[2 * k + j]
+            path = [[1.0 + 0.01 * i + k, 0.1 * i, 1.5] for i in range(10)]
+            archive.record_result(rid, Result.measured(spec, spec.nominal, 0.002, tool=f"slra_{k + 1}"),
+                                  details={"arm_paths": [{"tcp": path, "tool": f"slra_{k + 1}", "name": "move",
+                                                          "cmd": "1.1"}]})
+        archive.record_event(rid, Event("plan_start", "top", 10.0, {"spec": specs[2 * k + 1].id}))
+        runs[arm] = rid
+    return runs
+
+
 def wait_for_run(proc, runs: Path, ready, timeout: float = 240.0) -> str | None:
     """The id of the run process `proc` keeps in the archive of `runs`, once
     `ready(archive, run_id)` holds; None if `proc` ends first or `timeout` (s) passes."""

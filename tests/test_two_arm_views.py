@@ -6,37 +6,15 @@ from __future__ import annotations
 
 import pytest
 
-from archive_synth import fake_specs
-from ita.archive import Archive, Event, Result
-
-GROUP = "r20261130-100000-abcd"
-
-
-def _two_arm_run(archive: Archive) -> dict[str, str]:
-    """A two-arm run as `ita inspect --arms 2` records it: each arm's run with its arm and
-    the group in its settings; the first arm done, the second still measuring."""
-    specs = fake_specs(4)
-    runs = {}
-    for k, arm in enumerate(("t3", "t3_b")):
-        rid = archive.create_run("bulkhead", settings={"arm": arm, "two_arms": {"group": GROUP, "away_tools": {}}},
-                                 total=2, run_id=f"{GROUP}-{arm}")
-        for j in range(2 - k):
-            spec = specs[2 * k + j]
-            path = [[1.0 + 0.01 * i + k, 0.1 * i, 1.5] for i in range(10)]
-            archive.record_result(rid, Result.measured(spec, spec.nominal, 0.002, tool=f"slra_{k + 1}"),
-                                  details={"arm_paths": [{"tcp": path, "tool": f"slra_{k + 1}", "name": "move",
-                                                          "cmd": "1.1"}]})
-        archive.record_event(rid, Event("plan_start", "top", 10.0, {"spec": specs[2 * k + 1].id}))
-        runs[arm] = rid
-    return runs
-
+from archive_synth import fake_specs, record_two_arm_run
+from ita.archive import Archive, Result
 
 def test_the_live_view_and_the_monitor_show_both_arms_runs_of_a_two_arm_run(tmp_path) -> None:
     from ita.cli.inspect import monitor_text
     from ita.report.live import live_state
 
     with Archive.open(tmp_path / "archive.sqlite") as archive:
-        runs = _two_arm_run(archive)
+        runs = record_two_arm_run(archive)
         alone = archive.create_run("bulkhead", total=3)
         state = live_state(archive, runs["t3"])
         assert live_state(archive, alone)["arms"] == []                 # one arm: nothing more
@@ -52,13 +30,13 @@ def test_the_live_view_and_the_monitor_show_both_arms_runs_of_a_two_arm_run(tmp_
 
 
 @pytest.mark.parametrize("which", ["t3", "t3_b"])
-def test_the_3d_view_of_either_arms_run_draws_both_arms_moves_and_both_arms(tmp_path, which) -> None:
+def test_the_3d_view_of_either_arms_run_draws_both_arms_moves_and_both_arms(tmp_path, builtin_part, which) -> None:
     from ita.report.paths import run_paths_figure
     from ita.report.scene import PartScene
 
-    scene = PartScene.load(None)
+    scene = PartScene.load(builtin_part.directory)
     with Archive.open(tmp_path / "archive.sqlite") as archive:
-        runs = _two_arm_run(archive)
+        runs = record_two_arm_run(archive)
         alone = archive.create_run("bulkhead", total=1)
         archive.record_result(alone, Result.measured(fake_specs(1)[0], 2.5, 0.002, tool="slra_1"),
                               details={"arm_paths": [{"tcp": [[1.0, 0.0, 1.5], [1.1, 0.0, 1.5]], "tool": "slra_1"}]})

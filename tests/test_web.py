@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from archive_synth import fake_specs, record_synthetic_run, true_values
+from archive_synth import fake_specs, record_synthetic_run, record_two_arm_run, true_values
 
 from ita.archive import Archive, Outcome, Result, StoredFrame, archive_path
 
@@ -378,6 +378,22 @@ def test_the_components_graphics_are_drawn_for_a_fault_run(site) -> None:
     b.get(f"{site['base']}/runs/{run_id}/paths")                   # the Path Planner's: every move of the run
     _wait(b, "return document.body.dataset.ready && document.querySelector('#fig-paths canvas')")
     assert "2 moves" in b.find_element("id", "paths").text
+
+
+def test_a_two_arm_runs_page_shows_both_arms_live_and_in_3d(site, builtin_part) -> None:
+    """Either arm's run of a two-arm run: the live panel lists both arms' runs, and the
+    3-D view of the paths draws both arms' moves and both arms."""
+    b = site["browser"]
+    with Archive.open(archive_path(site["runs"])) as a:
+        runs = record_two_arm_run(a, group="r20261130-110000-web2", part_dir=builtin_part.directory)
+    b.get(f"{site['base']}/runs/{runs['t3_b']}")
+    _wait(b, "return document.body.dataset.ready && document.getElementById('live-arms')")
+    table = b.find_element("id", "live-arms").text
+    assert runs["t3"] in table and runs["t3_b"] in table and "1 of 2" in table
+    b.get(f"{site['base']}/runs/{runs['t3']}/paths")
+    _wait(b, "return document.body.dataset.ready && document.querySelector('#fig-paths canvas')")
+    drawn = b.find_element("id", "paths").text
+    assert "t3: slra_1 (2 moves)" in drawn and "t3_b: slra_2 (1 moves)" in drawn and "t3_b at rest" in drawn
 
 
 def _enter_three_specs(site, tmp_path) -> Path:
