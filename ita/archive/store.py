@@ -425,9 +425,10 @@ class Archive:
         return json.loads(_json(totals))
 
     @_reads
-    def runs(self) -> list[RunInfo]:
-        """Every run, in the order they were created."""
-        rows = self._conn.execute(f"SELECT {_RUN_COLUMNS} FROM runs ORDER BY rowid").fetchall()
+    def runs(self, prefix: str = "") -> list[RunInfo]:
+        """Every run (whose id starts with `prefix`), in the order they were created."""
+        rows = self._conn.execute(f"SELECT {_RUN_COLUMNS} FROM runs WHERE substr(id, 1, ?) = ? ORDER BY rowid",
+                                  (len(prefix), prefix)).fetchall()
         return [self._run_info(r) for r in rows]
 
     @_reads

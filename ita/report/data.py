@@ -171,7 +171,7 @@ def arm_runs(archive: Archive, run_id: str) -> tuple[tuple[str, str], ...]:
     group = (archive.run(run_id).settings.get("two_arms") or {}).get("group")
     if not group:
         return ()
-    out = [(str(r.settings.get("arm") or "?"), r.id) for r in archive.runs()
+    out = [(str(r.settings.get("arm") or "?"), r.id) for r in archive.runs(prefix=f"{group}-")   # its runs' ids
            if (r.settings.get("two_arms") or {}).get("group") == group]
     return tuple(sorted(out, key=lambda a: (a[1].endswith("-h"), a[1])))
 
