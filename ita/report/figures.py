@@ -348,6 +348,21 @@ def part_figure(specs: Sequence[SpecPoint], results: Sequence[StoredResult], mes
                   "camera": {"eye": {"x": 0.15, "y": -2.0, "z": 3.4}}}}}
 
 
+def links_trace(segments: Any, name: str, digits: int | None = None) -> dict[str, Any]:
+    """An arm's tubes (t, 2, 3 segment ends, world m) as one line trace; digits: rounded so."""
+    xs: list[Any] = []
+    ys: list[Any] = []
+    zs: list[Any] = []
+    for a, b in np.asarray(segments, dtype=float):
+        if digits is not None:
+            a, b = a.round(digits), b.round(digits)
+        xs += [float(a[0]), float(b[0]), None]
+        ys += [float(a[1]), float(b[1]), None]
+        zs += [float(a[2]), float(b[2]), None]
+    return {"type": "scatter3d", "mode": "lines", "x": xs, "y": ys, "z": zs, "name": name,
+            "line": {"color": "#333", "width": 9}, "hoverinfo": "name"}
+
+
 def workcell_figure(boxes: Sequence[Any], part_mesh_world: Any, paths: Sequence[Mapping[str, Any]],
                     arm_links: Any = None, spec_point_world: Sequence[float] | None = None) -> dict[str, Any]:
     """A measurement's flown arm path in the workcell (world frame, m): the fixed boxes,
@@ -373,14 +388,7 @@ def workcell_figure(boxes: Sequence[Any], part_mesh_world: Any, paths: Sequence[
                        "hoverinfo": "text", "line": {"color": palette[i % len(palette)], "width": 5},
                        "marker": {"size": 2, "color": palette[i % len(palette)]}})
     if arm_links is not None:
-        seg = np.asarray(arm_links, dtype=float)
-        xs, ys, zs = [], [], []
-        for a, b in seg:
-            xs += [a[0], b[0], None]
-            ys += [a[1], b[1], None]
-            zs += [a[2], b[2], None]
-        traces.append({"type": "scatter3d", "mode": "lines", "x": xs, "y": ys, "z": zs, "name": "arm at the end",
-                       "line": {"color": "#333", "width": 9}, "hoverinfo": "name"})
+        traces.append(links_trace(arm_links, "arm at the end"))
     if spec_point_world is not None:
         x, y, z = (float(c) for c in spec_point_world)
         traces.append({"type": "scatter3d", "mode": "markers", "x": [x], "y": [y], "z": [z], "name": "the measurement",

@@ -62,7 +62,7 @@ def run_paths_figure(archive: Archive, run_id: str, scene: Any) -> dict[str, Any
             traces.append(figures.mesh_trace(*part, colour="#9fb3c8", digits=4))
         for arm in dict.fromkeys(a for a, _ in arms):
             try:
-                traces.append(_links_trace(scene.arm_at_rest(arm), f"{arm} at rest"))
+                traces.append(figures.links_trace(scene.arm_at_rest(arm), f"{arm} at rest", digits=4))
             except KeyError:            # an arm this cell no longer names
                 continue
     for i, (tool, (xs, ys, zs, text)) in enumerate(sorted(by_tool.items())):
@@ -75,15 +75,3 @@ def run_paths_figure(archive: Archive, run_id: str, scene: Any) -> dict[str, Any
         "scene": {"aspectmode": "data", "xaxis": {"title": {"text": "x (m)"}}, "yaxis": {"title": {"text": "y (m)"}},
                   "zaxis": {"title": {"text": "z (m)"}}}}}}
 
-
-def _links_trace(segments: Any, name: str) -> dict[str, Any]:
-    """An arm's tubes (t, 2, 3) as one line trace."""
-    xs: list[Any] = []
-    ys: list[Any] = []
-    zs: list[Any] = []
-    for a, b in np.asarray(segments, dtype=float):
-        xs += [round(float(a[0]), 4), round(float(b[0]), 4), None]
-        ys += [round(float(a[1]), 4), round(float(b[1]), 4), None]
-        zs += [round(float(a[2]), 4), round(float(b[2]), 4), None]
-    return {"type": "scatter3d", "mode": "lines", "x": xs, "y": ys, "z": zs, "name": name,
-            "line": {"color": "#333", "width": 9}, "hoverinfo": "name"}
