@@ -486,11 +486,12 @@ class TopLevel:
         elif name == "handle_exception":
             before = self._world()
             again, remeasure = self._handle(args[0])
-            self._tell_tools(before)
+            after = self._world()
+            self._tell_tools(before, after)
             observed: list[TermValue] = [Term("failed", (args[0],))] if again else []
             if remeasure:
                 observed.append("remeasuring")
-            return observed, self._world() != before or remeasure
+            return observed, after != before or remeasure
         elif name == "check_cell":
             return self._check_cell()
         elif name == "check_if_due":
@@ -615,7 +616,8 @@ class TopLevel:
         aligned = self.session.alignment
         done = self.checks.check(self._state)
         self._realigned(aligned)
-        self._tell_tools(before)
+        after = self._world()
+        self._tell_tools(before, after)
         self._state = done.state
         if done.handled is not None:
             self.diagnoses += 1
@@ -625,7 +627,7 @@ class TopLevel:
             return ["remeasuring"], True
         if done.passed is not False:
             self.results.checked()
-        return [], self._world() != before
+        return [], after != before
 
     def _reference_from_alignment(self) -> None:
         """The interim checks' reference reading of tooling hole B: where the registration
@@ -646,12 +648,10 @@ class TopLevel:
             if now is not None:
                 self.shared.tell_registered(now, self.results.checked_s)
 
-    def _tell_tools(self, before: tuple[tuple[str, str, str], ...]) -> None:
+    def _tell_tools(self, before: tuple[tuple[str, str, str], ...], after: tuple[tuple[str, str, str], ...]) -> None:
         """The tools' conditions a diagnosis changed, told to the other arm of a two-arm run."""
-        if self.session.peer is None:
-            return
         was = {t: c for t, c, _ in before}
-        self.shared.tell_tools({t: c for t, c, _ in self._world() if was.get(t, c) != c})
+        self.shared.tell_tools({t: c for t, c, _ in after if was.get(t, c) != c})
 
     def _hear(self) -> tuple[list[TermValue], bool]:
         """What the other arm of a two-arm run found of the part and the tools
