@@ -120,6 +120,19 @@ def test_two_arms_inspect_at_once_each_its_share_with_its_own_tools_and_never_to
     with Archive.open(archive_path(), create=False) as archive:
         tools = {arm: {r.tool for r in archive.results(p["run_id"])} for arm, p in per_arm.items()}
         second = archive.events(per_arm["t3_b"]["run_id"])
+        settings = {arm: archive.run(p["run_id"]).settings for arm, p in per_arm.items()}
+        events = {arm: archive.events(p["run_id"]) for arm, p in per_arm.items()}
+    for arm in per_arm:
+        # each arm works its share in the order of the allocation's tours (arranged for both)
+        order = [i for _t, ids, _c in settings[arm]["two_arms"]["tours"] for i in ids]
+        pos = {i: k for k, i in enumerate(order)}
+        began = list(dict.fromkeys(e.payload["spec"] for e in events[arm] if e.kind == "plan_start"
+                                   and e.payload.get("spec") and not e.payload.get("purpose")))
+        assert began and set(began) <= set(pos)
+        assert [pos[i] for i in began[:60]] == sorted(pos[i] for i in began[:60])
+        # each probe reads the calibration block once (the second arm before the registration)
+        read = [e.payload["probe"] for e in events[arm] if e.kind == "calibration" and e.payload["ok"]]
+        assert len(read) == len(set(read))
     taken = [e.payload for e in second if e.kind == "alignment"]
     aligned_at = [e.sim_time for e in second if e.kind == "alignment"]
     ready_at = [e.sim_time for e in second

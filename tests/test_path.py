@@ -104,6 +104,25 @@ def test_start_in_collision_names_what_it_hits(planner_for):
     assert "hits" in r.message and len(r.waypoints) == 0
 
 
+def test_a_start_settled_just_into_the_tubes_margin_moves_out_of_it_first(planner_for):
+    """An arm that settled off its goal by its repeatability into the collision tubes'
+    margin (not in contact) is not stuck there: the path starts at it and steps to a free
+    configuration a jiggle away; a start deep in collision is still refused (above)."""
+    planner, tool = planner_for("us_probe_1")
+    free, hit = np.array(HOME), _colliding(planner, tool, np.random.default_rng(0))
+    lo, hi = 0.0, 1.0                     # the boundary on the straight line from free to hit
+    while hi - lo > 1e-7:
+        mid = (lo + hi) / 2
+        lo, hi = (mid, hi) if planner.config_free((free + mid * (hit - free))[None], tool)[0] else (lo, mid)
+    start = free + hi * (hit - free)
+    assert not planner.config_free(start[None], tool)[0]
+    r = planner.plan(start, np.array(HOME), tool)
+    assert r.ok, r.message
+    assert np.array_equal(r.waypoints[0], start) and planner.config_free(r.waypoints[1:], tool).all()
+    assert 0.0 < r.stats["jiggled"] <= 0.002
+    assert np.allclose(r.trajectory.q[0], start) and np.allclose(r.trajectory.q[-1], HOME)
+
+
 def test_goal_out_of_reach_is_unreachable(planner_for):
     planner, tool = planner_for("us_probe_1")
     pose = np.eye(4)

@@ -13,6 +13,7 @@ from ita.sequence.next_step import next_step, peek
 from ita.sequence.plan import (
     MOTION_TIME_COST,
     build_plan,
+    following,
     planning_context,
     tool_at_start,
     tool_points_world,
@@ -190,6 +191,26 @@ def test_next_step_follows_the_stored_order(ctx, world):
     assert plan.handed_out == tuple(expected)
     assert steps[0].step.tool == "slra_1" and steps[0].step.arm == "t3"
     assert steps[-1].step.remaining == len(_planned(plan)) - 5
+
+
+def test_an_arm_of_two_follows_its_shares_tours_in_their_order_then_the_rest(ctx, world):
+    """A two-arm run's arm takes its share in the order of the allocation's tours (each its
+    own tool, arranged for both arms): handed out in that order, with that tool; what the
+    tours leave keeps its groups after them."""
+    with world({}):
+        plan = build_plan(ctx)
+        slra, probe = (g.order for g in plan.groups[:2])
+        tours = [(plan.groups[1].tool, tuple(reversed(probe[:4]))), (plan.groups[0].tool, (slra[3], slra[0]))]
+        followed = following(plan, tours, ctx.workcell, [12.5, 3.0])
+        steps, after = _step_through(ctx, followed, 6)
+    assert [r.step.spec_id for r in steps] == [*reversed(probe[:4]), slra[3], slra[0]]
+    assert [r.step.tool for r in steps] == [plan.groups[1].tool] * 4 + [plan.groups[0].tool] * 2
+    assert not any(r.resequenced for r in steps)
+    assert [g.cost_s for g in followed.groups[:2]] == [12.5, 3.0]
+    # nothing lost, nothing twice; the rest in its groups' order after the tours
+    assert sorted(_planned(followed)) == sorted(_planned(plan))
+    assert _planned(followed)[6:] == [i for i in _planned(plan) if i not in {*probe[:4], slra[3], slra[0]}]
+    assert after.handed_out[:6] == tuple(r.step.spec_id for r in steps)
 
 
 def test_broken_probe_with_spare_continues_in_the_same_order(ctx, world):

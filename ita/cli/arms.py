@@ -1,8 +1,10 @@
 """`ita inspect --arms 2`: both arms of the cell inspect the part at once.
 
 The high-level planner splits the measurements (ita.sequence.allocate, each arm's MKB
-and tools); each arm then works its share as a run of its own, in a process of its own
-(its Top Level, Plan Executive, Path Planner, devices and simulator, as a one-arm run),
+and tools) and arranges each arm's tours in the order of the best coordinated schedule
+(ita.executive.two_arms.arranged); each arm then works its share, in that order, as a
+run of its own, in a process of its own (its Top Level, Plan Executive, Path Planner,
+devices and simulator, as a one-arm run),
 with the other arm's own tools out of its reach; every motion of either arm is claimed
 from this process's zone conductor first (ita.executive.conductor, over a socket pair:
 ita.robot.gate), which grants, delays (WAIT, CONTINUE) or folds the arms in simulated
@@ -37,9 +39,8 @@ from ita.archive import Archive, Event, Outcome, RunStatus, archive_path
 from ita.archive.store import new_run_id
 from ita.executive.conductor import Conductor, Motion, conducted_arms, zone_grid
 from ita.logic.bridge import KnowledgeBase
-from ita.offline.prepare import prepared_arms
+from ita.offline.prepare import prepared_arms, two_arm_allocation
 from ita.part.store import load_part
-from ita.sequence.allocation_store import stored_allocation
 from ita.sequence.store import apply_tool_marks, load_tool_marks
 from ita.sim.arms import TwoArms
 from ita.workcell import Workcell
@@ -268,13 +269,14 @@ def inspect_with_two_arms(*, part_dir: Path | None, limit: int | None, seed: int
         raise click.UsageError(f"--arms 2: the workcell ({cell.source}) names one arm; a second is a [robot_b] "
                                "table in its workcell.toml")
     note("allocating the measurements between the arms")
-    allocation, kept = stored_allocation(ctx, plan, mkbs=mkbs)
+    allocation, kept = two_arm_allocation(ctx, plan, mkbs)
     if kept:
         note("the stored allocation is current: kept")
     order = [i for g in plan.groups for i in g.order]
     todo = order[:limit] if limit is not None else order + [i for i, _ in plan.cannot]
     shares = shares_of(todo, dict(allocation.assigned), arms)
     tools = {s.arm: {t for t, _o, _c in s.groups} for s in allocation.shares}
+    by_arm = {s.arm: s for s in allocation.shares}
     group = new_run_id()
     runs = {a: f"{group}-{a}" for a in arms}
     note(f"two-arm run {group}: " + ", ".join(f"{a} {len(shares[a])} measurements (run {runs[a]})" for a in arms))
@@ -306,8 +308,10 @@ def inspect_with_two_arms(*, part_dir: Path | None, limit: int | None, seed: int
             conn = Connection(os.dup(ours.fileno()))
             ours.close()
             away = {t: o for o in arms if o != arm for t in sorted(tools[o] - tools[arm])}
+            mine = set(shares[arm])             # its share's tours, in the arranged order
+            tours = [[t, [i for i in o if i in mine], c] for t, o, c in by_arm[arm].groups]
             conn.send({"specs": shares[arm], "away_tools": away, "group": group,
-                       "registers": arm == registrar})
+                       "registers": arm == registrar, "tours": [x for x in tours if x[1]]})
             args = [sys.executable, "-m", "ita.cli", "inspect", "--arm", arm, "--run-id", runs[arm],
                     "--conductor-fd", str(theirs.fileno()), *common]
             for s in own_scripts[arm]:
@@ -389,9 +393,13 @@ def _report(group: str, runs: dict[str, str], summaries: dict[str, dict[str, Any
         waited = float(own.get("wait_s", 0.0)) + float(own.get("fold_s", 0.0)) \
             + float((s or {}).get("handover_wait_s", 0.0))
         handed = (s or {}).get("handover")
+        # its work's end: its share's run's, or its hand-over run's (as a one-arm run's cycle
+        # is counted: to its last measurement and check, not the fold out of the way after)
+        ended = float((handed or s)["simulated_cycle_s"]) if s else math.nan
         per_arm[arm] = {"run_id": runs[arm], "status": s["status"] if s else f"exit {codes.get(arm)}",
                         "measured": s["measured"] if s else 0, "total": s["total"] if s else 0,
                         "counts": s["counts"] if s else {}, "simulated_cycle_s": round(cycle, 3),
+                        "simulated_work_end_s": round(ended, 3),
                         "busy_s": round(cycle - waited, 3), "waiting_s": round(waited, 3),
                         "folds": int(own.get("folds", 0)),
                         "claims": z.get("claims", 0), "refused": int(own.get("refused", 0)),
@@ -401,8 +409,10 @@ def _report(group: str, runs: dict[str, str], summaries: dict[str, dict[str, Any
                         "handover": None if not handed else
                         {k: handed.get(k) for k in ("run_id", "status", "measured", "total", "counts", "waited_s")}}
     cycles = [v["simulated_cycle_s"] for v in per_arm.values() if not math.isnan(v["simulated_cycle_s"])]
+    worked = [v["simulated_work_end_s"] for v in per_arm.values() if not math.isnan(v["simulated_work_end_s"])]
     return {"group": group, "arms": 2, "status": "completed" if all(c == 0 for c in codes.values()) else "not finished",
             "simulated_cycle_s": round(max(cycles), 3) if cycles else None,
+            "simulated_work_end_s": round(max(worked), 3) if worked else None,
             "measured": final["measured"], "total": final["total"], "counts": final["counts"],
             "arm_arm_contacts": contacts["arm_arm_contacts"], "contact_check": contacts,
             "per_arm": per_arm, "allocation": {k: allocation[k] for k in ("makespan_s", "bound_s", "one_arm_s")},
@@ -412,7 +422,8 @@ def _report(group: str, runs: dict[str, str], summaries: dict[str, dict[str, Any
 
 def _text(report: dict[str, Any]) -> str:
     lines = [f"two-arm run {report['group']}: {report['status']}; simulated cycle "
-             f"{report['simulated_cycle_s']} s; {report['measured']} of {report['total']} measured; "
+             f"{report['simulated_cycle_s']} s (the last measurement and check at {report['simulated_work_end_s']} s, "
+             f"then the arms folded); {report['measured']} of {report['total']} measured; "
              f"arm-arm contacts {report['arm_arm_contacts']} in {report['contact_check']['moments']} moments "
              f"(least gap {report['contact_check']['least_gap_m']} m); wall {report['wall_s']} s"]
     for arm, a in report["per_arm"].items():

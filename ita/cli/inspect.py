@@ -19,7 +19,7 @@ import json
 import shutil
 import sys
 import time
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -273,6 +273,17 @@ class _Conducted:
     group: str
     gate: Any
     registers: bool = True              # this arm registers the part (the other takes its registration)
+    tours: tuple[tuple[str, tuple[str, ...], float], ...] = ()    # its share's tours (tool, spec ids, s)
+
+
+def _follow(session: Any, tours: Sequence[tuple[str, tuple[str, ...], float]]) -> None:
+    """An arm's run of a two-arm run takes its share in the order of the allocation's
+    tours (tool, spec ids, seconds), arranged for both arms (ita.executive.two_arms)."""
+    from ita.sequence.plan import following
+
+    if tours:
+        session.plan = following(session.plan, [(t, ids) for t, ids, _c in tours], session.ctx.workcell,
+                                 [c for _t, _i, c in tours])
 
 
 def _conducted(fd: int) -> _Conducted:
@@ -292,7 +303,8 @@ def _conducted(fd: int) -> _Conducted:
     conn = Connection(fd)
     setup = conn.recv()
     return _Conducted(tuple(setup["specs"]), {str(k): str(v) for k, v in setup["away_tools"].items()},
-                      str(setup["group"]), RemoteGate(conn), bool(setup.get("registers", True)))
+                      str(setup["group"]), RemoteGate(conn), bool(setup.get("registers", True)),
+                      tuple((str(t), tuple(map(str, ids)), float(c)) for t, ids, c in setup.get("tours", ())))
 
 
 @contextlib.contextmanager
@@ -437,6 +449,7 @@ def inspect(part_dir: Path | None, limit: int | None, seed: int, runs_dir: Path 
         session.arm.controller.gate = session.slra.controller.gate = session.peer = conducted.gate
         session.clock.on_advance = conducted.gate.clock
         session.registers = conducted.registers
+        _follow(session, conducted.tours)
     with _closing(session):
         tools = session.ctx.workcell.tools
         injection.check_targets([t.name for t in tools if t.tool_class.ultrasonic],
@@ -463,7 +476,8 @@ def inspect(part_dir: Path | None, limit: int | None, seed: int, runs_dir: Path 
             if alarm_after is not None:
                 settings["alarm_after"] = alarm_after
             if conducted is not None:
-                settings["two_arms"] = {"group": conducted.group, "away_tools": dict(conducted.away_tools)}
+                settings["two_arms"] = {"group": conducted.group, "away_tools": dict(conducted.away_tools),
+                                        "tours": [[t, list(ids), c] for t, ids, c in conducted.tours]}
             if injection.active:
                 settings["faults"] = injection.to_dict()
             run_id = start_run(session, archive, limit=limit, run_id=run_id, settings=settings, specs=specs)
@@ -500,6 +514,9 @@ def continue_(run: str, runs_dir: Path | None, as_json: bool) -> None:
                                if isinstance(shifts, dict) else None,
                                placement_error=info.settings.get("placement") == "fixture",
                                arm=None if info.settings.get("arm") is None else str(info.settings["arm"]))
+        two_arms = info.settings.get("two_arms")
+        if isinstance(two_arms, dict):          # an arm's run of a two-arm run: its share's tours
+            _follow(session, tuple((str(t), tuple(map(str, ids)), float(c)) for t, ids, c in two_arms.get("tours", ())))
         with _closing(session):
             view.note(f"continuing run {run_id}: {info.done}/{info.total} done")
             _run(session, archive, run_id, as_json, view)

@@ -9,7 +9,10 @@ tool's point seen from above is where the arm's body reaches (ita.collision.zone
 arm named first in the cell has priority; of the eight ways to run the same allocation
 (each arm's tours either way round, the second arm's tool groups in either order) the
 one with the shortest makespan is kept.  The result is a plan's schedule (its waits, its
-retreats and its makespan), not a run.
+retreats and its makespan), not a run; :func:`arranged` gives the allocation in that
+order, which the arms' runs follow (`ita inspect --arms 2`: in the whole-bulkhead run
+of seed 0 the best order cut the cycle from about 916 s, each arm following its
+one-arm plan's order, to about 828 s).
 """
 
 from __future__ import annotations
@@ -38,7 +41,7 @@ from ita.sequence.allocate import Allocation, ArmShare, alone
 from ita.sequence.cost import rack_configurations, slot_position, tool_points_world
 from ita.sequence.plan import PlanningContext, SequencePlan
 
-__all__ = ["Handover", "arm_jobs", "coordinated", "hand_over"]
+__all__ = ["Handover", "arm_jobs", "arranged", "coordinated", "hand_over"]
 
 
 def arm_jobs(ctx: PlanningContext, allocation: Allocation) -> list[ArmJob]:
@@ -110,6 +113,17 @@ def coordinated(ctx: PlanningContext, allocation: Allocation) -> tuple[Schedule,
     if best is None:
         raise Deadlock("no order of the allocation's work could be coordinated: " + "; ".join(stuck))
     return best
+
+
+def arranged(ctx: PlanningContext, allocation: Allocation) -> Allocation:
+    """The allocation with each arm's tours in the order of its best coordinated schedule
+    (:func:`coordinated`; ``arranged`` names it): the order the arms' runs then follow.
+    The allocation as it is when none can be coordinated (its runs' zones then sort it out)."""
+    try:
+        _schedule, _jobs, how = coordinated(ctx, allocation)
+    except Deadlock:
+        return allocation
+    return replace(dict(_variants(allocation))[how], arranged=how)
 
 
 def _grid(jobs: Sequence[ArmJob]) -> ZoneGrid:

@@ -12,14 +12,16 @@ Geometric Reasoner could not place, measurements without a plan).
 
 from __future__ import annotations
 
+import functools
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from ita.errors import InputError, ItaError, Location
-from ita.geometry import build_mkb, load_mkb, mkb_digest, mkb_path, save_mkb
+from ita.executive.two_arms import arranged
+from ita.geometry import MeasurementKB, build_mkb, load_mkb, mkb_digest, mkb_path, save_mkb
 from ita.logic.bridge import KnowledgeBase
 from ita.offline.master import ensure_master_calibration
 from ita.offline.spec_reach import spec_reach
@@ -28,9 +30,10 @@ from ita.part.store import load_part
 from ita.part.summary import PartSummary, summarize
 from ita.planning import NoPlanError, OperationPlanner, WorldState, store_path
 from ita.sequence.next_step import the_arm
+from ita.sequence.allocate import Allocation
 from ita.sequence.allocation_store import stored_allocation
 from ita.sequence.partition import alternative_tools
-from ita.sequence.plan import build_plan, planning_context, with_mkb
+from ita.sequence.plan import PlanningContext, SequencePlan, build_plan, planning_context, with_mkb
 from ita.sequence.store import (
     apply_tool_marks,
     load_plan,
@@ -343,5 +346,13 @@ def prepare_two_arms(part_dir: Path | None, progress: Callable[[str], None] = la
         return reports, None, False
     ctx, plan, mkbs = prepared_arms(part_dir, kb, part, progress=progress)
     progress("allocating the measurements between the arms")
-    allocation, kept = stored_allocation(ctx, plan, mkbs=mkbs)
+    allocation, kept = two_arm_allocation(ctx, plan, mkbs)
     return reports, allocation, kept
+
+
+def two_arm_allocation(ctx: PlanningContext, plan: SequencePlan,
+                       mkbs: Mapping[str, MeasurementKB]) -> tuple[Allocation, bool]:
+    """The two-arm allocation of the prepared part (ita.sequence.allocate), its tours
+    arranged in the order of its best coordinated schedule (ita.executive.two_arms.arranged:
+    the order the arms' runs follow); the stored one when current, and whether it was."""
+    return stored_allocation(ctx, plan, mkbs=mkbs, arrange=functools.partial(arranged, ctx))

@@ -86,6 +86,14 @@ class PathFailure(str, Enum):
     NO_PATH_WITHIN_EFFORT = "no_path_within_effort"
 
 
+#: how far (rad per joint) a start configuration found in collision is jiggled to a free one,
+#: in growing steps: an arm settled by its repeatability (0.25 mm at the tool point, about
+#: 1e-4 rad) into the tubes' margin gets out within the first steps; a real collision does not
+JIGGLE_STEPS_RAD = (0.0002, 0.0005, 0.001, 0.002)
+#: configurations sampled per step
+JIGGLE_SAMPLES = 64
+
+
 @dataclass(frozen=True)
 class PlannerSettings:
     """Figures of the planner.
@@ -298,7 +306,22 @@ class PathPlanner:
         if not self.model.within_limits(start):
             return self._fail(PathFailure.START_OUT_OF_LIMITS, "the start configuration is outside the joint limits", t0)
         if not ctx.config_free(start)[0]:
-            return self._fail(PathFailure.START_IN_COLLISION, f"the start configuration hits {self._culprit(start, ctx)}", t0)
+            # the arm settled off its last goal (its repeatability) into the tubes' margin:
+            # start from a free configuration a jiggle away, the step there first
+            near = self._free_near(start, ctx)
+            if near is None:
+                return self._fail(PathFailure.START_IN_COLLISION,
+                                  f"the start configuration hits {self._culprit(start, ctx)}", t0)
+            out = self.plan(near, goal, tool)
+            if not out.ok or out.trajectory is None:
+                return out
+            way = np.vstack([start, out.waypoints])
+            timed = self.time(way, tool)
+            return dataclasses.replace(out, waypoints=way, trajectory=timed,
+                                       tool_path=tcp_poses(self.model, timed.q, ctx.tcp)[:, :3, 3],
+                                       message=f"{out.message} (from a free configuration a jiggle away)",
+                                       seconds=time.perf_counter() - t0,
+                                       stats=dict(out.stats, jiggled=float(np.max(np.abs(near - start)))))
         goals, reason, message = self.goal_configs(start, goal, tool)
         if reason is not None:
             return self._fail(reason, message, t0)
@@ -362,6 +385,21 @@ class PathPlanner:
         return results, self.time(np.vstack(path), tool, np.array(rest))
 
     # ---- helpers ---------------------------------------------------------------------
+    def _free_near(self, q: FloatArray, ctx: _ToolContext) -> FloatArray | None:
+        """A free configuration within a jiggle of ``q`` (each joint at most
+        :data:`JIGGLE_RAD` from it, within the limits), the nearest of those sampled with the
+        query's seed; None when none is (what MoveIt's FixStartStateCollision does: an arm
+        settled by its repeatability into the collision tubes' margin, not in contact)."""
+        rng = np.random.default_rng(self.settings.seed)
+        lower, upper = np.asarray(self.model.lower, dtype=float), np.asarray(self.model.upper, dtype=float)
+        for radius in JIGGLE_STEPS_RAD:
+            cand = np.clip(q + rng.uniform(-radius, radius, size=(JIGGLE_SAMPLES, len(q))), lower, upper)
+            free = ctx.config_free(cand)
+            if free.any():
+                cand = cand[free]
+                return np.asarray(cand[int(np.argmin(np.max(np.abs(cand - q), axis=1)))], dtype=float)
+        return None
+
     def _two_level(self, start: FloatArray, goals: FloatArray, route: FloatArray, lifter: Lifter, effort: Effort,
                    ctx: _ToolContext, stats: dict[str, Any]) -> FloatArray | None:
         """The two levels: the direct joint move to each goal candidate and the lifted

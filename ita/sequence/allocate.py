@@ -108,6 +108,9 @@ class Allocation:
     #: wherever the other arm stands: what it may try when the other stands still for good
     #: (a hand-over; its Path Planner and the zones then say whether it can)
     reaches: Mapping[str, frozenset[str]] = field(default_factory=dict)
+    #: how the arms' tours run: which way round and in which order, the order of the
+    #: shortest coordinated schedule (ita.executive.two_arms.arranged); "" as made here
+    arranged: str = ""
 
     @property
     def gap_percent(self) -> float:
@@ -120,7 +123,8 @@ class Allocation:
                 "makespan_s": round(self.makespan_s, 1), "bound_s": round(self.bound_s, 1),
                 "gap_percent": round(self.gap_percent, 1), "one_arm_s": round(self.one_arm_s, 1),
                 "ratio_to_one_arm": round(self.makespan_s / self.one_arm_s, 3) if self.one_arm_s else None,
-                "unassigned": [{"spec": i, "why": w} for i, w in self.unassigned]}
+                "unassigned": [{"spec": i, "why": w} for i, w in self.unassigned],
+                "arranged": self.arranged or "as allocated"}
 
 
 def _tools(cell: Workcell, plan_tool: str, arm_index: int) -> str | None:

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import hashlib
 import json
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -23,9 +23,10 @@ from ita.sequence.allocate import DWELL_S, Allocation, ArmShare, allocate
 from ita.sequence.plan import PlanningContext, SequencePlan
 from ita.sequence.store import plan_to_dict, plans_dir
 
-FORMAT = 1
-#: the packages whose code makes an allocation: a change to any makes the stored one stale
-_SOURCES = ("sequence", "kinematics", "workcell", "collision", "geometry")
+FORMAT = 2
+#: the packages whose code makes an allocation (and arranges its tours: the executive's
+#: coordination): a change to any makes the stored one stale
+_SOURCES = ("sequence", "kinematics", "workcell", "collision", "geometry", "executive")
 _ROOT = Path(__file__).resolve().parent.parent
 
 
@@ -35,9 +36,10 @@ def allocation_path(part_name: str) -> Path:
 
 
 def allocation_digest(ctx: PlanningContext, plan: SequencePlan, dwell_s: Mapping[str, float],
-                      mkbs: Mapping[str, MeasurementKB] | None) -> str:
-    """Digest of what :func:`ita.sequence.allocate.allocate` reads."""
-    h = hashlib.sha256()
+                      mkbs: Mapping[str, MeasurementKB] | None, arranged: bool = False) -> str:
+    """Digest of what :func:`ita.sequence.allocate.allocate` reads (and whether its tours
+    are arranged after)."""
+    h = hashlib.sha256(b"arranged" if arranged else b"")
     stored = {k: v for k, v in plan_to_dict(plan).items()      # the plan, not its progress
               if k not in ("created", "build_seconds", "done", "handed_out", "history")}
     h.update(json.dumps(stored, sort_keys=True).encode())
@@ -51,15 +53,19 @@ def allocation_digest(ctx: PlanningContext, plan: SequencePlan, dwell_s: Mapping
 
 
 def stored_allocation(ctx: PlanningContext, plan: SequencePlan, dwell_s: Mapping[str, float] = DWELL_S,
-                      mkbs: Mapping[str, MeasurementKB] | None = None) -> tuple[Allocation, bool]:
-    """The allocation of ``plan`` (:func:`~ita.sequence.allocate.allocate`), the stored one
-    when current; and whether it was stored."""
-    digest = allocation_digest(ctx, plan, dwell_s, mkbs)
+                      mkbs: Mapping[str, MeasurementKB] | None = None,
+                      arrange: Callable[[Allocation], Allocation] | None = None) -> tuple[Allocation, bool]:
+    """The allocation of ``plan`` (:func:`~ita.sequence.allocate.allocate`; then
+    ``arrange``d: its tours in the order the arms run them), the stored one when current;
+    and whether it was stored."""
+    digest = allocation_digest(ctx, plan, dwell_s, mkbs, arranged=arrange is not None)
     path = allocation_path(ctx.part_name)
     kept = _load(path, digest)
     if kept is not None:
         return kept, True
     made = allocate(ctx, plan, dwell_s, mkbs)
+    if arrange is not None:
+        made = arrange(made)
     write_json_atomic(path, {"format": FORMAT, "digest": digest, **_to_dict(made)})
     return made, False
 
@@ -72,6 +78,7 @@ def _to_dict(a: Allocation) -> dict[str, Any]:
         "unassigned": [[i, w] for i, w in a.unassigned], "split": a.split, "dwell_s": dict(a.dwell_s),
         "able": {arm: sorted(ids) for arm, ids in a.able.items()},
         "reaches": {arm: sorted(ids) for arm, ids in a.reaches.items()},
+        "arranged": a.arranged,
     }
 
 
@@ -88,6 +95,7 @@ def _load(path: Path, digest: str) -> Allocation | None:
                           float(data["bound_s"]), float(data["one_arm_s"]),
                           tuple((str(i), str(w)) for i, w in data["unassigned"]), int(data["split"]),
                           {str(k): float(v) for k, v in data["dwell_s"].items()}, {str(a): frozenset(map(str, ids)) for a, ids in data["able"].items()},
-                          {str(a): frozenset(map(str, ids)) for a, ids in data["reaches"].items()})
+                          {str(a): frozenset(map(str, ids)) for a, ids in data["reaches"].items()},
+                          str(data["arranged"]))
     except (OSError, ValueError, KeyError, TypeError, AttributeError):
         return None

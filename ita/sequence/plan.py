@@ -356,6 +356,24 @@ def build_plan(
     )
 
 
+def following(plan: SequencePlan, tours: Sequence[tuple[str, Sequence[str]]], workcell: Workcell,
+              cost_s: Sequence[float] = ()) -> SequencePlan:
+    """`plan` with the measurements of ``tours`` ((tool, spec ids) in visiting order: the
+    arm's share of a two-arm allocation, ita.sequence.allocate) taken first, in that order,
+    each tour a group of its tool (``cost_s``: each tour's seconds, when known); then the
+    rest of `plan`'s groups without them.  Its progress carries over."""
+    taken = {i for _t, ids in tours for i in ids}
+    costs = list(cost_s) + [0.0] * (len(tours) - len(cost_s))
+    groups = [PlannedGroup(tool, workcell.tool(tool).tool_class.value, tuple(ids), float(c))
+              for (tool, ids), c in zip(tours, costs) if ids]
+    for g in plan.groups:
+        rest = tuple(i for i in g.order if i not in taken)
+        if rest:
+            groups.append(replace(g, order=rest))
+    note = f"{datetime.now(UTC).isoformat(timespec='seconds')} following the two-arm allocation's tours"
+    return replace(plan, groups=tuple(groups), tool_changes=len(groups), history=plan.history + (note,))
+
+
 def _remaining_orders(plan: SequencePlan) -> dict[str, tuple[str, ...]]:
     """Tool class -> the not-handed-out part of its group's order in `plan`."""
     out = set(plan.handed_out)
@@ -376,7 +394,7 @@ def partition_only(ctx: PlanningContext, done: Iterable[str] = ()) -> Partition:
 
 __all__ = [
     "COST_MODELS", "INTERIM_COST", "MOTION_TIME_COST", "CostModel", "PlannedGroup", "PlanningContext", "SequencePlan",
-    "build_plan", "choose_tool", "euclidean_slot_seconds", "euclidean_tcp_seconds", "held_tool",
+    "build_plan", "choose_tool", "following", "euclidean_slot_seconds", "euclidean_tcp_seconds", "held_tool",
     "tool_at_start", "order_group",
     "order_groups", "partition_only", "planning_context", "pose_facts", "slot_position", "specs_digest",
     "tool_points_world", "tool_state", "with_mkb",

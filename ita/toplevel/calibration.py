@@ -8,15 +8,19 @@ with it (plan ``calibrated(Probe)``: pick it up, the block, couplant, one readin
 sets the gauge's sound velocity for it (:mod:`ita.devices.stations`).  It is due only
 when the measurement can be placed for the probe (one that cannot is never read).  A
 calibration that fails is logged and the readings keep the data sheet's velocity
-uncertainty; it is not tried again in this process.  The plan's events and a
+uncertainty; it is not tried again in this process, unless the other arm of a two-arm
+run stood in the way (its zones refused a motion): then it stays due, and is tried again
+before the probe's next reading, up to :data:`ZONE_TRIES` times.  The plan's events and a
 ``calibration`` event go to the archive.
 """
 
 from __future__ import annotations
 
+from collections import Counter
 from typing import TYPE_CHECKING
 
 from ita.archive import Event
+from ita.robot.controller import REFUSED_BY_ZONES
 from ita.logic.terms import Term
 from ita.task.measure import execute_goals, placement_problem
 from ita.toplevel.events import PlanNumbers, calibration_event, plan_events
@@ -28,7 +32,10 @@ if TYPE_CHECKING:
     from ita.planning.state import WorldState
     from ita.task.session import Session
 
-__all__ = ["ProbeCalibration"]
+__all__ = ["ZONE_TRIES", "ProbeCalibration"]
+
+#: tries of a probe's calibration the other arm's zones may refuse before it is given up
+ZONE_TRIES = 3
 
 
 class ProbeCalibration:
@@ -40,7 +47,8 @@ class ProbeCalibration:
         self.archive = archive
         self.run_id = run_id
         self.plans = plans
-        self.calibrated: set[str] = set()
+        self.calibrated: set[str] = set()          # read the block, or failed for good
+        self._refused: Counter[str] = Counter()    # probe -> tries the other arm's zones refused
 
     def is_probe(self, tool: str | None) -> bool:
         """Whether `tool` is an ultrasonic probe of the work cell."""
@@ -78,6 +86,10 @@ class ProbeCalibration:
             last = report.outcomes[-1].reply
             reading = float(last.payload.args[0]) if isinstance(last.payload, Term) and last.payload.args else None
         failure = report.failure if report is not None else None
+        if failure is not None and REFUSED_BY_ZONES in (failure.reason or ""):
+            self._refused[probe] += 1
+            if self._refused[probe] < ZONE_TRIES:
+                self.calibrated.discard(probe)      # due still: tried again before its next reading
         events.append(calibration_event(probe, ok=ok, reading_mm=reading, started=t0, at=clock.now,
                                         note=note or ("" if failure is None else failure.reason)))
         self.archive.record_events(self.run_id, events)

@@ -478,7 +478,10 @@ class TopLevel:
             heard, _ = self._hear()
             return heard, False
         elif name == "calibrate_probe":
-            self._state = self.calibration.calibrate(args[0], self._state)
+            # once per probe in a process: an arm waiting for the other's registration read
+            # the block before the plan's step came (_get_ready)
+            if args[0] not in self.calibration.calibrated:
+                self._state = self.calibration.calibrate(args[0], self._state)
         elif name == "measure":
             return self._measure(self._steps[args[0]]), False
         elif name == "measure_again":
@@ -538,6 +541,8 @@ class TopLevel:
         ``failed(Spec)`` when the round trip ended in an exception (the plan then has the
         Exception Handler diagnose it, put the cell right and measure again)."""
         self._current = step
+        # a probe whose calibration the other arm's zones refused reads the block first
+        self._state = self.calibration.before(step.spec_id, step.tool, self._state)
         out = measure_one(self.session, step.spec_id, self._state, step.tool)
         if out.status is MeasureStatus.CANNOT_BE_DONE or out.plan is None:
             self._outcomes[step.spec_id] = (step, out, [], 0)
