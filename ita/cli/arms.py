@@ -387,7 +387,7 @@ def _report(group: str, runs: dict[str, str], summaries: dict[str, dict[str, Any
     per_arm = {}
     for arm, s in summaries.items():
         z = arms_z.get(arm, {})
-        cycle = float(s.get("simulated_end_s", s["simulated_cycle_s"])) if s else math.nan
+        cycle = max(float(s.get("simulated_end_s", 0.0)), float(s["simulated_cycle_s"])) if s else math.nan
         own = (s or {}).get("zones", {})           # the arm's own clock: its waits and folds
         # its waits for the other arm: for space (claims, folds) and for the hand-over
         waited = float(own.get("wait_s", 0.0)) + float(own.get("fold_s", 0.0)) \
@@ -401,7 +401,7 @@ def _report(group: str, runs: dict[str, str], summaries: dict[str, dict[str, Any
                         "counts": s["counts"] if s else {}, "simulated_cycle_s": round(cycle, 3),
                         "simulated_work_end_s": round(ended, 3),
                         "busy_s": round(cycle - waited, 3), "waiting_s": round(waited, 3),
-                        "folds": int(own.get("folds", 0)),
+                        "folds": int(own.get("folds", 0)), "stayed": bool((s or {}).get("stayed")),
                         "claims": z.get("claims", 0), "refused": int(own.get("refused", 0)),
                         "refusals": z.get("refusals", []),
                         "exceptions": s["exceptions"] if s else None, "wall_s": s["wall_s"] if s else None,

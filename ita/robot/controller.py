@@ -172,11 +172,13 @@ class RobotController:
         if grant.kind == "fold" and grant.fold is not None:
             self._fold(grant)
 
-    def park(self) -> None:
-        """At the end of the arm's work: give way, then tell the conductor the arm is done."""
+    def park(self, give_way: bool = True) -> None:
+        """At the end of the arm's work: give way (unless told not to: no arm moves after
+        it), then tell the conductor the arm is done."""
         if self.gate is None:
             return
-        self.give_way()
+        if give_way:
+            self.give_way()
         self.gate.done(self.world.clock.now)
 
     def claim_jog(self, target: NDArray[np.float64], seconds: float) -> bool:

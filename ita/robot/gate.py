@@ -80,6 +80,8 @@ class MotionGate(Protocol):
 
     def unread(self) -> list[tuple[float, object]]: ...
 
+    def told(self, kind: str) -> float | None: ...
+
     def clock(self, t: float) -> None: ...
 
 
@@ -95,12 +97,13 @@ class RemoteGate:
         self.connection = connection
         self.known_s = 0.0               # the arm's time the conductor knows it has reached
         self.news: list[tuple[float, object]] = []     # the other arm's news heard, not yet read
+        self._kinds: dict[str, float] = {}             # kind of news -> when last told (heard so far)
 
     def _ask(self, message: tuple[object, ...]) -> Grant:
         self.connection.send(message)
         kind, wait_s, fold, why, *news = self.connection.recv()
         if news:
-            self.news += [(float(at), value) for at, value in news[0]]
+            self._hear(news[0])
         return Grant(str(kind), float(wait_s), None if fold is None else tuple(map(float, fold)), str(why))
 
     def _told(self, t: float) -> None:
@@ -146,8 +149,14 @@ class RemoteGate:
         self.connection.send(("take", float(t), key, bool(of_work)) if of_work else ("take", float(t), key))
         wait_s, value, *news = self.connection.recv()
         if news:
-            self.news += [(float(at), told) for at, told in news[0]]
+            self._hear(news[0])
         return float(wait_s), value
+
+    def _hear(self, news: list[tuple[float, object]]) -> None:
+        for at, value in news:
+            self.news.append((float(at), value))
+            if isinstance(value, dict) and isinstance(value.get("kind"), str):
+                self._kinds[value["kind"]] = float(at)
 
     def tell(self, t: float, value: object) -> None:
         """News for the other arm (what a diagnosis found of what both share): it hears it
@@ -163,3 +172,8 @@ class RemoteGate:
     def unread(self) -> list[tuple[float, object]]:
         """The news :meth:`heard` would give now, left to it."""
         return list(self.news)
+
+    def told(self, kind: str) -> float | None:
+        """When the other arm last told news of `kind` ({"kind": ...}) that this arm has
+        heard, read or not (None: none heard)."""
+        return self._kinds.get(kind)
