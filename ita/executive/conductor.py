@@ -40,7 +40,9 @@ time or later (or with a fact it takes): in simulated time too.
   Each arm's Path Planner keeps clear of where the other may stand folded
   (:func:`folded_ground`), so with the other folded, an arm's claims are granted.
 - If each waits for the other's body, the one of lower priority folds; when its way
-  back meets the other's body (or it is folded already), the other folds first.  The
+  back meets the other's body (or it is folded already), the other folds first; when
+  neither can, the lower arm's claim is refused (below) and the first arm's waits for
+  the lower's next claim.  The
   allocation (ita.sequence.allocate) keeps every measuring pose of each arm, and its way
   back to its fold, clear of the other arm folded, so with one arm folded the other can
   go on, or fold itself.
@@ -620,7 +622,11 @@ class Conductor:
     def _give_way(self, name: str, claim: _Claim, other: str) -> list[tuple[str, Reply]]:
         """Arms `name` and `other` each wait for the other's body: the one of lower priority
         folds (its claim is asked again); when its way back meets the other's body (or it is
-        folded already), the other folds first.  When neither can, `name`'s claim is refused."""
+        folded already), the other folds first.  When neither can, the claim of the lower of
+        the two is refused (it goes on with its next measurement, and may move out of the
+        way) and the other's waits for the lower's next claim.  (Refusing the claim just
+        made, whichever arm's, had an arm of higher priority that stood still have every
+        claim of the rest of its share refused at once: 235 on a small bulkhead.)"""
         for folder in sorted((name, other), key=self.order.index, reverse=True):
             fst = self.state[folder]
             if fst.folded or fst.pending is None:
@@ -628,6 +634,11 @@ class Conductor:
             reply = self._try_fold(folder, fst.pending)
             if not isinstance(reply, str):
                 return [(folder, reply)]
+        ost = self.state[other]
+        if self.order.index(other) > self.order.index(name) and ost.pending is not None and not ost.pending.park:
+            reply = self._refuse(other, ost.pending, f"{name} stands in the way and neither arm can give way")
+            self.state[name].stuck_on = other            # this claim waits for the other's next one
+            return [(other, reply)]
         return [(name, self._refuse(name, claim, f"{other} stands in the way and neither arm can give way"))]
 
     def _try_fold(self, name: str, claim: _Claim, to: FloatArray | None = None) -> Reply | str:
