@@ -361,11 +361,12 @@ def test_when_the_lower_arms_way_back_meets_the_first_arms_body_the_first_folds_
     first_folds_then_second_goes(c, start_waiting(c, qa, qb, qt, qs), qa)
 
 
-def test_when_neither_arm_can_fold_the_lower_arms_claim_is_refused_and_the_first_waits(cell, poses) -> None:
+def test_when_neither_arm_can_fold_the_first_arm_refused_once_has_the_lower_arms_claim_refused(cell, poses) -> None:
     """Each arm waits for the other's body and neither can fold (a fold stopped short, say):
-    the lower arm's claim is refused, whichever arm asked last, and the first arm's claim
-    waits for the lower's next one (it was the first's claim that was refused, and it went
-    on refused through the rest of its share while it stood there)."""
+    the claim just made is refused, the first arm's too; but once the first arm was refused
+    so and has not moved, the lower arm's claim is refused instead and the first arm's
+    waits for the lower's next one (before, the first arm went on refused through the rest
+    of its share while it stood there)."""
     c = fresh(cell)
     a, b = c.order
     found = waiting_on_each_other(c, poses, lambda qb, zb: True, lambda qa, za, qb, zb: True,
@@ -379,11 +380,14 @@ def test_when_neither_arm_can_fold_the_lower_arms_claim_is_refused_and_the_first
     c.receive(b, ("moved", MOVE_S, qb))
     assert claim(c, a, MOVE_S, home_a, qa)[0][1][0] == "go"
     c.receive(a, ("moved", 2 * MOVE_S, qa))
-    # the second arm asks first (it waits for the first arm's body), then the first arm
+    # the second arm asks first (it waits for the first arm's body), then the first arm:
+    # the first arm's claim is refused, it stands still and asks again
     assert claim(c, b, 2 * MOVE_S, qb, qs) == []
+    first = dict(claim(c, a, 2 * MOVE_S, qa, qt))
+    assert set(first) == {a} and first[a][0] == "refuse" and "neither arm can give way" in first[a][3]
     got = dict(claim(c, a, 2 * MOVE_S, qa, qt))
     assert set(got) == {b} and got[b][0] == "refuse" and "neither arm can give way" in got[b][3]
-    assert c.state[a].refused == 0 and c.state[b].refused == 1 and c.state[a].pending is not None
+    assert c.state[a].refused == 1 and c.state[b].refused == 1 and c.state[a].pending is not None
     # its next claim is decided as any (still in the way: refused too), and the first arm's
     # is answered once the second arm is done: never waited for for ever
     assert dict(claim(c, b, 2 * MOVE_S, qb, home_b))[b][0] == "refuse" and c.state[a].pending is not None
