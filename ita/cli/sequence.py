@@ -300,7 +300,7 @@ def allocate(part_dir: Path | None, as_json: bool, down: tuple[str, float] | Non
                    + ", ".join(f"{i} ({w})" for i, w in result.unassigned[:10]))
     c = report["coordinated"]
     click.echo(f"through the interference zones: makespan {schedule.makespan_s:.1f} s "
-               f"(ratio {c['ratio_to_one_arm']:.3f} to one arm; {how})")
+               f"(ratio {c['ratio_to_one_arm']:.3f} to one arm; {how}: the order `ita inspect --arms 2` follows)")
     for arm in schedule.arms:
         click.echo(f"  {arm:8s} busy {schedule.busy_s[arm]:7.1f} s, waiting {schedule.waiting_s[arm]:6.1f} s, "
                    f"{schedule.retreats[arm]} retreat(s)")

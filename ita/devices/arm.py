@@ -155,11 +155,17 @@ class ArmDevice:
             q = np.asarray(q, dtype=float)[None]
             return bool(planner.config_free(q, tool)[0] and planner.context(tool).motion_free.clear(q)[0])
 
-        if free(self.world.q):
+        # in contact (a bump the Path Planner's model cannot explain: the part knocked out of
+        # where it was registered, say), the arm is jogged straight back out too: from a
+        # touching pose every move bumps again at once
+        touching = self._touches(self.world.q)
+        if free(self.world.q) and not touching:
             return False
         target = self.last_free_q
-        if not free(target):      # the last free one is not (a retract that settled on an edge): straight back out
-            target = next((c for c in self._backed_off(np.asarray(self.world.q, dtype=float)) if free(c)), target)
+        if not free(target) or (touching and self._touches(target)):     # straight back out (the
+            # last free one is not: a retract that settled on an edge, or the part moved onto it)
+            target = next((c for c in self._backed_off(np.asarray(self.world.q, dtype=float))
+                           if free(c) and not self._touches(c)), target)
         if not self.controller.claim_jog(target, RECOVER_SECONDS):     # the other arm's zones: left as it is
             return False
         self.world.set_q(target)
@@ -194,6 +200,17 @@ class ArmDevice:
                 self.last_free_q = np.array(world.q)
             return reply.ok
         return False
+
+    def _touches(self, q: np.ndarray) -> bool:
+        """Whether the arm or its tool at ``q`` touches anything (the controller's contact
+        check, as after a bump), the arm put back where it was after."""
+        world = self.world
+        here = np.array(world.q)
+        try:
+            world.set_q(np.asarray(q, dtype=float))
+            return bool(world.contacts(self.controller.contact_margin))
+        finally:
+            world.set_q(here)
 
     def _backed_off(self, q: np.ndarray) -> list[np.ndarray]:
         """Configurations with the tool moved straight back along its axis, away from the
