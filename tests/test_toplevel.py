@@ -333,6 +333,54 @@ def test_recovery_backs_the_tool_out_when_its_last_free_configuration_is_not(ses
         arm.last_free_q = before_last
 
 
+def test_recovery_backs_the_tool_out_of_a_part_knocked_onto_it(session) -> None:
+    """The part knocked toward the probe waiting at a measurement's approach point: the
+    arm touches it, though its Path Planner (the part where it was registered) finds the
+    pose free, and its last free configuration is that pose.  The recovery backs the tool
+    straight out until it touches nothing (before, it left the arm there: every move bumped
+    at once and the diagnosis called a technician again and again)."""
+    import dataclasses
+
+    import numpy as np
+
+    from ita.logic.terms import Term
+
+    arm, world = session.arm, session.world
+    spec_id = next(i for i in session.specs if i.startswith("WT-"))
+    probe = "us_probe_1"
+    before_q, before_held, before_last = np.array(world.q), world.held, arm.last_free_q
+    placed = world.part_placement
+    try:
+        if world.held != probe:
+            if world.held is not None:
+                world.detach()
+            world.attach(probe)
+        approach = np.asarray(session.reasoner.resolve(Term("approach_point", (Term("meas", (spec_id,)),)), probe).q)
+        world.set_q(approach)
+        arm.last_free_q = approach
+        planner, tool = arm.planner_for(probe)
+        assert planner.config_free(approach[None], tool)[0] and not world.contacts(arm.controller.contact_margin)
+        axis = world.tcp_pose(approach)[:3, 2]
+        for d in np.arange(0.005, 0.2, 0.005):        # the part pushed toward the tool until it touches
+            world.place_part(dataclasses.replace(placed, translation=tuple(np.asarray(placed.translation) - d * axis)))
+            if world.contacts(arm.controller.contact_margin):
+                break
+        assert world.contacts(arm.controller.contact_margin)
+        assert arm.recover()
+        assert not world.contacts(arm.controller.contact_margin)
+        assert planner.config_free(np.asarray(world.q)[None], tool)[0]
+        back = world.tcp_pose()[:3, 3] - world.tcp_pose(approach)[:3, 3]
+        assert float(back @ axis) < -0.005                  # moved out, against the probe's axis
+    finally:
+        world.place_part(placed)
+        if world.held is not None:
+            world.detach()
+        if before_held is not None:
+            world.attach(before_held)
+        world.set_q(before_q)
+        arm.last_free_q = before_last
+
+
 def test_what_a_run_left_not_done_after_a_fault_put_right_is_measured_once_more_before_it_ends(
         runs, session, monkeypatch) -> None:
     """A measurement that ended not done (here: its first round trip fails and nothing
