@@ -155,9 +155,9 @@ class ArmDevice:
             q = np.asarray(q, dtype=float)[None]
             return bool(planner.config_free(q, tool)[0] and planner.context(tool).motion_free.clear(q)[0])
 
-        # in contact (a bump the Path Planner's model cannot explain: the part knocked out of
-        # where it was registered, say), the arm is jogged straight back out too: from a
-        # touching pose every move bumps again at once
+        # touching the part where the Path Planner's model has it clear (the part knocked out
+        # of where it was registered), the arm is jogged straight back out too: from there
+        # every move bumps again at once (another obstacle at the arm is the diagnosis's)
         touching = self._touches(self.world.q)
         if free(self.world.q) and not touching:
             return False
@@ -202,13 +202,13 @@ class ArmDevice:
         return False
 
     def _touches(self, q: np.ndarray) -> bool:
-        """Whether the arm or its tool at ``q`` touches anything (the controller's contact
+        """Whether the arm or its tool at ``q`` touches the part (the controller's contact
         check, as after a bump), the arm put back where it was after."""
         world = self.world
         here = np.array(world.q)
         try:
             world.set_q(np.asarray(q, dtype=float))
-            return bool(world.contacts(self.controller.contact_margin))
+            return any(c.obstacle == "part" for c in world.contacts(self.controller.contact_margin))
         finally:
             world.set_q(here)
 
