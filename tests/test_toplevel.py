@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import os
 import random
 import signal
@@ -297,6 +298,28 @@ def test_a_rescan_from_the_second_stand_off_measures_from_the_pose_the_arm_repor
     assert abs(value.value - truth[spec_id]) <= 2 * value.u
 
 
+@contextlib.contextmanager
+def _holding(session, probe):
+    """The session's arm holding `probe`; its configuration, tool, last free configuration
+    and the part's placement put back after."""
+    arm, world = session.arm, session.world
+    before_q, before_held, before_last, placed = np.array(world.q), world.held, arm.last_free_q, world.part_placement
+    try:
+        if world.held != probe:
+            if world.held is not None:
+                world.detach()
+            world.attach(probe)
+        yield arm, world
+    finally:
+        world.place_part(placed)
+        if world.held is not None:
+            world.detach()
+        if before_held is not None:
+            world.attach(before_held)
+        world.set_q(before_q)
+        arm.last_free_q = before_last
+
+
 def test_recovery_backs_the_tool_out_when_its_last_free_configuration_is_not(session) -> None:
     """A retract that settled on the edge of a collision leaves the arm where the Path
     Planner cannot start, and its last free configuration is that same place: the recovery
@@ -305,15 +328,9 @@ def test_recovery_backs_the_tool_out_when_its_last_free_configuration_is_not(ses
 
     from ita.logic.terms import Term
 
-    arm, world = session.arm, session.world
     spec_id = next(i for i in session.specs if i.startswith("WT-"))
     probe = "us_probe_1"
-    before_q, before_held, before_last = np.array(world.q), world.held, arm.last_free_q
-    try:
-        if world.held != probe:
-            if world.held is not None:
-                world.detach()
-            world.attach(probe)
+    with _holding(session, probe) as (arm, world):
         contact = np.asarray(session.reasoner.resolve(Term("in_contact_point", (Term("meas", (spec_id,)),)), probe).q)
         world.set_q(contact)                  # the tip pressed on the web: not a place to start a move from
         arm.last_free_q = contact
@@ -324,13 +341,6 @@ def test_recovery_backs_the_tool_out_when_its_last_free_configuration_is_not(ses
         back = world.tcp_pose()[:3, 3] - world.tcp_pose(contact)[:3, 3]
         axis = world.tcp_pose(contact)[:3, 2]
         assert float(back @ axis) < -0.005                  # moved out, against the probe's axis
-    finally:
-        if world.held is not None:
-            world.detach()
-        if before_held is not None:
-            world.attach(before_held)
-        world.set_q(before_q)
-        arm.last_free_q = before_last
 
 
 def test_recovery_backs_the_tool_out_of_a_part_knocked_onto_it(session) -> None:
@@ -341,20 +351,12 @@ def test_recovery_backs_the_tool_out_of_a_part_knocked_onto_it(session) -> None:
     at once and the diagnosis called a technician again and again)."""
     import dataclasses
 
-    import numpy as np
-
     from ita.logic.terms import Term
 
-    arm, world = session.arm, session.world
     spec_id = next(i for i in session.specs if i.startswith("WT-"))
     probe = "us_probe_1"
-    before_q, before_held, before_last = np.array(world.q), world.held, arm.last_free_q
-    placed = world.part_placement
-    try:
-        if world.held != probe:
-            if world.held is not None:
-                world.detach()
-            world.attach(probe)
+    with _holding(session, probe) as (arm, world):
+        placed = world.part_placement
         approach = np.asarray(session.reasoner.resolve(Term("approach_point", (Term("meas", (spec_id,)),)), probe).q)
         world.set_q(approach)
         arm.last_free_q = approach
@@ -371,14 +373,6 @@ def test_recovery_backs_the_tool_out_of_a_part_knocked_onto_it(session) -> None:
         assert planner.config_free(np.asarray(world.q)[None], tool)[0]
         back = world.tcp_pose()[:3, 3] - world.tcp_pose(approach)[:3, 3]
         assert float(back @ axis) < -0.005                  # moved out, against the probe's axis
-    finally:
-        world.place_part(placed)
-        if world.held is not None:
-            world.detach()
-        if before_held is not None:
-            world.attach(before_held)
-        world.set_q(before_q)
-        arm.last_free_q = before_last
 
 
 def test_what_a_run_left_not_done_after_a_fault_put_right_is_measured_once_more_before_it_ends(

@@ -225,23 +225,21 @@ def _run(session: Any, archive: Any, run_id: str, as_json: bool, view: LiveView,
         # the last arm at work, its whole share made, when the other has folded for good
         # (told before this arm's last claim): no arm moves after it, so it stays where its
         # last check left it, as a one-arm run's arm does; else it folds and says so
-        away = False            # flown folded, turned away from the other arm
-        stays = (finished and summary.done == summary.total and not summary.counts.get("not_done")
-                 and not summary.counts.get("cannot_be_done") and controller.gate is not None
+        stays = (finished and summary.to_dict()["measured"] == summary.total and controller.gate is not None
                  and controller.gate.told("parked") is not None)
-        if stays:
-            pass
-        elif session.world.faults.controller_silent:
-            moved = _moved_by_a_person(session)
-            archive.record_event(run_id, Event("world_update", "top", session.clock.now, {"update": (
-                "a person moved the arm out of the other's way by hand (its controller is down)" if moved else
-                "the arm's controller is down and the other arm's zones kept a person from moving it")}))
-        elif _park_away(session):
-            away = True
-        else:
-            controller.give_way()
-        if not stays and controller.gate is not None:
-            controller.gate.tell(session.clock.now, {"kind": "parked"})
+        away = False            # flown folded, turned away from the other arm
+        if not stays:
+            if session.world.faults.controller_silent:
+                moved = _moved_by_a_person(session)
+                archive.record_event(run_id, Event("world_update", "top", session.clock.now, {"update": (
+                    "a person moved the arm out of the other's way by hand (its controller is down)" if moved
+                    else "the arm's controller is down and the other arm's zones kept a person from moving it")}))
+            elif _park_away(session):
+                away = True
+            else:
+                controller.give_way()
+            if controller.gate is not None:
+                controller.gate.tell(session.clock.now, {"kind": "parked"})
         extra["simulated_parked_s"] = round(session.clock.now, 3)
         wait, handed = controller.gate.take(session.clock.now, f"handover:{session.ctx.workcell.arm.name}")
         session.clock.advance(wait)
@@ -254,9 +252,7 @@ def _run(session: Any, archive: Any, run_id: str, as_json: bool, view: LiveView,
             _attach_injector(session, archive, hid)
             with RunSignals(message=sys.stderr) as signals:
                 more = TopLevel(session, archive, hid, signals).run(on_progress=view)
-            if not stays:
-                controller.give_way()
-            away = False
+            away = False                     # it worked again: it gives way below, unless it stays
             extra["handover"] = more.to_dict() | {"run_id": hid, "waited_s": round(wait, 3)}
             finished = finished and more.status == "completed"
         controller.park(give_way=not (stays or away))    # where it stands now, no one moves after it
